@@ -1,0 +1,267 @@
+// The `demfem` command: parses arguments, loads scenes, dispatches to the solvers. No physics.
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "demfem/dem/run.hpp"
+#include "demfem/scene/load.hpp"
+#include "progress.hpp"
+#ifdef DEMFEM_WITH_CONTINUUM
+#include "demfem/continuum/run.hpp"
+#endif
+
+namespace fs = std::filesystem;
+using namespace demfem;
+
+namespace {
+
+// Exit codes, documented in --help and the README.
+constexpr int kOk = 0;
+constexpr int kRunFailed = 1;
+constexpr int kBadInput = 2;
+
+const char* kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage.";
+
+struct RunArgs {
+  std::string scene;
+  std::string solver = "dem";
+  std::vector<std::string> variants;
+  bool all_variants = false;
+  std::string out;
+  bool resume = false;
+  int threads = 0;
+  int refinement = -1;
+  int degree = -1;
+};
+
+int not_built(const std::string& what, const std::string& issue_hint) {
+  fmt::print(stderr,
+             "demfem {}: not built yet ({}). Nothing was run.\n", what, issue_hint);
+  return kBadInput;
+}
+
+scene::SceneFile load_or_report(const std::string& path, int& rc) {
+  try {
+    rc = kOk;
+    return scene::load_scene_file(path);
+  } catch (const scene::SceneError& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    fmt::print(stderr, "demfem: {} problem(s) in {}\n", e.diagnostics().size(), path);
+    rc = kBadInput;
+    return {};
+  }
+}
+
+void setup_run_log(const fs::path& dir) {
+  fs::create_directories(dir);
+  auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+  auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), true);
+  console->set_level(spdlog::level::info);
+  auto logger = std::make_shared<spdlog::logger>("demfem", spdlog::sinks_init_list{console, file});
+  logger->set_level(spdlog::level::debug);
+  logger->flush_on(spdlog::level::info);
+  spdlog::set_default_logger(logger);
+}
+
+std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& a, int& rc) {
+  std::vector<const scene::Scene*> out;
+  rc = kOk;
+  try {
+    if (a.all_variants) {
+      if (f.variants.empty()) out.push_back(&f.base);
+      for (const auto& v : f.variants) out.push_back(&v);
+    } else if (a.variants.empty()) {
+      out.push_back(&f.base);
+    } else {
+      for (const auto& v : a.variants) out.push_back(&f.select(v));
+    }
+  } catch (const scene::SceneError& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    rc = kBadInput;
+  }
+  return out;
+}
+
+int cmd_run(const RunArgs& a) {
+  int rc = kOk;
+  const auto file = load_or_report(a.scene, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  if (a.solver != "dem" && a.solver != "continuum") {
+    fmt::print(stderr, "demfem run: unknown solver '{}'; valid: dem, continuum\n", a.solver);
+    return kBadInput;
+  }
+  const scene::Solver solver = a.solver == "dem" ? scene::Solver::Dem : scene::Solver::Continuum;
+#ifndef DEMFEM_WITH_CONTINUUM
+  if (solver == scene::Solver::Continuum)
+    return not_built("run --solver continuum",
+                     "this binary was configured with -DDEMFEM_WITH_CONTINUUM=OFF");
+#endif
+  int worst = kOk;
+  for (const scene::Scene* s : scenes) {
+    if (!s->uses(solver)) {
+      fmt::print(stderr, "demfem run: scene '{}' does not list \"{}\" in scene.solvers\n",
+                 s->label(), a.solver);
+      return kBadInput;
+    }
+    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name : fs::path(a.out);
+    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
+      out /= s->variant.empty() ? "base" : s->variant;
+    setup_run_log(out);
+    {
+      std::ofstream(out / "scene.resolved.toml") << scene::to_toml(*s);
+    }
+    spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
+                 out.string());
+    app::ProgressReporter reporter;
+    bool ok = false;
+    std::string message;
+    if (solver == scene::Solver::Dem) {
+      dem::RunOptions o;
+      o.out_dir = out;
+      o.resume = a.resume;
+      o.threads = a.threads;
+      o.progress = [&](const scene::Progress& p) { reporter(p); };
+      try {
+        const auto r = dem::run(*s, o);
+        ok = r.ok;
+        message = r.message;
+      } catch (const scene::SceneError& e) {
+        reporter.finish();
+        fmt::print(stderr, "{}\n", e.what());
+        return kBadInput;
+      }
+    }
+#ifdef DEMFEM_WITH_CONTINUUM
+    else {
+      continuum::RunOptions o;
+      o.out_dir = out;
+      o.refinement = a.refinement;
+      o.degree = a.degree;
+      o.progress = [&](const scene::Progress& p) { reporter(p); };
+      try {
+        const auto r = continuum::run(*s, o);
+        ok = r.ok;
+        message = r.message;
+      } catch (const scene::SceneError& e) {
+        reporter.finish();
+        fmt::print(stderr, "{}\n", e.what());
+        return kBadInput;
+      }
+    }
+#endif
+    reporter.finish();
+    if (ok) {
+      spdlog::info("{}: done; outputs in {}", s->label(), out.string());
+    } else {
+      spdlog::error("{}: run failed: {}", s->label(), message);
+      worst = kRunFailed;
+    }
+  }
+  return worst;
+}
+
+int cmd_check(const std::string& path, bool quiet) {
+  int rc = kOk;
+  const auto file = load_or_report(path, rc);
+  if (rc != kOk) return rc;
+  if (!quiet) {
+    fmt::print("{}", scene::to_toml(file.base));
+    for (const auto& v : file.variants) {
+      fmt::print("\n# ===== variant {} =====\n", v.variant);
+      fmt::print("{}", scene::to_toml(v));
+    }
+  }
+  fmt::print(stderr, "{}: OK ({} variant(s){})\n", path, file.variants.size(),
+             file.variants.empty() ? "" : ": " + fmt::format("{}", fmt::join(file.variant_names(), ", ")));
+  return kOk;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"demfem — the same geotechnical scene as a granular assembly (DEM) and as a "
+               "continuum (FEM), and where the two diverge."};
+  app.footer(kExitCodes);
+  app.set_version_flag("--version", std::string("demfem ") + DEMFEM_VERSION);
+  app.require_subcommand(1);
+
+  RunArgs ra;
+  auto* run = app.add_subcommand("run", "Run one solver on a scene (or some of its variants).");
+  run->add_option("scene", ra.scene, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+  run->add_option("--solver", ra.solver, "dem or continuum")->default_val("dem");
+  run->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
+  run->add_flag("--all-variants", ra.all_variants, "Run every [[variant]] of the file");
+  run->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
+  run->add_flag("--resume", ra.resume, "Continue from the last checkpoint in the run directory");
+  run->add_option("--threads", ra.threads, "OpenMP threads (0 = default)")->check(CLI::NonNegativeNumber);
+  run->add_option("--refinement", ra.refinement, "Continuum: global refinement level (overrides the scene)");
+  run->add_option("--degree", ra.degree, "Continuum: polynomial degree (overrides the scene)");
+  run->footer(kExitCodes);
+
+  std::string check_path;
+  bool quiet = false;
+  auto* check = app.add_subcommand("check", "Validate a scene file and print the resolved scene "
+                                            "(all variants) or its errors with file:line:column.");
+  check->add_option("scene", check_path, "Scene file (TOML)")->required();
+  check->add_flag("-q,--quiet", quiet, "Only report OK or the errors");
+  check->footer(kExitCodes);
+
+  std::string other_scene;
+  auto* compare = app.add_subcommand("compare", "Run DEM and continuum on the same scene and write "
+                                                "the comparison report. (not built yet)");
+  compare->add_option("scene", other_scene, "Scene file")->required();
+  compare->add_option("--variant", ra.variants, "Variant name");
+  compare->add_flag("--all-variants", ra.all_variants, "All variants");
+  compare->add_option("--out", ra.out, "Output directory");
+  compare->footer(kExitCodes);
+  std::string study_kind;
+  auto* study = app.add_subcommand("study", "error-vs-time or stability study. (not built yet)");
+  study->add_option("kind", study_kind, "error-vs-time | stability")->required();
+  study->add_option("scene", other_scene, "Scene file")->required();
+  study->add_option("--out", ra.out, "Output directory");
+  study->footer(kExitCodes);
+  auto* calibrate = app.add_subcommand("calibrate", "Continuum parameters from a DEM element test. (not built yet)");
+  calibrate->add_option("scene", other_scene, "Scene file")->required();
+  calibrate->footer(kExitCodes);
+  auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing. (not built yet)");
+  pack->add_option("scene", other_scene, "Scene file")->required();
+  pack->add_option("--out", ra.out, "Output directory");
+  pack->footer(kExitCodes);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kBadInput;
+  }
+
+  try {
+    if (*run) return cmd_run(ra);
+    if (*check) return cmd_check(check_path, quiet);
+    if (*compare) return not_built("compare", "the comparison layer is a later issue");
+    if (*study) return not_built("study", "the error-vs-time and stability studies are a later issue");
+    if (*calibrate) return not_built("calibrate", "calibration is a later issue");
+    if (*pack) return not_built("pack", "packing arrives with the paper scenes");
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "demfem: error: {}\n", e.what());
+    return kRunFailed;
+  }
+  return kBadInput;
+}

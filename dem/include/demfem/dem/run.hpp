@@ -1,0 +1,32 @@
+// Entry point of the DEM engine for the app: run one resolved scene into a run directory.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "demfem/scene/progress.hpp"
+#include "demfem/scene/scene.hpp"
+
+namespace demfem::dem {
+
+struct RunOptions {
+  std::filesystem::path out_dir;   // run directory (created); DEM outputs go to out_dir/"dem"
+  bool resume = false;             // continue from the last checkpoint in out_dir
+  int threads = 0;                 // 0 = OpenMP default
+  scene::ProgressFn progress;      // may be empty
+};
+
+struct RunSummary {
+  bool ok = false;
+  std::string message;             // failure cause (blow-up: step, time, particle, cause)
+  long long steps = 0;
+  double simulated_time = 0.0;
+  double wall_seconds = 0.0;
+  std::size_t particles = 0;
+};
+
+// Runs the scene's DEM model. Throws scene::SceneError for a scene the engine cannot build
+// (e.g. a time step above the stable limit); returns ok = false when the run itself fails.
+RunSummary run(const scene::Scene& scene, const RunOptions& options);
+
+} // namespace demfem::dem

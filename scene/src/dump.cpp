@@ -1,0 +1,202 @@
+// Writes a resolved Scene back as TOML with every default explicit.
+#include <numbers>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "demfem/scene/load.hpp"
+
+namespace demfem::scene {
+
+namespace {
+
+constexpr double kToDeg = 180.0 / std::numbers::pi;
+
+toml::array pts(const std::vector<Vec2>& p) {
+  toml::array a;
+  for (const auto& v : p) a.push_back(toml::array{v.x, v.z});
+  return a;
+}
+toml::array pt(Vec2 v) { return toml::array{v.x, v.z}; }
+
+toml::table tf(const TimeFunction& f) {
+  using K = TimeFunction::Kind;
+  switch (f.kind) {
+  case K::Constant: return toml::table{{"type", "constant"}, {"value", f.value}};
+  case K::Ramp: {
+    toml::table t{{"type", "ramp"}, {"rate", f.rate}, {"offset", f.offset}, {"start", f.start}};
+    if (f.stop > f.start) t.insert("stop", f.stop);
+    return t;
+  }
+  case K::Sine: {
+    toml::table t{{"type", "sine"}, {"amplitude", f.amplitude}, {"frequency", f.frequency},
+                  {"phase", f.phase}, {"start", f.start}};
+    if (f.stop > f.start) t.insert("stop", f.stop);
+    return t;
+  }
+  case K::TSine: return toml::table{{"type", "t-sine"}, {"amplitude", f.amplitude}, {"omega", f.omega}};
+  case K::Table: {
+    toml::array a;
+    for (const auto& [t, v] : f.table) a.push_back(toml::array{t, v});
+    return toml::table{{"type", "table"}, {"points", a}};
+  }
+  case K::Sum: {
+    toml::array a;
+    for (const auto& t : f.terms) a.push_back(tf(t));
+    return toml::table{{"type", "sum"}, {"terms", a}};
+  }
+  }
+  return {};
+}
+
+template <typename T> toml::table inline_table(T&& t) {
+  toml::table out = std::forward<T>(t);
+  out.is_inline(true);
+  return out;
+}
+
+} // namespace
+
+std::string to_toml(const Scene& s) {
+  toml::table root;
+  toml::array solvers;
+  for (auto v : s.info.solvers) solvers.push_back(v == Solver::Dem ? "dem" : "continuum");
+  root.insert("scene", toml::table{{"name", s.info.name},
+                                   {"description", s.info.description},
+                                   {"solvers", solvers},
+                                   {"duration", s.info.duration},
+                                   {"seed", static_cast<int64_t>(s.info.seed)}});
+  root.insert("domain", toml::table{{"polygon", pts(s.domain)}});
+
+  toml::table soil;
+  if (const auto& d = s.soil.dem) {
+    toml::table radius;
+    switch (d->radius.kind) {
+    case RadiusDistribution::Kind::Uniform: radius.insert("uniform", toml::array{d->radius.min, d->radius.max}); break;
+    case RadiusDistribution::Kind::Equal: radius.insert("equal", d->radius.min); break;
+    case RadiusDistribution::Kind::Table: {
+      toml::array a;
+      for (const auto& [r, w] : d->radius.table) a.push_back(toml::array{r, w});
+      radius.insert("table", a);
+      break;
+    }
+    }
+    soil.insert("dem", toml::table{
+        {"count", d->count}, {"radius", inline_table(radius)}, {"density", d->density},
+        {"thickness", d->thickness}, {"contact", keyword(kContactLawNames, d->law)},
+        {"kn", d->kn}, {"ks", d->ks}, {"mu_static", d->mu_static}, {"mu_dynamic", d->mu_dynamic},
+        {"rebound", d->rebound}, {"rebound_speed", d->rebound_speed}, {"tension", d->tension},
+        {"tensile_strength", d->tensile_strength}, {"eta_n", d->eta_n}, {"eta_s", d->eta_s},
+        {"restitution", d->restitution}, {"young", d->young}, {"poisson", d->poisson},
+        {"damping_c", d->damping_c}, {"damping_d", d->damping_d}, {"dt", d->dt},
+        {"dt_safety", d->dt_safety}, {"max_overlap", d->max_overlap}, {"fill", pts(d->fill)},
+        {"packing", toml::table{{"ke_ratio", d->packing.ke_ratio}, {"max_time", d->packing.max_time},
+                                {"damping", d->packing.damping}, {"cache", d->packing.cache}}}});
+  }
+  if (const auto& c = s.soil.continuum) {
+    soil.insert("continuum", toml::table{
+        {"model", keyword(kContinuumModelNames, c->model)}, {"young", c->young},
+        {"poisson", c->poisson}, {"friction_angle", c->friction_angle * kToDeg},
+        {"cohesion", c->cohesion}, {"dilation_angle", c->dilation_angle * kToDeg},
+        {"tension_cutoff", c->tension_cutoff}, {"density", c->density}, {"k0", c->k0}});
+  }
+  if (!soil.empty()) root.insert("soil", soil);
+
+  if (s.uses(Solver::Continuum)) {
+    const auto& o = s.continuum;
+    root.insert("continuum", toml::table{
+        {"refinement", o.refinement}, {"degree", o.degree}, {"dt", o.dt},
+        {"newmark_beta", o.newmark_beta}, {"newmark_gamma", o.newmark_gamma},
+        {"rayleigh_alpha", o.rayleigh_alpha}, {"rayleigh_beta", o.rayleigh_beta},
+        {"absorbing", o.absorbing}, {"linear_solver", o.linear_solver}, {"interface", o.interface},
+        {"interface_friction_angle", o.interface_friction_angle * kToDeg},
+        {"load_steps", o.load_steps}, {"newton_tolerance", o.newton_tolerance},
+        {"newton_max_iterations", o.newton_max_iterations}});
+  }
+
+  if (!s.walls.empty()) {
+    toml::array a;
+    for (const auto& w : s.walls) {
+      toml::table t{{"name", w.name}, {"points", pts(w.points)}, {"record", w.record}};
+      if (w.mu_static) t.insert("mu_static", *w.mu_static);
+      if (w.mu_dynamic) t.insert("mu_dynamic", *w.mu_dynamic);
+      if (w.opens_at) t.insert("opens_at", *w.opens_at);
+      a.push_back(t);
+    }
+    root.insert("wall", a);
+  }
+  if (!s.structures.empty()) {
+    toml::array a;
+    for (const auto& st : s.structures) {
+      toml::array rec;
+      for (const auto& r : st.record) rec.push_back(r);
+      toml::table t{{"name", st.name}, {"kind", keyword(kStructureKindNames, st.kind)},
+                    {"shape", "polygon"}, {"polygon", pts(st.outline)},
+                    {"density", st.density}, {"mass", st.mass}, {"inertia", st.inertia},
+                    {"pivot", pt(st.pivot)}, {"dof_x", keyword(kDofModeNames, st.dof_x)},
+                    {"dof_z", keyword(kDofModeNames, st.dof_z)},
+                    {"dof_rotation", keyword(kDofModeNames, st.dof_rotation)},
+                    {"motion_x", inline_table(tf(st.motion_x))},
+                    {"motion_z", inline_table(tf(st.motion_z))},
+                    {"motion_rotation", inline_table(tf(st.motion_rotation))},
+                    {"force_x", inline_table(tf(st.force_x))},
+                    {"force_z", inline_table(tf(st.force_z))},
+                    {"moment", inline_table(tf(st.moment))},
+                    {"load_point", pt(st.load_point)}, {"dead_weight", st.dead_weight},
+                    {"record", rec}};
+      if (st.mu_static) t.insert("mu_static", *st.mu_static);
+      if (st.mu_dynamic) t.insert("mu_dynamic", *st.mu_dynamic);
+      a.push_back(t);
+    }
+    root.insert("structure", a);
+  }
+  if (!s.groups.empty()) {
+    toml::array a;
+    for (const auto& g : s.groups) a.push_back(toml::table{{"name", g.name}, {"region", pts(g.region)}});
+    root.insert("group", a);
+  }
+  if (!s.events.empty()) {
+    toml::array a;
+    for (const auto& e : s.events) {
+      toml::table t{{"time", e.time}, {"action", keyword(kEventActionNames, e.action)}};
+      if (e.action == EventAction::SetFriction) {
+        t.insert("group", e.group);
+        t.insert("mu_static", e.mu_static);
+        t.insert("mu_dynamic", e.mu_dynamic);
+      } else {
+        t.insert("wall", e.wall);
+      }
+      a.push_back(t);
+    }
+    root.insert("event", a);
+  }
+  if (!s.probes.empty()) {
+    toml::array a;
+    for (const auto& p : s.probes)
+      a.push_back(toml::table{{"kind", keyword(kProbeKindNames, p.kind)}, {"target", p.target},
+                              {"interval", p.interval}, {"bins", p.bins}, {"points", pts(p.points)}});
+    root.insert("probe", a);
+  }
+  toml::table load{{"gravity", s.load.gravity}};
+  if (const auto& sh = s.load.shaking) {
+    toml::table t{{"direction", std::string(1, sh->direction)},
+                  {"amplitude", sh->acceleration.amplitude},
+                  {"frequency", sh->acceleration.frequency},
+                  {"phase", sh->acceleration.phase},
+                  {"start", sh->acceleration.start}};
+    if (sh->acceleration.stop > sh->acceleration.start) t.insert("stop", sh->acceleration.stop);
+    load.insert("shaking", inline_table(t));
+  }
+  root.insert("load", load);
+  root.insert("output", toml::table{{"interval", s.output.interval},
+                                    {"probe_interval", s.output.probe_interval},
+                                    {"vtk", s.output.vtk}, {"force_chains", s.output.force_chains},
+                                    {"figures", s.output.figures},
+                                    {"checkpoint_interval", s.output.checkpoint_interval}});
+  std::ostringstream os;
+  os << "# resolved scene: " << s.label() << " (from " << s.source_file << ")\n";
+  os << root << "\n";
+  return os.str();
+}
+
+} // namespace demfem::scene

@@ -1,0 +1,78 @@
+#include <algorithm>
+#include <cmath>
+
+#include "demfem/scene/scene.hpp"
+
+namespace demfem::scene {
+
+// Shoelace formula: A = ½ Σ (x_i z_{i+1} − x_{i+1} z_i)
+double signed_area(const Polygon& p) {
+  double a = 0.0;
+  for (std::size_t i = 0, n = p.size(); i < n; ++i) {
+    const auto& u = p[i];
+    const auto& v = p[(i + 1) % n];
+    a += u.x * v.z - v.x * u.z;
+  }
+  return 0.5 * a;
+}
+
+namespace {
+double cross(Vec2 o, Vec2 a, Vec2 b) { return (a.x - o.x) * (b.z - o.z) - (a.z - o.z) * (b.x - o.x); }
+bool on_segment(Vec2 p, Vec2 q, Vec2 r) {
+  return std::min(p.x, r.x) <= q.x && q.x <= std::max(p.x, r.x) && std::min(p.z, r.z) <= q.z &&
+         q.z <= std::max(p.z, r.z);
+}
+// Proper or touching intersection of segments p1p2 and p3p4 (orientation test).
+bool segments_intersect(Vec2 p1, Vec2 p2, Vec2 p3, Vec2 p4) {
+  const double d1 = cross(p3, p4, p1), d2 = cross(p3, p4, p2);
+  const double d3 = cross(p1, p2, p3), d4 = cross(p1, p2, p4);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0)))
+    return true;
+  if (d1 == 0 && on_segment(p3, p1, p4)) return true;
+  if (d2 == 0 && on_segment(p3, p2, p4)) return true;
+  if (d3 == 0 && on_segment(p1, p3, p2)) return true;
+  if (d4 == 0 && on_segment(p1, p4, p2)) return true;
+  return false;
+}
+} // namespace
+
+bool self_intersects(const Polygon& p) {
+  const std::size_t n = p.size();
+  if (n < 4) return false;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      // skip adjacent edges (they share a vertex)
+      if (j == i + 1 || (i == 0 && j == n - 1)) continue;
+      if (segments_intersect(p[i], p[(i + 1) % n], p[j], p[(j + 1) % n])) return true;
+    }
+  }
+  return false;
+}
+
+// Even–odd ray casting.
+bool contains(const Polygon& p, Vec2 q) {
+  bool in = false;
+  for (std::size_t i = 0, n = p.size(), j = n - 1; i < n; j = i++) {
+    if ((p[i].z > q.z) != (p[j].z > q.z) &&
+        q.x < (p[j].x - p[i].x) * (q.z - p[i].z) / (p[j].z - p[i].z) + p[i].x)
+      in = !in;
+  }
+  return in;
+}
+
+// Area centroid: C = 1/(6A) Σ (p_i + p_{i+1})(x_i z_{i+1} − x_{i+1} z_i)
+Vec2 centroid(const Polygon& p) {
+  const double a = signed_area(p);
+  if (a == 0.0) return p.empty() ? Vec2{} : p.front();
+  double cx = 0.0, cz = 0.0;
+  for (std::size_t i = 0, n = p.size(); i < n; ++i) {
+    const auto& u = p[i];
+    const auto& v = p[(i + 1) % n];
+    const double c = u.x * v.z - v.x * u.z;
+    cx += (u.x + v.x) * c;
+    cz += (u.z + v.z) * c;
+  }
+  return {cx / (6.0 * a), cz / (6.0 * a)};
+}
+
+} // namespace demfem::scene

@@ -1,0 +1,1020 @@
+#include "demfem/scene/load.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <toml++/toml.h>
+
+namespace demfem::scene {
+
+std::string Diagnostic::format() const {
+  std::string where = file;
+  if (line > 0) where += fmt::format(":{}:{}", line, column);
+  if (key.empty()) return fmt::format("{}: error: {}", where, message);
+  return fmt::format("{}: error: {}: {}", where, key, message);
+}
+
+namespace {
+std::string join_diagnostics(const std::vector<Diagnostic>& d) {
+  std::string s;
+  for (const auto& x : d) {
+    if (!s.empty()) s += '\n';
+    s += x.format();
+  }
+  return s;
+}
+} // namespace
+
+SceneError::SceneError(std::vector<Diagnostic> diagnostics)
+    : std::runtime_error(join_diagnostics(diagnostics)), diagnostics_(std::move(diagnostics)) {}
+
+std::vector<std::string> SceneFile::variant_names() const {
+  std::vector<std::string> names;
+  for (const auto& v : variants) names.push_back(v.variant);
+  return names;
+}
+
+const Scene& SceneFile::select(const std::string& variant) const {
+  if (variant.empty()) return base;
+  for (const auto& v : variants)
+    if (v.variant == variant) return v;
+  const auto names = variant_names();
+  throw SceneError({Diagnostic{
+      path, 0, 0, "variant",
+      names.empty() ? fmt::format("no variant '{}': the file defines no [[variant]]", variant)
+                    : fmt::format("no variant '{}'; valid: {}", variant, fmt::join(names, ", "))}});
+}
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// Walks one TOML table, reading typed values, recording every problem with its source position,
+// and remembering which keys were read so that the rest can be reported as unknown.
+class Reader {
+public:
+  Reader(const toml::table& table, std::string path, std::string file,
+         std::vector<Diagnostic>& diags, const toml::source_region& where)
+      : t_(table), path_(std::move(path)), file_(std::move(file)), diags_(diags), where_(where) {}
+
+  ~Reader() = default;
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  [[nodiscard]] std::string key_path(std::string_view key) const {
+    return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+  }
+
+  void error_at(const toml::source_region& src, const std::string& key, const std::string& msg) {
+    Diagnostic d;
+    d.file = src.path ? std::string(*src.path) : file_;
+    if (d.file.empty()) d.file = file_;
+    d.line = static_cast<int>(src.begin.line);
+    d.column = static_cast<int>(src.begin.column);
+    d.key = key;
+    d.message = msg;
+    diags_.push_back(std::move(d));
+  }
+  void error(std::string_view key, const std::string& msg) {
+    const toml::node* n = t_.get(key);
+    error_at(n ? n->source() : where_, key_path(key), msg);
+  }
+  void error_here(const std::string& msg) { error_at(where_, path_, msg); }
+
+  [[nodiscard]] bool has(std::string_view key) const { return t_.contains(key); }
+  const toml::node* node(std::string_view key) {
+    used_.insert(std::string(key));
+    return t_.get(key);
+  }
+
+  // A finite number (integers accepted). Missing: default, or an error if required.
+  std::optional<double> opt_number(std::string_view key) {
+    const toml::node* n = node(key);
+    if (!n) return std::nullopt;
+    if (!n->is_number()) {
+      error(key, fmt::format("expected a number, got {}", type_name(*n)));
+      return std::nullopt;
+    }
+    const double v = n->value<double>().value_or(0.0);
+    if (!std::isfinite(v)) {
+      error(key, fmt::format("must be a finite number, got {}", v));
+      return std::nullopt;
+    }
+    return v;
+  }
+  double number(std::string_view key, double def) { return opt_number(key).value_or(def); }
+  double required_number(std::string_view key) {
+    if (!has(key)) {
+      error_here(fmt::format("missing required key '{}' (a number)", key));
+      return 0.0;
+    }
+    return number(key, 0.0);
+  }
+  double positive(std::string_view key, double def, bool required = false) {
+    if (required && !has(key)) return required_number(key);
+    const auto v = opt_number(key);
+    if (v && !(*v > 0.0)) error(key, fmt::format("must be > 0, got {}", *v));
+    return v.value_or(def);
+  }
+  double non_negative(std::string_view key, double def) {
+    const auto v = opt_number(key);
+    if (v && *v < 0.0) error(key, fmt::format("must be ≥ 0, got {}", *v));
+    return v.value_or(def);
+  }
+  double in_range(std::string_view key, double def, double lo, double hi, bool open_hi = false) {
+    const auto v = opt_number(key);
+    if (v && (*v < lo || (open_hi ? *v >= hi : *v > hi)))
+      error(key, fmt::format("must be in [{}, {}{}, got {}", lo, hi, open_hi ? ")" : "]", *v));
+    return v.value_or(def);
+  }
+  int integer(std::string_view key, int def, int lo, int hi) {
+    const toml::node* n = node(key);
+    if (!n) return def;
+    if (!n->is_integer()) {
+      error(key, fmt::format("expected an integer, got {}", type_name(*n)));
+      return def;
+    }
+    const auto v = n->value<int64_t>().value_or(def);
+    if (v < lo || v > hi) {
+      error(key, fmt::format("must be an integer in [{}, {}], got {}", lo, hi, v));
+      return def;
+    }
+    return static_cast<int>(v);
+  }
+  bool boolean(std::string_view key, bool def) {
+    const toml::node* n = node(key);
+    if (!n) return def;
+    if (!n->is_boolean()) {
+      error(key, fmt::format("expected true or false, got {}", type_name(*n)));
+      return def;
+    }
+    return n->value<bool>().value_or(def);
+  }
+  std::optional<std::string> opt_string(std::string_view key) {
+    const toml::node* n = node(key);
+    if (!n) return std::nullopt;
+    if (!n->is_string()) {
+      error(key, fmt::format("expected a string, got {}", type_name(*n)));
+      return std::nullopt;
+    }
+    return n->value<std::string>();
+  }
+  std::string string(std::string_view key, const std::string& def) {
+    return opt_string(key).value_or(def);
+  }
+  template <std::size_t N>
+  std::optional<std::size_t> keyword(std::string_view key, const std::array<const char*, N>& names) {
+    const auto s = opt_string(key);
+    if (!s) return std::nullopt;
+    for (std::size_t i = 0; i < N; ++i)
+      if (*s == names[i]) return i;
+    error(key, fmt::format("unknown keyword '{}'; valid: {}", *s, fmt::join(names, ", ")));
+    return std::nullopt;
+  }
+
+  std::optional<Vec2> point(std::string_view key) {
+    const toml::node* n = node(key);
+    if (!n) return std::nullopt;
+    return as_point(*n, key_path(key));
+  }
+  std::optional<Vec2> as_point(const toml::node& n, const std::string& kp) {
+    const auto* a = n.as_array();
+    if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) {
+      error_at(n.source(), kp, fmt::format("expected a point [x, z] of two numbers, got {}",
+                                           type_name(n)));
+      return std::nullopt;
+    }
+    Vec2 p{(*a)[0].value<double>().value_or(0.0), (*a)[1].value<double>().value_or(0.0)};
+    if (!std::isfinite(p.x) || !std::isfinite(p.z)) {
+      error_at(n.source(), kp, "point coordinates must be finite numbers");
+      return std::nullopt;
+    }
+    return p;
+  }
+  // A list of points. Missing → empty without error.
+  std::vector<Vec2> points(std::string_view key, std::size_t min_count) {
+    const toml::node* n = node(key);
+    if (!n) return {};
+    const auto* a = n->as_array();
+    if (!a) {
+      error(key, fmt::format("expected a list of points [[x, z], …], got {}", type_name(*n)));
+      return {};
+    }
+    std::vector<Vec2> out;
+    for (std::size_t i = 0; i < a->size(); ++i)
+      if (auto p = as_point((*a)[i], fmt::format("{}[{}]", key_path(key), i))) out.push_back(*p);
+    if (out.size() < min_count && out.size() == a->size())
+      error(key, fmt::format("needs at least {} points, got {}", min_count, out.size()));
+    return out;
+  }
+  Polygon polygon(std::string_view key, bool required) {
+    if (!has(key)) {
+      node(key);
+      if (required) error_here(fmt::format("missing required key '{}' (a polygon [[x, z], …])", key));
+      return {};
+    }
+    Polygon p = points(key, 3);
+    if (p.size() < 3) {
+      if (p.empty() && node(key)->as_array() && node(key)->as_array()->empty())
+        error(key, "empty polygon; give at least 3 points [[x, z], …]");
+      return {};
+    }
+    const double area = signed_area(p);
+    if (std::abs(area) <= 0.0) {
+      error(key, "polygon has zero area (collinear points)");
+      return {};
+    }
+    if (self_intersects(p)) {
+      error(key, "polygon is self-intersecting; list its corners in order around the boundary");
+      return {};
+    }
+    if (area < 0.0) std::reverse(p.begin(), p.end()); // store counter-clockwise
+    return p;
+  }
+
+  // Sub-table reader; nullptr table → std::nullopt.
+  const toml::table* table(std::string_view key) {
+    const toml::node* n = node(key);
+    if (!n) return nullptr;
+    if (!n->is_table()) {
+      error(key, fmt::format("expected a table, got {}", type_name(*n)));
+      return nullptr;
+    }
+    return n->as_table();
+  }
+  const toml::array* array_of_tables(std::string_view key) {
+    const toml::node* n = node(key);
+    if (!n) return nullptr;
+    if (!n->is_array_of_tables() && !(n->is_array() && n->as_array()->empty())) {
+      error(key, fmt::format("expected an array of tables ([[{}]]), got {}", key, type_name(*n)));
+      return nullptr;
+    }
+    return n->as_array();
+  }
+
+  void mark_used(std::string_view key) { used_.insert(std::string(key)); }
+
+  // Report keys that were never read.
+  void finish(const std::vector<std::string>& valid) {
+    for (auto&& [k, v] : t_) {
+      const std::string ks(k.str());
+      if (used_.count(ks)) continue;
+      error_at(k.source(), key_path(ks),
+               fmt::format("unknown key; valid keys here: {}", fmt::join(valid, ", ")));
+    }
+  }
+
+  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] const std::string& file() const { return file_; }
+  [[nodiscard]] std::vector<Diagnostic>& diags() { return diags_; }
+  [[nodiscard]] const toml::table& raw() const { return t_; }
+
+  static std::string type_name(const toml::node& n) {
+    switch (n.type()) {
+    case toml::node_type::table: return "a table";
+    case toml::node_type::array: return "an array";
+    case toml::node_type::string: return fmt::format("the string \"{}\"", n.value<std::string>().value_or(""));
+    case toml::node_type::integer: return fmt::format("the integer {}", n.value<int64_t>().value_or(0));
+    case toml::node_type::floating_point: return fmt::format("the number {}", n.value<double>().value_or(0));
+    case toml::node_type::boolean: return n.value<bool>().value_or(false) ? "true" : "false";
+    default: return "a date/time";
+    }
+  }
+
+private:
+  const toml::table& t_;
+  std::string path_;
+  std::string file_;
+  std::vector<Diagnostic>& diags_;
+  toml::source_region where_;
+  std::set<std::string> used_;
+};
+
+// ---- time functions ----------------------------------------------------------------------------
+std::optional<TimeFunction> read_time_function(Reader& parent, std::string_view key);
+
+TimeFunction time_function_from_table(Reader& r) {
+  static const std::vector<std::string> kTypes = {"constant", "ramp", "sine", "t-sine", "table",
+                                                  "sum"};
+  TimeFunction f;
+  const std::string type = r.string("type", "");
+  if (type.empty()) {
+    r.error_here(fmt::format("a time function needs 'type'; valid: {}", fmt::join(kTypes, ", ")));
+    return f;
+  }
+  std::vector<std::string> valid{"type"};
+  if (type == "constant") {
+    f = TimeFunction::constant(r.required_number("value"));
+    valid.push_back("value");
+  } else if (type == "ramp") {
+    f = TimeFunction::ramp(r.required_number("rate"), r.number("offset", 0.0),
+                           r.non_negative("start", 0.0));
+    f.stop = r.non_negative("stop", 0.0);
+    valid.insert(valid.end(), {"rate", "offset", "start", "stop"});
+  } else if (type == "sine") {
+    f = TimeFunction::sine(r.required_number("amplitude"), r.positive("frequency", 1.0, true),
+                           r.number("phase", 0.0), r.non_negative("start", 0.0));
+    f.stop = r.non_negative("stop", 0.0);
+    valid.insert(valid.end(), {"amplitude", "frequency", "phase", "start", "stop"});
+  } else if (type == "t-sine") {
+    const double a = r.required_number("amplitude");
+    double omega = 0.0;
+    if (r.has("omega") == r.has("frequency"))
+      r.error_here("t-sine needs exactly one of 'omega' [rad/s] or 'frequency' [Hz]");
+    if (r.has("omega")) omega = r.positive("omega", 1.0);
+    if (r.has("frequency")) omega = 2.0 * std::numbers::pi * r.positive("frequency", 1.0);
+    f = TimeFunction::t_sine(a, omega);
+    valid.insert(valid.end(), {"amplitude", "omega", "frequency"});
+  } else if (type == "table") {
+    const auto pts = r.points("points", 1);
+    std::vector<std::pair<double, double>> tab;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      if (i > 0 && !(pts[i].x > pts[i - 1].x)) {
+        r.error("points", fmt::format("times must increase strictly; point {} has t = {} after {}",
+                                      i, pts[i].x, pts[i - 1].x));
+        break;
+      }
+      tab.emplace_back(pts[i].x, pts[i].z);
+    }
+    if (!r.has("points")) r.error_here("table needs 'points' = [[t, value], …]");
+    f = TimeFunction::piecewise(std::move(tab));
+    valid.push_back("points");
+  } else if (type == "sum") {
+    const toml::node* n = r.node("terms");
+    std::vector<TimeFunction> terms;
+    if (!n || !n->is_array()) {
+      r.error_here("sum needs 'terms' = [ {type = …}, … ]");
+    } else {
+      const auto& arr = *n->as_array();
+      for (std::size_t i = 0; i < arr.size(); ++i) {
+        const auto* t = arr[i].as_table();
+        if (!t) {
+          r.error_at(arr[i].source(), fmt::format("{}.terms[{}]", r.path(), i),
+                     "each term must be a time function table {type = …}");
+          continue;
+        }
+        Reader sub(*t, fmt::format("{}.terms[{}]", r.path(), i), r.file(), r.diags(), t->source());
+        terms.push_back(time_function_from_table(sub));
+      }
+    }
+    f = TimeFunction::sum(std::move(terms));
+    valid.push_back("terms");
+  } else {
+    r.error("type", fmt::format("unknown time function '{}'; valid: {}", type, fmt::join(kTypes, ", ")));
+    return f;
+  }
+  r.finish(valid);
+  return f;
+}
+
+std::optional<TimeFunction> read_time_function(Reader& parent, std::string_view key) {
+  const toml::node* n = parent.node(key);
+  if (!n) return std::nullopt;
+  if (n->is_number()) {
+    const double v = n->value<double>().value_or(0.0);
+    if (!std::isfinite(v)) {
+      parent.error(key, "must be a finite number");
+      return std::nullopt;
+    }
+    return TimeFunction::constant(v);
+  }
+  if (const auto* t = n->as_table()) {
+    Reader r(*t, parent.key_path(key), parent.file(), parent.diags(), t->source());
+    return time_function_from_table(r);
+  }
+  parent.error(key, fmt::format("expected a number or a time function table {{type = …}}, got {}",
+                                Reader::type_name(*n)));
+  return std::nullopt;
+}
+
+// ---- sections ----------------------------------------------------------------------------------
+template <typename Enum, std::size_t N>
+Enum read_enum(Reader& r, std::string_view key, const std::array<const char*, N>& names, Enum def) {
+  if (auto i = r.keyword(key, names)) return static_cast<Enum>(*i);
+  return def;
+}
+
+RadiusDistribution read_radius(Reader& parent) {
+  RadiusDistribution d;
+  const toml::node* n = parent.node("radius");
+  if (!n) {
+    parent.error_here("missing required key 'radius' ({uniform = [min, max]}, {equal = r} or "
+                      "{table = [[r, weight], …]})");
+    return d;
+  }
+  const auto* t = n->as_table();
+  if (!t || t->size() != 1) {
+    parent.error("radius", "expected exactly one of {uniform = [min, max]}, {equal = r}, "
+                           "{table = [[r, weight], …]}");
+    return d;
+  }
+  Reader r(*t, parent.key_path("radius"), parent.file(), parent.diags(), t->source());
+  if (r.has("uniform")) {
+    const auto pts = r.node("uniform");
+    const auto* a = pts->as_array();
+    if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) {
+      r.error("uniform", "expected [min, max] radii in metres");
+      return d;
+    }
+    d.kind = RadiusDistribution::Kind::Uniform;
+    d.min = (*a)[0].value<double>().value_or(0);
+    d.max = (*a)[1].value<double>().value_or(0);
+    if (!(d.min > 0.0) || !(d.max >= d.min) || !std::isfinite(d.max))
+      r.error("uniform", fmt::format("radii must satisfy 0 < min ≤ max, got [{}, {}]", d.min, d.max));
+  } else if (r.has("equal")) {
+    d.kind = RadiusDistribution::Kind::Equal;
+    d.min = d.max = r.positive("equal", 1.0);
+  } else if (r.has("table")) {
+    d.kind = RadiusDistribution::Kind::Table;
+    for (const auto& p : r.points("table", 1)) {
+      if (!(p.x > 0.0) || !(p.z >= 0.0))
+        r.error("table", fmt::format("each entry [radius, weight] needs radius > 0 and weight ≥ 0, "
+                                     "got [{}, {}]", p.x, p.z));
+      d.table.emplace_back(p.x, p.z);
+    }
+    if (!d.table.empty()) {
+      d.min = d.max = d.table.front().first;
+      for (const auto& [rad, w] : d.table) {
+        d.min = std::min(d.min, rad);
+        d.max = std::max(d.max, rad);
+      }
+    }
+  }
+  r.finish({"uniform", "equal", "table"});
+  return d;
+}
+
+DemSoil read_dem_soil(Reader& r) {
+  DemSoil s;
+  s.count = r.integer("count", 0, 1, 100'000'000);
+  if (!r.has("count")) r.error_here("missing required key 'count' (number of particles)");
+  s.radius = read_radius(r);
+  s.density = r.positive("density", s.density);
+  s.thickness = r.positive("thickness", s.thickness);
+  s.law = read_enum(r, "contact", kContactLawNames, s.law);
+  s.kn = r.positive("kn", s.kn);
+  s.ks = r.positive("ks", s.ks);
+  s.mu_static = r.non_negative("mu_static", s.mu_static);
+  s.mu_dynamic = r.non_negative("mu_dynamic", s.mu_dynamic);
+  if (s.mu_dynamic > s.mu_static)
+    r.error("mu_dynamic", fmt::format("dynamic friction {} exceeds static friction {}; need "
+                                      "mu_dynamic ≤ mu_static", s.mu_dynamic, s.mu_static));
+  s.rebound = r.in_range("rebound", s.rebound, 0.0, 1.0);
+  s.rebound_speed = r.non_negative("rebound_speed", s.rebound_speed);
+  s.tension = r.boolean("tension", s.tension);
+  s.tensile_strength = r.non_negative("tensile_strength", s.tensile_strength);
+  s.eta_n = r.non_negative("eta_n", s.eta_n);
+  s.eta_s = r.non_negative("eta_s", s.eta_s);
+  s.restitution = r.in_range("restitution", s.restitution, 0.0, 1.0);
+  if (s.law == ContactLaw::LinearRestitution && !(s.restitution > 0.0))
+    r.error("restitution", "linear-restitution needs restitution in (0, 1]");
+  s.young = r.positive("young", s.young);
+  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
+  s.damping_c = r.non_negative("damping_c", s.damping_c);
+  s.damping_d = r.non_negative("damping_d", s.damping_d);
+  s.dt = r.non_negative("dt", s.dt);
+  s.dt_safety = r.in_range("dt_safety", s.dt_safety, 1e-6, 1.0);
+  s.max_overlap = r.in_range("max_overlap", s.max_overlap, 1e-6, 2.0);
+  s.fill = r.polygon("fill", false);
+  if (const auto* pt = r.table("packing")) {
+    Reader p(*pt, r.key_path("packing"), r.file(), r.diags(), pt->source());
+    s.packing.ke_ratio = p.positive("ke_ratio", s.packing.ke_ratio);
+    s.packing.max_time = p.positive("max_time", s.packing.max_time);
+    s.packing.damping = p.non_negative("damping", s.packing.damping);
+    s.packing.cache = p.string("cache", s.packing.cache);
+    p.finish({"ke_ratio", "max_time", "damping", "cache"});
+  }
+  r.finish({"count", "radius", "density", "thickness", "contact", "kn", "ks", "mu_static",
+            "mu_dynamic", "rebound", "rebound_speed", "tension", "tensile_strength", "eta_n",
+            "eta_s", "restitution", "young", "poisson", "damping_c", "damping_d", "dt",
+            "dt_safety", "max_overlap", "fill", "packing"});
+  return s;
+}
+
+ContinuumSoil read_continuum_soil(Reader& r) {
+  ContinuumSoil s;
+  s.model = read_enum(r, "model", kContinuumModelNames, s.model);
+  s.young = r.positive("young", s.young);
+  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
+  s.friction_angle = r.in_range("friction_angle", 30.0, 0.0, 89.0) * kDeg;
+  s.cohesion = r.non_negative("cohesion", s.cohesion);
+  s.dilation_angle = r.in_range("dilation_angle", 0.0, 0.0, 89.0) * kDeg;
+  if (s.dilation_angle > s.friction_angle)
+    r.error("dilation_angle", "dilation angle must not exceed the friction angle");
+  s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
+  s.density = r.positive("density", s.density);
+  s.k0 = r.number("k0", s.k0);
+  r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
+            "tension_cutoff", "density", "k0"});
+  return s;
+}
+
+ContinuumOptions read_continuum_options(Reader& r) {
+  ContinuumOptions o;
+  o.refinement = r.integer("refinement", o.refinement, 0, 12);
+  o.degree = r.integer("degree", o.degree, 1, 4);
+  o.dt = r.non_negative("dt", o.dt);
+  o.newmark_beta = r.in_range("newmark_beta", o.newmark_beta, 0.0, 0.5);
+  o.newmark_gamma = r.in_range("newmark_gamma", o.newmark_gamma, 0.0, 1.0);
+  o.rayleigh_alpha = r.non_negative("rayleigh_alpha", o.rayleigh_alpha);
+  o.rayleigh_beta = r.non_negative("rayleigh_beta", o.rayleigh_beta);
+  o.absorbing = r.boolean("absorbing", o.absorbing);
+  o.linear_solver = r.string("linear_solver", o.linear_solver);
+  if (o.linear_solver != "cg-amg" && o.linear_solver != "gmres-amg" && o.linear_solver != "direct")
+    r.error("linear_solver", fmt::format("unknown solver '{}'; valid: cg-amg, gmres-amg, direct",
+                                         o.linear_solver));
+  o.interface = r.string("interface", o.interface);
+  if (o.interface != "tied" && o.interface != "frictional")
+    r.error("interface", fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
+  o.interface_friction_angle = r.in_range("interface_friction_angle", 20.0, 0.0, 89.0) * kDeg;
+  o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
+  o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
+  o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);
+  r.finish({"refinement", "degree", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
+            "rayleigh_beta", "absorbing", "linear_solver", "interface",
+            "interface_friction_angle", "load_steps", "newton_tolerance",
+            "newton_max_iterations"});
+  return o;
+}
+
+std::optional<double> friction_opt(Reader& r, std::string_view key) {
+  const auto v = r.opt_number(key);
+  if (v && *v < 0.0) r.error(key, fmt::format("friction must be ≥ 0, got {}", *v));
+  return v;
+}
+
+Wall read_wall(Reader& r) {
+  Wall w;
+  w.name = r.string("name", "");
+  if (w.name.empty()) r.error_here("every [[wall]] needs a 'name'");
+  w.points = r.points("points", 2);
+  if (!r.has("points")) r.error_here("missing required key 'points' (a polyline [[x, z], …])");
+  w.mu_static = friction_opt(r, "mu_static");
+  w.mu_dynamic = friction_opt(r, "mu_dynamic");
+  if (r.has("opens_at")) w.opens_at = r.non_negative("opens_at", 0.0);
+  w.record = r.boolean("record", w.record);
+  r.finish({"name", "points", "mu_static", "mu_dynamic", "opens_at", "record"});
+  return w;
+}
+
+Structure read_structure(Reader& r, const DemSoil* dem) {
+  Structure s;
+  s.name = r.string("name", "");
+  if (s.name.empty()) r.error_here("every [[structure]] needs a 'name'");
+  s.kind = read_enum(r, "kind", kStructureKindNames, s.kind);
+  const std::string shape = r.string("shape", "rectangle");
+  std::vector<std::string> valid{"name", "kind", "shape"};
+  if (shape == "rectangle") {
+    s.width = r.positive("width", 1.0, true);
+    s.height = r.positive("height", 1.0, true);
+    s.base_centre = r.point("base").value_or(Vec2{});
+    if (!r.has("base")) r.error_here("rectangle needs 'base' = [x, z], the centre of its base");
+    const double hw = 0.5 * s.width;
+    const auto b = s.base_centre;
+    s.outline = {{b.x - hw, b.z}, {b.x + hw, b.z}, {b.x + hw, b.z + s.height}, {b.x - hw, b.z + s.height}};
+    valid.insert(valid.end(), {"width", "height", "base"});
+  } else if (shape == "segment") {
+    // A thin wall: a rectangle of the given thickness behind the segment's right-hand side.
+    const auto a = r.point("from");
+    const auto b = r.point("to");
+    const double th = r.positive("thickness", 0.1);
+    if (!a || !b) {
+      r.error_here("segment needs 'from' = [x, z] and 'to' = [x, z]");
+    } else {
+      const double dx = b->x - a->x, dz = b->z - a->z, len = std::hypot(dx, dz);
+      if (!(len > 0.0)) {
+        r.error("to", "segment has zero length");
+      } else {
+        const double nx = dz / len * th, nz = -dx / len * th; // right-hand normal
+        s.outline = {*a, {a->x + nx, a->z + nz}, {b->x + nx, b->z + nz}, *b};
+        if (signed_area(s.outline) < 0) std::reverse(s.outline.begin(), s.outline.end());
+        s.width = th;
+        s.height = len;
+        s.base_centre = {0.5 * (a->x + a->x + nx), 0.5 * (a->z + a->z + nz)};
+      }
+    }
+    valid.insert(valid.end(), {"from", "to", "thickness"});
+  } else if (shape == "polygon") {
+    s.outline = r.polygon("polygon", true);
+    if (!s.outline.empty()) {
+      double xmin = s.outline[0].x, xmax = xmin, zmin = s.outline[0].z, zmax = zmin;
+      for (const auto& p : s.outline) {
+        xmin = std::min(xmin, p.x); xmax = std::max(xmax, p.x);
+        zmin = std::min(zmin, p.z); zmax = std::max(zmax, p.z);
+      }
+      s.width = xmax - xmin;
+      s.height = zmax - zmin;
+      s.base_centre = {0.5 * (xmin + xmax), zmin};
+    }
+    valid.push_back("polygon");
+  } else {
+    r.error("shape", fmt::format("unknown shape '{}'; valid: rectangle, segment, polygon", shape));
+  }
+  s.density = r.positive("density", s.density);
+  s.mass = r.non_negative("mass", s.mass);
+  s.inertia = r.non_negative("inertia", s.inertia);
+  s.pivot = r.point("pivot").value_or(s.base_centre);
+  s.dof_x = read_enum(r, "dof_x", kDofModeNames, s.dof_x);
+  s.dof_z = read_enum(r, "dof_z", kDofModeNames, s.dof_z);
+  s.dof_rotation = read_enum(r, "dof_rotation", kDofModeNames, s.dof_rotation);
+  auto tf = [&](std::string_view key, TimeFunction& into) {
+    if (auto f = read_time_function(r, key)) into = *f;
+  };
+  tf("motion_x", s.motion_x);
+  tf("motion_z", s.motion_z);
+  tf("motion_rotation", s.motion_rotation);
+  tf("force_x", s.force_x);
+  tf("force_z", s.force_z);
+  tf("moment", s.moment);
+  s.load_point = r.point("load_point").value_or(Vec2{s.base_centre.x, s.base_centre.z + s.height});
+  s.dead_weight = r.boolean("dead_weight", s.dead_weight);
+  s.mu_static = friction_opt(r, "mu_static");
+  s.mu_dynamic = friction_opt(r, "mu_dynamic");
+  if (const toml::node* n = r.node("record")) {
+    static const std::vector<std::string> kRecord = {"thrust", "pressure-profile", "motion"};
+    if (const auto* a = n->as_array()) {
+      for (const auto& e : *a) {
+        const auto v = e.value<std::string>();
+        if (!v || std::find(kRecord.begin(), kRecord.end(), *v) == kRecord.end())
+          r.error_at(e.source(), r.key_path("record"),
+                     fmt::format("unknown record '{}'; valid: {}", v.value_or("?"), fmt::join(kRecord, ", ")));
+        else
+          s.record.push_back(*v);
+      }
+    } else {
+      r.error("record", "expected a list of strings");
+    }
+  }
+  (void)dem;
+  valid.insert(valid.end(), {"density", "mass", "inertia", "pivot", "dof_x", "dof_z",
+                             "dof_rotation", "motion_x", "motion_z", "motion_rotation", "force_x",
+                             "force_z", "moment", "load_point", "dead_weight", "mu_static",
+                             "mu_dynamic", "record"});
+  r.finish(valid);
+  return s;
+}
+
+Load read_load(Reader& r) {
+  Load l;
+  l.gravity = r.non_negative("gravity", l.gravity);
+  if (const auto* st = r.table("shaking")) {
+    Reader s(*st, r.key_path("shaking"), r.file(), r.diags(), st->source());
+    Shaking sh;
+    const std::string dir = s.string("direction", "x");
+    if (dir != "x" && dir != "z") s.error("direction", fmt::format("must be \"x\" or \"z\", got \"{}\"", dir));
+    sh.direction = dir == "z" ? 'z' : 'x';
+    // body force m·A·sin(2πft) (paper §6)
+    sh.acceleration = TimeFunction::sine(s.number("amplitude", 0.0), s.positive("frequency", 1.0, true),
+                                         s.number("phase", 0.0), s.non_negative("start", 0.0));
+    sh.acceleration.stop = s.non_negative("stop", 0.0);
+    if (!s.has("amplitude")) s.error_here("shaking needs 'amplitude' [m/s²] (1 gal = 0.01 m/s²)");
+    s.finish({"direction", "amplitude", "frequency", "phase", "start", "stop"});
+    l.shaking = sh;
+  }
+  r.finish({"gravity", "shaking"});
+  return l;
+}
+
+Probe read_probe(Reader& r) {
+  Probe p;
+  p.kind = read_enum(r, "kind", kProbeKindNames, p.kind);
+  if (!r.has("kind"))
+    r.error_here(fmt::format("every [[probe]] needs 'kind'; valid: {}", fmt::join(kProbeKindNames, ", ")));
+  p.target = r.string("target", "");
+  p.interval = r.non_negative("interval", 0.0);
+  p.bins = r.integer("bins", p.bins, 1, 100000);
+  p.points = r.points("points", 0);
+  r.finish({"kind", "target", "interval", "bins", "points"});
+  return p;
+}
+
+Scene resolve(const toml::table& root, const std::string& file, std::vector<Diagnostic>& diags) {
+  Scene sc;
+  sc.source_file = file;
+  Reader top(root, "", file, diags, root.source());
+  top.mark_used("variant");
+
+  if (const auto* t = top.table("scene")) {
+    Reader r(*t, "scene", file, diags, t->source());
+    sc.info.name = r.string("name", "");
+    if (sc.info.name.empty()) r.error_here("missing required key 'name'");
+    sc.info.description = r.string("description", "");
+    sc.info.duration = r.positive("duration", sc.info.duration, true);
+    sc.info.seed = static_cast<unsigned long>(r.integer("seed", 1, 0, 2147483647));
+    if (const toml::node* n = r.node("solvers")) {
+      sc.info.solvers.clear();
+      const auto* a = n->as_array();
+      if (!a || a->empty()) r.error("solvers", "expected a non-empty list: [\"dem\"], [\"continuum\"] or both");
+      else
+        for (const auto& e : *a) {
+          const auto v = e.value<std::string>();
+          if (v == "dem") sc.info.solvers.push_back(Solver::Dem);
+          else if (v == "continuum") sc.info.solvers.push_back(Solver::Continuum);
+          else r.error_at(e.source(), "scene.solvers", fmt::format("unknown solver '{}'; valid: dem, continuum", v.value_or("?")));
+        }
+    }
+    r.finish({"name", "description", "duration", "seed", "solvers"});
+  } else {
+    top.error_here("missing required table [scene] (name, duration, solvers)");
+  }
+
+  if (const auto* t = top.table("domain")) {
+    Reader r(*t, "domain", file, diags, t->source());
+    sc.domain = r.polygon("polygon", true);
+    r.finish({"polygon"});
+  } else {
+    top.error_here("missing required table [domain] with 'polygon' = [[x, z], …]");
+  }
+
+  if (const auto* t = top.table("soil")) {
+    Reader r(*t, "soil", file, diags, t->source());
+    if (const auto* d = r.table("dem")) {
+      Reader rd(*d, "soil.dem", file, diags, d->source());
+      sc.soil.dem = read_dem_soil(rd);
+    }
+    if (const auto* c = r.table("continuum")) {
+      Reader rc(*c, "soil.continuum", file, diags, c->source());
+      sc.soil.continuum = read_continuum_soil(rc);
+    }
+    r.finish({"dem", "continuum"});
+  }
+  if (sc.uses(Solver::Dem) && !sc.soil.dem)
+    top.error_here("scene.solvers lists \"dem\" but there is no [soil.dem] table");
+  if (sc.uses(Solver::Continuum) && !sc.soil.continuum)
+    top.error_here("scene.solvers lists \"continuum\" but there is no [soil.continuum] table");
+  if (sc.soil.dem && sc.soil.dem->fill.empty()) sc.soil.dem->fill = sc.domain;
+
+  if (const auto* t = top.table("continuum")) {
+    Reader r(*t, "continuum", file, diags, t->source());
+    sc.continuum = read_continuum_options(r);
+  }
+
+  auto each = [&](std::string_view key, auto&& fn) {
+    if (const auto* a = top.array_of_tables(key)) {
+      for (std::size_t i = 0; i < a->size(); ++i) {
+        const auto& tbl = *(*a)[i].as_table();
+        const auto nm = tbl["name"].value<std::string>();
+        Reader r(tbl, nm ? fmt::format("{}[{}]", key, *nm) : fmt::format("{}[{}]", key, i), file,
+                 diags, tbl.source());
+        fn(r);
+      }
+    }
+  };
+  each("wall", [&](Reader& r) { sc.walls.push_back(read_wall(r)); });
+  each("structure", [&](Reader& r) {
+    sc.structures.push_back(read_structure(r, sc.soil.dem ? &*sc.soil.dem : nullptr));
+  });
+  each("group", [&](Reader& r) {
+    Group g;
+    g.name = r.string("name", "");
+    if (g.name.empty()) r.error_here("every [[group]] needs a 'name'");
+    g.region = r.polygon("region", true);
+    r.finish({"name", "region"});
+    sc.groups.push_back(std::move(g));
+  });
+  each("event", [&](Reader& r) {
+    Event e;
+    e.time = r.non_negative("time", 0.0);
+    if (!r.has("time")) r.error_here("every [[event]] needs 'time' [s]");
+    e.action = read_enum(r, "action", kEventActionNames, e.action);
+    e.group = r.string("group", "");
+    e.wall = r.string("wall", "");
+    e.mu_static = r.non_negative("mu_static", 0.0);
+    e.mu_dynamic = r.non_negative("mu_dynamic", 0.0);
+    if (e.mu_dynamic > e.mu_static)
+      r.error("mu_dynamic", "dynamic friction must not exceed static friction");
+    r.finish({"time", "action", "group", "wall", "mu_static", "mu_dynamic"});
+    sc.events.push_back(std::move(e));
+  });
+  each("probe", [&](Reader& r) { sc.probes.push_back(read_probe(r)); });
+
+  if (const auto* t = top.table("load")) {
+    Reader r(*t, "load", file, diags, t->source());
+    sc.load = read_load(r);
+  }
+  if (const auto* t = top.table("output")) {
+    Reader r(*t, "output", file, diags, t->source());
+    sc.output.interval = r.positive("interval", sc.output.interval);
+    sc.output.probe_interval = r.positive("probe_interval", sc.output.probe_interval);
+    sc.output.vtk = r.boolean("vtk", sc.output.vtk);
+    sc.output.force_chains = r.boolean("force_chains", sc.output.force_chains);
+    sc.output.figures = r.boolean("figures", sc.output.figures);
+    sc.output.checkpoint_interval = r.non_negative("checkpoint_interval", sc.output.checkpoint_interval);
+    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval"});
+  }
+
+  // Cross references.
+  std::set<std::string> names;
+  for (const auto& w : sc.walls)
+    if (!names.insert(w.name).second) top.error_here(fmt::format("duplicate wall/structure name '{}'", w.name));
+  for (const auto& s : sc.structures)
+    if (!names.insert(s.name).second) top.error_here(fmt::format("duplicate wall/structure name '{}'", s.name));
+  for (const auto& e : sc.events) {
+    if (e.action == EventAction::SetFriction && !sc.group(e.group))
+      top.error_here(fmt::format("event at t = {} names group '{}', which no [[group]] defines", e.time, e.group));
+    if (e.action == EventAction::OpenWall && !sc.wall(e.wall))
+      top.error_here(fmt::format("event at t = {} names wall '{}', which no [[wall]] defines", e.time, e.wall));
+  }
+  for (const auto& p : sc.probes) {
+    const bool needs_target = p.kind == ProbeKind::Structure || p.kind == ProbeKind::WallThrust ||
+                              p.kind == ProbeKind::PressureProfile;
+    if (needs_target && !sc.structure(p.target) && !sc.wall(p.target))
+      top.error_here(fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
+                                 keyword(kProbeKindNames, p.kind), p.target));
+  }
+
+  top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
+              "probe", "load", "output", "variant"});
+  return sc;
+}
+
+// ---- variants ----------------------------------------------------------------------------------
+std::vector<std::string> split_dotted(const std::string& s) {
+  std::vector<std::string> parts;
+  std::string cur;
+  for (char c : s) {
+    if (c == '.') {
+      parts.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  parts.push_back(cur);
+  return parts;
+}
+
+// Applies one dotted override; returns an error message or "".
+std::string apply_override(toml::table& root, const std::string& dotted, const toml::node& value) {
+  const auto parts = split_dotted(dotted);
+  toml::node* cur = &root;
+  std::string walked;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const auto& p = parts[i];
+    const bool last = i + 1 == parts.size();
+    if (p.empty()) return "empty path segment";
+    toml::node* next = nullptr;
+    if (auto* t = cur->as_table()) {
+      next = t->get(p);
+      if (last) {
+        if (!next)
+          return fmt::format("the base scene has no key '{}' under '{}' to override; add it to the "
+                             "base scene (with its default) so each variant states what it changes",
+                             p, walked.empty() ? "(top level)" : walked);
+        t->insert_or_assign(p, value);
+        return "";
+      }
+    } else if (auto* a = cur->as_array()) {
+      // Array element by index or by the element's 'name'.
+      std::size_t idx = a->size();
+      if (!p.empty() && std::all_of(p.begin(), p.end(), ::isdigit)) {
+        idx = std::stoul(p);
+      } else {
+        for (std::size_t k = 0; k < a->size(); ++k)
+          if (const auto* et = (*a)[k].as_table(); et && (*et)["name"].value<std::string>() == p)
+            idx = k;
+      }
+      if (idx >= a->size())
+        return fmt::format("'{}' has no element '{}' (use an index or the element's name)", walked, p);
+      if (last) {
+        a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), value);
+        return "";
+      }
+      next = a->get(idx);
+    }
+    if (!next)
+      return fmt::format("the base scene has no '{}' under '{}' to override", p,
+                         walked.empty() ? "(top level)" : walked);
+    walked += (walked.empty() ? "" : ".") + p;
+    cur = next;
+  }
+  return "";
+}
+
+} // namespace
+
+bool Scene::uses(Solver s) const {
+  return std::find(info.solvers.begin(), info.solvers.end(), s) != info.solvers.end();
+}
+const Structure* Scene::structure(const std::string& n) const {
+  for (const auto& s : structures)
+    if (s.name == n) return &s;
+  return nullptr;
+}
+const Wall* Scene::wall(const std::string& n) const {
+  for (const auto& w : walls)
+    if (w.name == n) return &w;
+  return nullptr;
+}
+const Group* Scene::group(const std::string& n) const {
+  for (const auto& g : groups)
+    if (g.name == n) return &g;
+  return nullptr;
+}
+
+SceneFile parse_scene(std::string_view text, const std::string& source_name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, source_name);
+  } catch (const toml::parse_error& e) {
+    Diagnostic d;
+    d.file = source_name;
+    d.line = static_cast<int>(e.source().begin.line);
+    d.column = static_cast<int>(e.source().begin.column);
+    d.message = fmt::format("TOML syntax: {}", e.description());
+    throw SceneError({d});
+  }
+
+  std::vector<Diagnostic> diags;
+  SceneFile out;
+  out.path = source_name;
+  out.base = resolve(root, source_name, diags);
+
+  if (const toml::node* vn = root.get("variant")) {
+    const auto* arr = vn->as_array();
+    if (!arr || !vn->is_array_of_tables()) {
+      diags.push_back({source_name, static_cast<int>(vn->source().begin.line),
+                       static_cast<int>(vn->source().begin.column), "variant",
+                       "expected [[variant]] tables with 'name' and 'set'"});
+    } else {
+      std::set<std::string> seen;
+      for (std::size_t i = 0; i < arr->size(); ++i) {
+        const auto& vt = *(*arr)[i].as_table();
+        const int vline = static_cast<int>(vt.source().begin.line);
+        const int vcol = static_cast<int>(vt.source().begin.column);
+        const auto name = vt["name"].value<std::string>();
+        const std::string label = name ? *name : fmt::format("#{}", i + 1);
+        if (!name || name->empty()) {
+          diags.push_back({source_name, vline, vcol, fmt::format("variant[{}]", i),
+                           "every [[variant]] needs a non-empty 'name'"});
+          continue;
+        }
+        if (!seen.insert(*name).second)
+          diags.push_back({source_name, vline, vcol, fmt::format("variant[{}]", *name),
+                           "duplicate variant name"});
+        for (auto&& [k, v] : vt) {
+          if (k != "name" && k != "set" && k != "description")
+            diags.push_back({source_name, static_cast<int>(k.source().begin.line),
+                             static_cast<int>(k.source().begin.column),
+                             fmt::format("variant[{}].{}", label, k.str()),
+                             "unknown key; valid keys here: name, description, set"});
+        }
+        toml::table copy = root;
+        copy.erase("variant");
+        if (const toml::node* sn = vt.get("set")) {
+          const auto* st = sn->as_table();
+          if (!st) {
+            diags.push_back({source_name, static_cast<int>(sn->source().begin.line),
+                             static_cast<int>(sn->source().begin.column),
+                             fmt::format("variant[{}].set", label),
+                             "expected a table of overrides { \"dotted.key\" = value, … }"});
+            continue;
+          }
+          // A key written `"a.b" = v` is one quoted key; `a.b = v` nests tables. Accept both by
+          // flattening nested tables whose leaves are values.
+          std::function<void(const toml::table&, const std::string&)> flatten =
+              [&](const toml::table& t, const std::string& prefix) {
+                for (auto&& [k, v] : t) {
+                  const std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+                  const toml::node* target = nullptr;
+                  (void)target;
+                  if (v.is_table() && !v.as_table()->is_inline()) {
+                    flatten(*v.as_table(), path);
+                    continue;
+                  }
+                  const std::string err = apply_override(copy, path, v);
+                  if (!err.empty())
+                    diags.push_back({source_name, static_cast<int>(k.source().begin.line),
+                                     static_cast<int>(k.source().begin.column),
+                                     fmt::format("variant[{}].set.{}", label, path), err});
+                }
+              };
+          flatten(*st, "");
+        }
+        Scene s = resolve(copy, source_name, diags);
+        s.variant = *name;
+        out.variants.push_back(std::move(s));
+      }
+    }
+  }
+  if (!diags.empty()) throw SceneError(std::move(diags));
+  return out;
+}
+
+SceneFile load_scene_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw SceneError({Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scene(ss.str(), path.string());
+}
+
+} // namespace demfem::scene
