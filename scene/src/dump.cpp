@@ -1,5 +1,9 @@
 // Writes a resolved Scene back as TOML with every default explicit.
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
 #include <numbers>
+#include <regex>
 #include <sstream>
 
 #include <toml++/toml.h>
@@ -11,6 +15,8 @@ namespace demfem::scene {
 namespace {
 
 constexpr double kToDeg = 180.0 / std::numbers::pi;
+// Degrees for the file, rounded to 1e-9° so 30° does not come back as 29.999999999999996.
+double deg(double rad) { return std::round(rad * kToDeg * 1e9) / 1e9; }
 
 toml::array pts(const std::vector<Vec2>& p) {
   toml::array a;
@@ -55,6 +61,28 @@ template <typename T> toml::table inline_table(T&& t) {
   return out;
 }
 
+// toml++ as packaged prints doubles with max_digits10 (5.6 → 5.5999999999999996); rewrite each
+// long number in its shortest form that reads back to the same double.
+std::string shortest_floats(const std::string& text) {
+  static const std::regex kLong(R"(-?\d+\.\d{12,}(e[+-]?\d+)?)");
+  std::string out;
+  auto begin = std::sregex_iterator(text.begin(), text.end(), kLong);
+  std::size_t last = 0;
+  for (auto it = begin; it != std::sregex_iterator(); ++it) {
+    const auto& m = *it;
+    out.append(text, last, static_cast<std::size_t>(m.position()) - last);
+    const double v = std::strtod(m.str().c_str(), nullptr);
+    char buf[64];
+    auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, v);
+    std::string s(buf, ec == std::errc{} ? ptr : buf);
+    if (s.find_first_of(".eE") == std::string::npos) s += ".0"; // keep it a TOML float
+    out += s;
+    last = static_cast<std::size_t>(m.position() + m.length());
+  }
+  out.append(text, last, std::string::npos);
+  return out;
+}
+
 } // namespace
 
 std::string to_toml(const Scene& s) {
@@ -96,8 +124,8 @@ std::string to_toml(const Scene& s) {
   if (const auto& c = s.soil.continuum) {
     soil.insert("continuum", toml::table{
         {"model", keyword(kContinuumModelNames, c->model)}, {"young", c->young},
-        {"poisson", c->poisson}, {"friction_angle", c->friction_angle * kToDeg},
-        {"cohesion", c->cohesion}, {"dilation_angle", c->dilation_angle * kToDeg},
+        {"poisson", c->poisson}, {"friction_angle", deg(c->friction_angle)},
+        {"cohesion", c->cohesion}, {"dilation_angle", deg(c->dilation_angle)},
         {"tension_cutoff", c->tension_cutoff}, {"density", c->density}, {"k0", c->k0}});
   }
   if (!soil.empty()) root.insert("soil", soil);
@@ -109,7 +137,7 @@ std::string to_toml(const Scene& s) {
         {"newmark_beta", o.newmark_beta}, {"newmark_gamma", o.newmark_gamma},
         {"rayleigh_alpha", o.rayleigh_alpha}, {"rayleigh_beta", o.rayleigh_beta},
         {"absorbing", o.absorbing}, {"linear_solver", o.linear_solver}, {"interface", o.interface},
-        {"interface_friction_angle", o.interface_friction_angle * kToDeg},
+        {"interface_friction_angle", deg(o.interface_friction_angle)},
         {"load_steps", o.load_steps}, {"newton_tolerance", o.newton_tolerance},
         {"newton_max_iterations", o.newton_max_iterations}});
   }
@@ -196,7 +224,7 @@ std::string to_toml(const Scene& s) {
   std::ostringstream os;
   os << "# resolved scene: " << s.label() << " (from " << s.source_file << ")\n";
   os << root << "\n";
-  return os.str();
+  return shortest_floats(os.str());
 }
 
 } // namespace demfem::scene

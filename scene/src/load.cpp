@@ -226,13 +226,13 @@ public:
         error(key, "empty polygon; give at least 3 points [[x, z], …]");
       return {};
     }
+    if (self_intersects(p)) {
+      error(key, "polygon is self-intersecting; list its corners in order around the boundary");
+      return {};
+    }
     const double area = signed_area(p);
     if (std::abs(area) <= 0.0) {
       error(key, "polygon has zero area (collinear points)");
-      return {};
-    }
-    if (self_intersects(p)) {
-      error(key, "polygon is self-intersecting; list its corners in order around the boundary");
       return {};
     }
     if (area < 0.0) std::reverse(p.begin(), p.end()); // store counter-clockwise
@@ -851,8 +851,9 @@ std::vector<std::string> split_dotted(const std::string& s) {
   return parts;
 }
 
-// Applies one dotted override; returns an error message or "".
-std::string apply_override(toml::table& root, const std::string& dotted, const toml::node& value) {
+// Applies one dotted override, moving `value` into place (a move keeps its source position, a
+// copy would lose it); returns an error message or "".
+std::string apply_override(toml::table& root, const std::string& dotted, toml::node&& value) {
   const auto parts = split_dotted(dotted);
   toml::node* cur = &root;
   std::string walked;
@@ -868,13 +869,13 @@ std::string apply_override(toml::table& root, const std::string& dotted, const t
           return fmt::format("the base scene has no key '{}' under '{}' to override; add it to the "
                              "base scene (with its default) so each variant states what it changes",
                              p, walked.empty() ? "(top level)" : walked);
-        t->insert_or_assign(p, value);
+        t->insert_or_assign(p, std::move(value));
         return "";
       }
     } else if (auto* a = cur->as_array()) {
       // Array element by index or by the element's 'name'.
       std::size_t idx = a->size();
-      if (!p.empty() && std::all_of(p.begin(), p.end(), ::isdigit)) {
+      if (std::all_of(p.begin(), p.end(), [](char c) { return c >= '0' && c <= '9'; })) {
         idx = std::stoul(p);
       } else {
         for (std::size_t k = 0; k < a->size(); ++k)
@@ -884,7 +885,7 @@ std::string apply_override(toml::table& root, const std::string& dotted, const t
       if (idx >= a->size())
         return fmt::format("'{}' has no element '{}' (use an index or the element's name)", walked, p);
       if (last) {
-        a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), value);
+        a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), std::move(value));
         return "";
       }
       next = a->get(idx);
@@ -896,6 +897,27 @@ std::string apply_override(toml::table& root, const std::string& dotted, const t
     cur = next;
   }
   return "";
+}
+
+toml::table parse_toml(std::string_view text, const std::string& source_name) {
+  try {
+    return toml::parse(text, source_name);
+  } catch (const toml::parse_error& e) {
+    Diagnostic d;
+    d.file = source_name;
+    d.line = static_cast<int>(e.source().begin.line);
+    d.column = static_cast<int>(e.source().begin.column);
+    d.message = fmt::format("TOML syntax: {}", e.description());
+    throw SceneError({d});
+  }
+}
+
+void dedupe(std::vector<Diagnostic>& diags) {
+  std::vector<Diagnostic> out;
+  std::set<std::string> seen;
+  for (auto& d : diags)
+    if (seen.insert(d.format()).second) out.push_back(std::move(d));
+  diags = std::move(out);
 }
 
 } // namespace
@@ -920,17 +942,7 @@ const Group* Scene::group(const std::string& n) const {
 }
 
 SceneFile parse_scene(std::string_view text, const std::string& source_name) {
-  toml::table root;
-  try {
-    root = toml::parse(text, source_name);
-  } catch (const toml::parse_error& e) {
-    Diagnostic d;
-    d.file = source_name;
-    d.line = static_cast<int>(e.source().begin.line);
-    d.column = static_cast<int>(e.source().begin.column);
-    d.message = fmt::format("TOML syntax: {}", e.description());
-    throw SceneError({d});
-  }
+  const toml::table root = parse_toml(text, source_name);
 
   std::vector<Diagnostic> diags;
   SceneFile out;
@@ -966,44 +978,45 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
                              fmt::format("variant[{}].{}", label, k.str()),
                              "unknown key; valid keys here: name, description, set"});
         }
-        toml::table copy = root;
-        copy.erase("variant");
-        if (const toml::node* sn = vt.get("set")) {
-          const auto* st = sn->as_table();
-          if (!st) {
-            diags.push_back({source_name, static_cast<int>(sn->source().begin.line),
-                             static_cast<int>(sn->source().begin.column),
-                             fmt::format("variant[{}].set", label),
-                             "expected a table of overrides { \"dotted.key\" = value, … }"});
-            continue;
-          }
-          // A key written `"a.b" = v` is one quoted key; `a.b = v` nests tables. Accept both by
-          // flattening nested tables whose leaves are values.
-          std::function<void(const toml::table&, const std::string&)> flatten =
-              [&](const toml::table& t, const std::string& prefix) {
+        // A fresh parse per variant keeps every node's source position (toml++ copies drop it).
+        toml::table copy = parse_toml(text, source_name);
+        toml::table* set = (*copy.get_as<toml::array>("variant"))[i].as_table()->get_as<toml::table>("set");
+        if (!set && vt.contains("set")) {
+          const auto& sn = *vt.get("set");
+          diags.push_back({source_name, static_cast<int>(sn.source().begin.line),
+                           static_cast<int>(sn.source().begin.column),
+                           fmt::format("variant[{}].set", label),
+                           "expected a table of overrides { \"dotted.key\" = value, … }"});
+          continue;
+        }
+        if (set) {
+          // `"a.b" = v` is one quoted dotted key; `a.b = v` nests tables: accept both.
+          std::function<void(toml::table&, const std::string&)> apply =
+              [&](toml::table& t, const std::string& prefix) {
                 for (auto&& [k, v] : t) {
-                  const std::string path = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
-                  const toml::node* target = nullptr;
-                  (void)target;
+                  const std::string path =
+                      prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
                   if (v.is_table() && !v.as_table()->is_inline()) {
-                    flatten(*v.as_table(), path);
+                    apply(*v.as_table(), path);
                     continue;
                   }
-                  const std::string err = apply_override(copy, path, v);
+                  const std::string err = apply_override(copy, path, std::move(v));
                   if (!err.empty())
                     diags.push_back({source_name, static_cast<int>(k.source().begin.line),
                                      static_cast<int>(k.source().begin.column),
                                      fmt::format("variant[{}].set.{}", label, path), err});
                 }
               };
-          flatten(*st, "");
+          apply(*set, "");
         }
+        copy.erase("variant");
         Scene s = resolve(copy, source_name, diags);
         s.variant = *name;
         out.variants.push_back(std::move(s));
       }
     }
   }
+  dedupe(diags);
   if (!diags.empty()) throw SceneError(std::move(diags));
   return out;
 }

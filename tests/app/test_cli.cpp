@@ -1,1 +1,122 @@
+// End-to-end tests of the `demfem` binary: exit codes, help, and `check` on every case file.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  std::string out; // stdout and stderr together
+};
+
+Result run(const std::string& args) {
+  const fs::path log = fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
+  const std::string cmd = std::string(DEMFEM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.out = ss.str();
+  fs::remove(log);
+  return r;
+}
+
+fs::path write_temp(const std::string& name, const std::string& text) {
+  const fs::path p = fs::temp_directory_path() / name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+} // namespace
+
+TEST(Cli, VersionExitsZero) {
+  const auto r = run("--version");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("demfem "), std::string::npos);
+}
+
+TEST(Cli, HelpDocumentsExitCodesAndSubcommands) {
+  const auto r = run("--help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* s : {"run", "compare", "study", "calibrate", "pack", "check", "Exit codes"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  for (const char* sub : {"run", "compare", "study", "calibrate", "pack", "check"}) {
+    const auto h = run(std::string(sub) + " --help");
+    EXPECT_EQ(h.code, 0) << sub;
+    EXPECT_NE(h.out.find("Exit codes"), std::string::npos) << sub;
+  }
+}
+
+TEST(Cli, NoSubcommandIsUsageError) { EXPECT_EQ(run("").code, 2); }
+TEST(Cli, UnknownSubcommandIsUsageError) { EXPECT_EQ(run("frobnicate").code, 2); }
+TEST(Cli, UnknownOptionIsUsageError) { EXPECT_EQ(run("check --bogus x.toml").code, 2); }
+TEST(Cli, MissingSceneFileIsBadInput) {
+  const auto r = run("check /nonexistent/scene.toml");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("cannot open"), std::string::npos);
+}
+
+TEST(Cli, CheckAcceptsEveryCaseFile) {
+  int n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(fs::path(DEMFEM_SOURCE_DIR) / "cases")) {
+    if (e.path().extension() != ".toml") continue;
+    ++n;
+    const auto r = run("check -q " + e.path().string());
+    EXPECT_EQ(r.code, 0) << e.path() << "\n" << r.out;
+    EXPECT_NE(r.out.find("OK"), std::string::npos) << e.path();
+  }
+  EXPECT_GE(n, 1);
+}
+
+TEST(Cli, CheckPrintsResolvedVariants) {
+  const auto r = run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("# ===== variant case-12 ====="), std::string::npos);
+  EXPECT_NE(r.out.find("amplitude = 8.0"), std::string::npos); // case-2's override
+}
+
+TEST(Cli, CheckRejectsMalformedSceneWithLine) {
+  const auto p = write_temp("demfem_bad_scene.toml",
+                            "[scene]\nname = \"x\"\nduration = 1\n\n[domain]\n"
+                            "polygon = [[0, 0], [1, 0], [1, 1], [0, 1]]\n\n[soil.dem]\n"
+                            "count = 10\nradius = { equal = -0.1 }\n");
+  const auto r = run("check " + p.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("demfem_bad_scene.toml:10:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("must be > 0"), std::string::npos) << r.out;
+  fs::remove(p);
+}
+
+TEST(Cli, RunUnknownVariantIsBadInput) {
+  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+                     " --variant no-such-case --out " + (fs::temp_directory_path() / "demfem_x").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("valid: case-1"), std::string::npos) << r.out;
+}
+
+TEST(Cli, RunUnknownSolverIsBadInput) {
+  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+                     " --solver lattice --out " + (fs::temp_directory_path() / "demfem_x").string());
+  EXPECT_EQ(r.code, 2);
+}
+
+TEST(Cli, UnbuiltSubcommandsSaySoAndExit2) {
+  const std::string scene = (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string();
+  for (const std::string& args : {"compare " + scene, "study stability " + scene, "calibrate " + scene}) {
+    const auto r = run(args);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_NE(r.out.find("not built yet"), std::string::npos) << args << "\n" << r.out;
+  }
+}

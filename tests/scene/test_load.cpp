@@ -1,1 +1,274 @@
+// Scene loading: a valid scene resolves to the expected typed values, and each malformed input
+// is rejected with the specific message at the right line.
+#include <cmath>
+#include <numbers>
+#include <string>
+
 #include <gtest/gtest.h>
+
+#include "demfem/scene/load.hpp"
+
+using namespace demfem::scene;
+
+namespace {
+
+// Line numbers matter: tests below refer to them.
+const std::string kValid = R"([scene]
+name = "box"
+solvers = ["dem", "continuum"]
+duration = 2.0
+
+[domain]
+polygon = [[0, 0], [8, 0], [8, 5.6], [0, 5.6]]
+
+[soil.dem]
+count = 100
+radius = { uniform = [0.04, 0.075] }
+contact = "cundall-rebound"
+kn = 1.0e6
+ks = 3.0e5
+mu_static = 0.5
+mu_dynamic = 0.2
+
+[soil.continuum]
+model = "mohr-coulomb"
+young = 3.0e7
+friction_angle = 30
+
+[[structure]]
+name = "wall"
+kind = "wall"
+shape = "segment"
+from = [8, 0]
+to = [8, 5.6]
+record = ["thrust"]
+
+[load]
+gravity = 9.81
+shaking = { direction = "x", amplitude = 4.0, frequency = 3.6 }
+
+[[variant]]
+name = "case-2"
+set = { "load.shaking.amplitude" = 8.0 }
+
+[[variant]]
+name = "rough"
+set = { "soil.dem.mu_static" = 1.0, "soil.dem.mu_dynamic" = 0.5 }
+)";
+
+// Replace the first occurrence of `from` with `to` in the valid scene.
+std::string mutate(const std::string& from, const std::string& to) {
+  std::string s = kValid;
+  const auto pos = s.find(from);
+  EXPECT_NE(pos, std::string::npos) << "test bug: '" << from << "' not in the valid scene";
+  if (pos != std::string::npos) s.replace(pos, from.size(), to);
+  return s;
+}
+
+// Expects a SceneError with a diagnostic at `line` whose message contains `needle`.
+void expect_error(const std::string& text, int line, const std::string& needle,
+                  const std::string& key = "") {
+  try {
+    (void)parse_scene(text, "test.toml");
+    FAIL() << "expected a SceneError containing '" << needle << "'";
+  } catch (const SceneError& e) {
+    bool found = false;
+    for (const auto& d : e.diagnostics()) {
+      if (d.message.find(needle) != std::string::npos && (line <= 0 || d.line == line) &&
+          (key.empty() || d.key == key)) {
+        found = true;
+        EXPECT_EQ(d.file, "test.toml");
+        EXPECT_NE(d.format().find("test.toml:"), std::string::npos);
+      }
+    }
+    EXPECT_TRUE(found) << "wanted line " << line << " '" << needle << "', got:\n" << e.what();
+  }
+}
+
+} // namespace
+
+TEST(SceneLoad, ValidSceneResolves) {
+  const auto f = parse_scene(kValid, "test.toml");
+  const auto& s = f.base;
+  EXPECT_EQ(s.info.name, "box");
+  EXPECT_TRUE(s.uses(Solver::Dem));
+  EXPECT_TRUE(s.uses(Solver::Continuum));
+  ASSERT_TRUE(s.soil.dem);
+  EXPECT_EQ(s.soil.dem->count, 100);
+  EXPECT_DOUBLE_EQ(s.soil.dem->radius.min, 0.04);
+  EXPECT_DOUBLE_EQ(s.soil.dem->radius.max, 0.075);
+  EXPECT_EQ(s.soil.dem->law, ContactLaw::CundallRebound);
+  EXPECT_DOUBLE_EQ(s.soil.dem->rebound, 0.1); // default K (paper §2.1.2)
+  EXPECT_EQ(s.soil.dem->fill.size(), 4u);     // defaults to the domain
+  ASSERT_TRUE(s.soil.continuum);
+  EXPECT_NEAR(s.soil.continuum->friction_angle, 30.0 * std::numbers::pi / 180.0, 1e-12);
+  ASSERT_EQ(s.structures.size(), 1u);
+  EXPECT_EQ(s.structures[0].kind, StructureKind::Wall);
+  EXPECT_GT(signed_area(s.structures[0].outline), 0.0);
+  ASSERT_TRUE(s.load.shaking);
+  EXPECT_NEAR(s.load.shaking->acceleration(1.0 / (4 * 3.6)), 4.0, 1e-12);
+}
+
+TEST(SceneLoad, VariantsAreResolvedSeparately) {
+  const auto f = parse_scene(kValid, "test.toml");
+  ASSERT_EQ(f.variants.size(), 2u);
+  EXPECT_EQ(f.variants[0].variant, "case-2");
+  EXPECT_DOUBLE_EQ(f.variants[0].load.shaking->acceleration.amplitude, 8.0);
+  EXPECT_DOUBLE_EQ(f.base.load.shaking->acceleration.amplitude, 4.0);
+  EXPECT_DOUBLE_EQ(f.select("rough").soil.dem->mu_static, 1.0);
+  EXPECT_DOUBLE_EQ(f.select("rough").soil.dem->mu_dynamic, 0.5);
+  EXPECT_DOUBLE_EQ(f.select("case-2").soil.dem->mu_static, 0.5);
+  EXPECT_THROW((void)f.select("nope"), SceneError);
+}
+
+TEST(SceneLoad, VariantCanAddressArrayElementsByName) {
+  const auto f = parse_scene(
+      mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
+             R"(set = { "structure.wall.to" = [8, 5.0] })"),
+      "test.toml");
+  EXPECT_NEAR(f.select("case-2").structures[0].height, 5.0, 1e-12);
+}
+
+TEST(SceneLoad, ResolvedSceneRoundTrips) {
+  const auto f = parse_scene(kValid, "test.toml");
+  for (const Scene* s : {&f.base, &f.variants[0], &f.variants[1]}) {
+    // The first line names the source file; the rest must be identical.
+    auto body = [](const std::string& t) { return t.substr(t.find('\n')); };
+    const std::string dumped = to_toml(*s);
+    const auto again = parse_scene(dumped, "dumped.toml");
+    EXPECT_EQ(body(to_toml(again.base)), body(dumped));
+  }
+}
+
+TEST(SceneLoad, TomlSyntaxErrorPointsAtLine) {
+  expect_error(mutate("kn = 1.0e6", "kn = = 1.0e6"), 13, "TOML syntax");
+}
+TEST(SceneLoad, WrongType) {
+  expect_error(mutate("kn = 1.0e6", "kn = \"stiff\""), 13, "expected a number, got the string \"stiff\"",
+               "soil.dem.kn");
+}
+TEST(SceneLoad, UnknownKey) {
+  expect_error(mutate("ks = 3.0e5", "ks = 3.0e5\nkss = 1"), 15, "unknown key; valid keys here:",
+               "soil.dem.kss");
+}
+TEST(SceneLoad, UnknownTopLevelTable) {
+  expect_error(kValid + "\n[solver]\nx = 1\n", 0, "unknown key", "solver");
+}
+TEST(SceneLoad, NegativeRadius) {
+  expect_error(mutate("uniform = [0.04, 0.075]", "uniform = [-0.04, 0.075]"), 11,
+               "0 < min ≤ max");
+}
+TEST(SceneLoad, RadiusMinAboveMax) {
+  expect_error(mutate("uniform = [0.04, 0.075]", "uniform = [0.08, 0.075]"), 11, "0 < min ≤ max");
+}
+TEST(SceneLoad, NegativeFriction) {
+  expect_error(mutate("mu_static = 0.5", "mu_static = -0.5"), 15, "must be ≥ 0, got -0.5",
+               "soil.dem.mu_static");
+}
+TEST(SceneLoad, DynamicFrictionAboveStatic) {
+  expect_error(mutate("mu_dynamic = 0.2", "mu_dynamic = 0.7"), 16, "exceeds static friction");
+}
+TEST(SceneLoad, EmptyPolygon) {
+  expect_error(mutate("polygon = [[0, 0], [8, 0], [8, 5.6], [0, 5.6]]", "polygon = []"), 7,
+               "empty polygon");
+}
+TEST(SceneLoad, SelfIntersectingPolygon) {
+  expect_error(mutate("polygon = [[0, 0], [8, 0], [8, 5.6], [0, 5.6]]",
+                      "polygon = [[0, 0], [8, 5.6], [8, 0], [0, 5.6]]"),
+               7, "self-intersecting");
+}
+TEST(SceneLoad, MalformedPoint) {
+  expect_error(mutate("[8, 0], [8, 5.6], [0, 5.6]]", "[8, 0, 1], [8, 5.6], [0, 5.6]]"), 7,
+               "expected a point [x, z]");
+}
+TEST(SceneLoad, UnknownContactLaw) {
+  expect_error(mutate("contact = \"cundall-rebound\"", "contact = \"hooke\""), 12,
+               "unknown keyword 'hooke'; valid: cundall-rebound, cundall-dashpot, "
+               "linear-restitution, hertz-mindlin");
+}
+TEST(SceneLoad, VariantOverridingMissingKey) {
+  expect_error(mutate(R"("load.shaking.amplitude" = 8.0)", R"("load.shaking.amplitud" = 8.0)"), 37,
+               "the base scene has no key 'amplitud' under 'load.shaking'");
+}
+TEST(SceneLoad, VariantOverridingMissingTable) {
+  expect_error(mutate(R"("load.shaking.amplitude" = 8.0)", R"("lod.shaking.amplitude" = 8.0)"), 37,
+               "the base scene has no 'lod'");
+}
+TEST(SceneLoad, VariantOverrideOfWrongTypeIsReportedAtTheVariant) {
+  expect_error(mutate(R"("load.shaking.amplitude" = 8.0)", R"("load.shaking.amplitude" = "big")"),
+               37, "expected a number");
+}
+TEST(SceneLoad, NaNIsRejected) {
+  expect_error(mutate("kn = 1.0e6", "kn = nan"), 13, "must be a finite number");
+}
+TEST(SceneLoad, InfinityIsRejected) {
+  expect_error(mutate("young = 3.0e7", "young = inf"), 20, "must be a finite number");
+}
+TEST(SceneLoad, ZeroStiffness) {
+  expect_error(mutate("ks = 3.0e5", "ks = 0"), 14, "must be > 0, got 0");
+}
+TEST(SceneLoad, NonIntegerCount) {
+  expect_error(mutate("count = 100", "count = 100.5"), 10, "expected an integer");
+}
+TEST(SceneLoad, MissingScene) {
+  expect_error(mutate("[scene]\nname = \"box\"", "[scen]\nname = \"box\""), 0,
+               "missing required table [scene]");
+}
+TEST(SceneLoad, MissingDemSoilForDemSolver) {
+  std::string s = kValid;
+  const auto a = s.find("[soil.dem]");
+  const auto b = s.find("[soil.continuum]");
+  s.erase(a, b - a);
+  expect_error(s, 0, "lists \"dem\" but there is no [soil.dem]");
+}
+TEST(SceneLoad, UnknownShakingDirection) {
+  expect_error(mutate("direction = \"x\"", "direction = \"y\""), 33, "must be \"x\" or \"z\"");
+}
+TEST(SceneLoad, PoissonOutOfRange) {
+  expect_error(mutate("young = 3.0e7", "young = 3.0e7\npoisson = 0.5"), 21, "must be in [-1, 0.5)");
+}
+TEST(SceneLoad, UnknownStructureKind) {
+  expect_error(mutate("kind = \"wall\"", "kind = \"dam\""), 25, "valid: pile, footing, wall");
+}
+TEST(SceneLoad, ZeroLengthSegment) {
+  expect_error(mutate("to = [8, 5.6]", "to = [8, 0]"), 28, "zero length");
+}
+TEST(SceneLoad, UnknownRecord) {
+  expect_error(mutate("record = [\"thrust\"]", "record = [\"thrust\", \"pressure\"]"), 29,
+               "unknown record 'pressure'");
+}
+TEST(SceneLoad, DuplicateVariantName) {
+  expect_error(mutate("name = \"rough\"", "name = \"case-2\""), 0, "duplicate variant name");
+}
+TEST(SceneLoad, UnknownTimeFunctionType) {
+  expect_error(kValid + "\n[[structure]]\nname = \"f\"\nbase = [4, 0]\nwidth = 1\nheight = 1\n"
+                        "force_z = { type = \"cosine\", amplitude = 1 }\n",
+               0, "unknown time function 'cosine'");
+}
+TEST(SceneLoad, TableTimesMustIncrease) {
+  expect_error(kValid + "\n[[structure]]\nname = \"f\"\nbase = [4, 0]\nwidth = 1\nheight = 1\n"
+                        "moment = { type = \"table\", points = [[0, 0], [2, 1], [1, 3]] }\n",
+               0, "times must increase strictly");
+}
+TEST(SceneLoad, EventNamesUnknownGroup) {
+  expect_error(kValid + "\n[[event]]\ntime = 10\naction = \"set-friction\"\ngroup = \"basal\"\n", 0,
+               "names group 'basal', which no [[group]] defines");
+}
+TEST(SceneLoad, AllErrorsReportedAtOnce) {
+  std::string s = mutate("kn = 1.0e6", "kn = -1");
+  s.replace(s.find("ks = 3.0e5"), 10, "ks = -3");
+  try {
+    (void)parse_scene(s, "test.toml");
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_GE(e.diagnostics().size(), 2u);
+  }
+}
+TEST(SceneLoad, MissingFileIsAClearError) {
+  try {
+    (void)load_scene_file("/nonexistent/scene.toml");
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
+  }
+}
