@@ -1,0 +1,62 @@
+// Figures with gnuplot (PNG through pngcairo, and SVG): time series, profiles, loops and particle
+// snapshots with force chains. Report-side code: never called from a physics kernel.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "demfem/dem/state.hpp"
+
+namespace demfem::compare {
+
+// A CSV file as written by scene::TimeSeriesWriter or any solver: a header row of column names
+// ("name [unit]"), '#' comment lines, then numeric rows.
+struct CsvTable {
+  std::vector<std::string> columns;
+  std::vector<std::vector<double>> rows;
+
+  // Index of the column whose name is `name` or starts with `name + " ["`; -1 if none.
+  [[nodiscard]] int find(const std::string& name) const;
+  [[nodiscard]] std::vector<double> column(const std::string& name) const; // empty if missing
+};
+[[nodiscard]] CsvTable read_csv(const std::filesystem::path& path);
+
+struct Series {
+  std::string label;
+  std::vector<double> x, y;
+  std::string style = "lines";   // gnuplot style: lines, points, linespoints
+  std::string extra;             // appended to the plot clause, e.g. "dt 2 lw 2"
+};
+
+struct PlotSpec {
+  std::string title;
+  std::string xlabel;
+  std::string ylabel;
+  std::vector<Series> series;
+  bool equal_axes = false;       // same scale on x and y (profiles, loci)
+  int width = 1000;
+  int height = 600;
+};
+
+// Writes `<stem>.png` and `<stem>.svg` (stem = path without extension) plus the gnuplot script and
+// data beside them, so a person can re-plot. Returns false (and says why in `error`) when gnuplot
+// is missing or fails; the run is not failed for a figure.
+bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* error = nullptr);
+
+struct SnapshotSpec {
+  std::string title;
+  bool force_chains = true;
+  double chain_width_max = 4.0;  // line width of the largest normal force
+};
+
+// Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|
+// (compression solid, tension dashed), boundaries as polylines.
+bool plot_particles(const dem::Particles& particles, const std::vector<dem::ContactView>& contacts,
+                    const std::vector<dem::BoundaryView>& boundaries, const SnapshotSpec& spec,
+                    const std::filesystem::path& png, std::string* error = nullptr);
+
+// Centred running mean over a window of `window` samples (the mean part of the wall force).
+[[nodiscard]] std::vector<double> running_mean(const std::vector<double>& y, std::size_t window);
+
+} // namespace demfem::compare

@@ -1,0 +1,252 @@
+#include "demfem/compare/plot.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+namespace fs = std::filesystem;
+
+namespace demfem::compare {
+
+int CsvTable::find(const std::string& name) const {
+  for (std::size_t i = 0; i < columns.size(); ++i)
+    if (columns[i] == name || columns[i].rfind(name + " [", 0) == 0) return static_cast<int>(i);
+  return -1;
+}
+
+std::vector<double> CsvTable::column(const std::string& name) const {
+  const int c = find(name);
+  std::vector<double> out;
+  if (c < 0) return out;
+  out.reserve(rows.size());
+  for (const auto& r : rows) out.push_back(static_cast<std::size_t>(c) < r.size() ? r[c] : NAN);
+  return out;
+}
+
+namespace {
+std::vector<std::string> split(const std::string& line, char sep) {
+  std::vector<std::string> out;
+  std::string cur;
+  std::istringstream ss(line);
+  while (std::getline(ss, cur, sep)) out.push_back(cur);
+  return out;
+}
+std::string trim(std::string s) {
+  const auto b = s.find_first_not_of(" \t\r\"");
+  const auto e = s.find_last_not_of(" \t\r\"");
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+// gnuplot string literal: single quotes, doubled inside.
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+bool run_gnuplot(const fs::path& script, std::string* error) {
+  const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote(script.string()),
+                                      quote((script.string() + ".log")));
+  const int rc = std::system(cmd.c_str());
+  if (rc != 0) {
+    if (error)
+      *error = fmt::format("gnuplot failed (exit {}) on {}; see {}.log (is gnuplot-nox installed?)",
+                           rc, script.string(), script.string());
+    return false;
+  }
+  fs::remove(script.string() + ".log");
+  return true;
+}
+} // namespace
+
+CsvTable read_csv(const fs::path& path) {
+  CsvTable t;
+  std::ifstream in(path);
+  std::string line;
+  bool header = false;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const auto cells = split(line, ',');
+    if (!header) {
+      for (const auto& c : cells) t.columns.push_back(trim(c));
+      header = true;
+      continue;
+    }
+    std::vector<double> row;
+    row.reserve(cells.size());
+    for (const auto& c : cells) row.push_back(std::strtod(c.c_str(), nullptr));
+    t.rows.push_back(std::move(row));
+  }
+  return t;
+}
+
+bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
+  fs::create_directories(png.parent_path().empty() ? fs::path(".") : png.parent_path());
+  fs::path stem = png;
+  stem.replace_extension();
+  const fs::path dat = stem.string() + ".dat";
+  const fs::path gp = stem.string() + ".gp";
+  {
+    std::ofstream d(dat);
+    d.precision(10);
+    for (std::size_t s = 0; s < spec.series.size(); ++s) {
+      d << "# " << spec.series[s].label << "\n";
+      const auto& se = spec.series[s];
+      for (std::size_t i = 0; i < std::min(se.x.size(), se.y.size()); ++i)
+        if (std::isfinite(se.x[i]) && std::isfinite(se.y[i])) d << se.x[i] << " " << se.y[i] << "\n";
+      d << "\n\n"; // gnuplot data block separator (index s)
+    }
+  }
+  std::ofstream g(gp);
+  std::string body;
+  body += fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
+                      quote(spec.title), quote(spec.xlabel), quote(spec.ylabel));
+  body += "set grid lc rgb '#dddddd'\nset key outside right top noenhanced\n";
+  if (spec.equal_axes) body += "set size ratio -1\n";
+  std::string clauses;
+  for (std::size_t s = 0; s < spec.series.size(); ++s) {
+    const auto& se = spec.series[s];
+    if (!clauses.empty()) clauses += ", \\\n     ";
+    clauses += fmt::format("{} index {} using 1:2 with {} title {} {}", quote(dat.filename().string()), s,
+                           se.style, quote(se.label), se.extra);
+  }
+  if (clauses.empty()) clauses = "NaN notitle";
+  body += "plot " + clauses + "\n";
+  fs::path svg = png;
+  svg.replace_extension(".svg");
+  g << "# demfem figure; re-plot with: gnuplot " << gp.filename().string() << "\n";
+  g << "cd " << quote(fs::absolute(dat).parent_path().string()) << "\n";
+  g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n",
+                   spec.width, spec.height, quote(fs::absolute(png).string()));
+  g << body;
+  g << fmt::format("set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n",
+                   spec.width, spec.height, quote(fs::absolute(svg).string()));
+  g << "replot\nset output\n";
+  g.close();
+  return run_gnuplot(gp, error);
+}
+
+bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>& contacts,
+                    const std::vector<dem::BoundaryView>& boundaries, const SnapshotSpec& spec,
+                    const fs::path& png, std::string* error) {
+  fs::create_directories(png.parent_path().empty() ? fs::path(".") : png.parent_path());
+  fs::path stem = png;
+  stem.replace_extension();
+  const fs::path pdat = stem.string() + ".particles.dat";
+  const fs::path cdat = stem.string() + ".chains.dat";
+  const fs::path bdat = stem.string() + ".walls.dat";
+  const fs::path gp = stem.string() + ".gp";
+
+  double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300, vmax = 0.0;
+  {
+    std::ofstream d(pdat);
+    d.precision(8);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
+      const double v = std::hypot(p.vx[i], p.vz[i]);
+      vmax = std::max(vmax, v);
+      xmin = std::min(xmin, p.x[i] - p.radius[i]);
+      xmax = std::max(xmax, p.x[i] + p.radius[i]);
+      zmin = std::min(zmin, p.z[i] - p.radius[i]);
+      zmax = std::max(zmax, p.z[i] + p.radius[i]);
+      d << p.x[i] << " " << p.z[i] << " " << p.radius[i] << " " << v << "\n";
+    }
+  }
+  double fmax = 0.0;
+  for (const auto& c : contacts) fmax = std::max(fmax, std::abs(c.fn));
+  // Force chains in 4 width classes by |fn|/max (gnuplot's vectors take no variable width);
+  // blocks 0–3 compression, 4–7 tension.
+  constexpr int kClasses = 4;
+  std::vector<bool> has_block(2 * kClasses, false);
+  {
+    std::ofstream d(cdat);
+    d.precision(8);
+    for (int block = 0; block < 2 * kClasses; ++block) {
+      const bool tension = block >= kClasses;
+      const int cls = block % kClasses;
+      d << "# " << (tension ? "tension" : "compression") << " class " << cls << "\n";
+      for (const auto& c : contacts) {
+        if (c.j < 0 || c.tensile != tension || fmax <= 0.0) continue;
+        const int k = std::min(kClasses - 1, static_cast<int>(kClasses * std::abs(c.fn) / fmax));
+        if (k != cls) continue;
+        const auto j = static_cast<std::size_t>(c.j);
+        d << p.x[c.i] << " " << p.z[c.i] << " " << p.x[j] - p.x[c.i] << " " << p.z[j] - p.z[c.i] << "\n";
+        has_block[block] = true;
+      }
+      if (!has_block[block]) d << "NaN NaN NaN NaN\n";
+      d << "\n\n";
+    }
+  }
+  {
+    std::ofstream d(bdat);
+    d.precision(8);
+    for (const auto& b : boundaries) {
+      if (b.open) continue;
+      for (std::size_t k = 0; k < b.x.size(); ++k) {
+        d << b.x[k] << " " << b.z[k] << "\n";
+        xmin = std::min(xmin, b.x[k]);
+        xmax = std::max(xmax, b.x[k]);
+        zmin = std::min(zmin, b.z[k]);
+        zmax = std::max(zmax, b.z[k]);
+      }
+      if (b.closed && !b.x.empty()) d << b.x[0] << " " << b.z[0] << "\n";
+      d << "\n";
+    }
+    d << "NaN NaN\n";
+  }
+  if (!(xmax > xmin)) xmin = 0, xmax = 1;
+  if (!(zmax > zmin)) zmin = 0, zmax = 1;
+  const double aspect = (zmax - zmin) / (xmax - xmin);
+  const int w = 1200;
+  const int h = std::clamp(static_cast<int>(w * aspect) + 80, 300, 1600);
+  fs::path svg = png;
+  svg.replace_extension(".svg");
+
+  std::ofstream g(gp);
+  g << "# demfem particle snapshot; re-plot with: gnuplot " << gp.filename().string() << "\n";
+  g << "cd " << quote(fs::absolute(pdat).parent_path().string()) << "\n";
+  g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n", w,
+                   h, quote(fs::absolute(png).string()));
+  g << fmt::format("set title {} noenhanced\nset size ratio -1\nset xrange [{}:{}]\nset yrange [{}:{}]\n",
+                   quote(spec.title), xmin, xmax, zmin, zmax);
+  g << "set xlabel 'x [m]'\nset ylabel 'z [m]'\nset cblabel 'speed [m/s]'\n";
+  g << "set palette defined (0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 '#d7191c')\n";
+  g << fmt::format("set cbrange [0:{}]\n", vmax > 0 ? vmax : 1.0);
+  g << "set style fill solid 0.85 noborder\nset key off\n";
+  std::string cl = fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
+  for (int block = 0; spec.force_chains && block < 2 * kClasses; ++block) {
+    if (!has_block[block]) continue;
+    const bool tension = block >= kClasses;
+    const double lw = 0.4 + spec.chain_width_max * ((block % kClasses) + 1) / kClasses;
+    cl += fmt::format(", \\\n  {} index {} using 1:2:3:4 with vectors nohead lw {:.2f} {} lc rgb '{}'",
+                      quote(cdat.filename().string()), block, lw, tension ? "dt 2" : "",
+                      tension ? "#7b3294" : "#222222");
+  }
+  cl += fmt::format(", \\\n  {} using 1:2 with lines lw 3 lc rgb '#000000'", quote(bdat.filename().string()));
+  g << "plot " << cl << "\n";
+  g << fmt::format("set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n", w,
+                   h, quote(fs::absolute(svg).string()));
+  g << "replot\nset output\n";
+  g.close();
+  return run_gnuplot(gp, error);
+}
+
+std::vector<double> running_mean(const std::vector<double>& y, std::size_t window) {
+  std::vector<double> out(y.size(), 0.0);
+  if (y.empty()) return out;
+  window = std::max<std::size_t>(1, window);
+  const std::size_t half = window / 2;
+  // prefix sums: mean over [i − half, i + half] clipped to the series
+  std::vector<double> pre(y.size() + 1, 0.0);
+  for (std::size_t i = 0; i < y.size(); ++i) pre[i + 1] = pre[i] + y[i];
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    const std::size_t a = i >= half ? i - half : 0;
+    const std::size_t b = std::min(y.size(), i + half + 1);
+    out[i] = (pre[b] - pre[a]) / static_cast<double>(b - a);
+  }
+  return out;
+}
+
+} // namespace demfem::compare
