@@ -1,0 +1,264 @@
+// Contact laws of the DEM engine: small evaluator structs with a POD parameter block and an
+// evaluate() member. The contact loop is a template instantiated once per law, so there is no
+// virtual call per contact. No I/O, no allocation.
+//
+// ---- Sign convention (the one used everywhere in dem/) ------------------------------------------
+// Coordinates x right, z up. Rotations and moments counter-clockwise positive.
+// For a contact between i and j (j may be a boundary):
+//   n = (x_i − x_j)/|x_i − x_j|   unit normal pointing from j to i (for a boundary: from the
+//                                 closest boundary point to the centre of i)
+//   t = (−n_z, n_x)               n rotated counter-clockwise by 90°
+//   δ = r_i + r_j − |x_i − x_j|   overlap, > 0 when touching (paper eq. 2.3)
+//   contact point: the middle of the overlap, at arm l_i = r_i − δ/2 from i and l_j = r_j − δ/2
+//   from j (boundary: on the boundary surface, l_i = r_i − δ). With this choice the pair
+//   torques balance the moment of the pair forces exactly, so angular momentum is conserved.
+//   Relative velocity of i's contact point w.r.t. j's:  v_rel = v_i − v_j − (l_i ω_i + l_j ω_j) t
+//   v_n = −v_rel·n   normal approach speed (approach positive, paper eq. 2.5)
+//   v_s =  v_rel·t   slip speed
+// The law returns f_n (compression positive) and f_t; the force on i is F = f_n n + f_t t,
+// on j it is −F; the moments are M_i = −l_i f_t and M_j = −l_j f_t (paper eq. 2.15 up to
+// the arm). Shear springs are updated as f_t ← f_t − k_s v_s Δt, i.e. they oppose slip; the
+// power f_t v_s of the shear force equals minus the rate of the spring energy f_t²/(2 k_s).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+namespace demfem::dem {
+
+enum ContactHistoryFlag : std::uint8_t {
+  kHistActive = 1u << 0,  // the pair has touched (history exists)
+  kHistSliding = 1u << 1, // Coulomb limit reached: dynamic friction applies
+  kHistBonded = 1u << 2,  // tension option: the contact may carry tension
+};
+
+// Persistent per-pair state, kept across neighbour rebuilds.
+struct ContactHistory {
+  double ft = 0.0;         // shear spring force e_s [N]
+  float fn = 0.0f;         // last normal force (output, energy) [N]
+  std::uint8_t flags = 0;  // ContactHistoryFlag
+};
+
+// Geometry and kinematics of one contact in one step.
+struct ContactInput {
+  double delta;  // overlap [m]
+  double vn;     // approach speed [m/s]
+  double vs;     // slip speed [m/s]
+  double m_eff;  // m_i m_j/(m_i + m_j), or m_i against a boundary [kg]
+  double r_eff;  // r_i r_j/(r_i + r_j), or r_i against a boundary [m]
+  double mu_s;   // static friction
+  double mu_d;   // dynamic friction
+  double dt;     // [s]
+};
+
+struct ContactResult {
+  double fn = 0.0;          // normal force incl. dashpot, compression positive [N]
+  double ft = 0.0;          // shear force [N]
+  double impulse = 0.0;     // extra normal force acting for this one step (rebound impulse/Δt) [N]
+  double e_friction = 0.0;  // energy dissipated by friction in this step [J]
+  double e_damping = 0.0;   // energy dissipated by dashpots in this step [J]
+  double e_rebound = 0.0;   // energy dissipated by the rebound rule in this step [J]
+  double e_normal = 0.0;    // normal spring energy after the step [J]
+  double e_shear = 0.0;     // shear spring energy after the step [J]
+  bool touching = false;    // false: the history was reset (contact ended)
+};
+
+namespace detail {
+
+// Shear spring with static/dynamic Coulomb limit (paper eqs. 2.9, 2.12, 2.13).
+// ft_trial is the spring force after the elastic increment; returns the admissible force and
+// adds the energy taken out of the spring to e_fric.
+inline double coulomb(double ft_trial, double fn, double mu_s, double mu_d, double k_t,
+                      std::uint8_t& flags, double& e_fric) {
+  if (!(fn > 0.0)) { // eq. 2.12: no shear without compression; the spring energy is lost
+    e_fric += 0.5 * ft_trial * ft_trial / k_t;
+    flags = static_cast<std::uint8_t>(flags & ~kHistSliding);
+    return 0.0;
+  }
+  const bool sliding = (flags & kHistSliding) != 0;
+  const double limit = (sliding ? mu_d : mu_s) * fn; // eq. 2.13 with μ_s sticking, μ_D sliding
+  if (std::abs(ft_trial) > limit) {
+    const double ft = std::copysign(mu_d * fn, ft_trial);
+    // Sliding on: slider force × plastic slip increment. Sticking → sliding: the spring energy
+    // above the dynamic level is released at once (the force drops from μ_s f_n to μ_D f_n).
+    e_fric += sliding ? std::abs(ft * (ft_trial - ft)) / k_t
+                      : 0.5 * (ft_trial * ft_trial - ft * ft) / k_t;
+    flags = static_cast<std::uint8_t>(flags | kHistSliding);
+    return ft;
+  }
+  flags = static_cast<std::uint8_t>(flags & ~kHistSliding); // slip stopped or reversed: stuck
+  return ft_trial;
+}
+
+// Resets a pair whose contact ended; the remaining shear spring energy counts as dissipated.
+inline void end_contact(ContactHistory& h, double k_t, ContactResult& r) {
+  r.e_friction += 0.5 * h.ft * h.ft / k_t;
+  h = ContactHistory{};
+  r.touching = false;
+}
+
+} // namespace detail
+
+// ---- cundall-rebound: the paper's law ----------------------------------------------------------
+// Linear normal spring e_n = K_n δ (eq. 2.6 integrated from first touch, where δ = 0), no tension
+// (eq. 2.8) unless `tension` (then the contact bonds at first touch and carries tension up to
+// tensile_strength; beyond it the bond breaks and the pair separates); incremental shear spring
+// (eq. 2.9) with static friction μ_s while stuck and μ_D while sliding (eq. 2.13), no dashpots.
+// Rebound (paper §2.1.2 iv, read as Newton restitution, see paper.md §1): a contact whose
+// normal approach speed at first touch exceeds V_0 receives, in that step, a normal impulse
+// P = m*(1 − K) v_n along the line of centres, equal and opposite on the two bodies. The
+// approach speed drops to K v_n, the elastic spring then returns it unchanged, so the pair
+// separates at K times its approach speed. Momentum and angular momentum are conserved (the
+// impulse acts along the line of centres); absolute velocities are never rescaled. The energy
+// ½ m* v_n² (1 − K²) is booked as rebound dissipation. Slower contacts stay elastic.
+struct CundallRebound {
+  struct Params {
+    double kn = 1.0e6, ks = 3.0e5; // [N/m]
+    double rebound = 0.1;          // K
+    double v0 = 1.0;               // V_0 [m/s]
+    bool tension = false;
+    double tensile_strength = 0.0; // [N]
+  } p;
+
+  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+
+  ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
+    ContactResult r;
+    double fn = p.kn * in.delta; // eq. 2.6 (e_n = K_n δ)
+    if (fn <= 0.0) {
+      if (!(p.tension && (h.flags & kHistBonded) && -fn <= p.tensile_strength)) {
+        if (h.flags != 0) detail::end_contact(h, p.ks, r); // eq. 2.8: no tension
+        return r;
+      }
+    }
+    if (!(h.flags & kHistActive)) { // first touch
+      h.flags = kHistActive;
+      if (p.tension) h.flags |= kHistBonded;
+      if (in.vn > p.v0) { // Newton restitution, see above
+        r.impulse = in.m_eff * (1.0 - p.rebound) * in.vn / in.dt;
+        r.e_rebound = 0.5 * in.m_eff * in.vn * in.vn * (1.0 - p.rebound * p.rebound);
+      }
+    }
+    const double ft_trial = h.ft - p.ks * in.vs * in.dt; // eq. 2.9 (e_s ← e_s + K_s Δu_s)
+    h.ft = detail::coulomb(ft_trial, fn, in.mu_s, in.mu_d, p.ks, h.flags, r.e_friction);
+    h.fn = static_cast<float>(fn);
+    r.fn = fn;
+    r.ft = h.ft;
+    r.e_normal = 0.5 * fn * fn / p.kn;
+    r.e_shear = 0.5 * h.ft * h.ft / p.ks;
+    r.touching = true;
+    return r;
+  }
+};
+
+// ---- cundall-dashpot: Cundall & Strack (1979) springs with normal and shear dashpots -----------
+// f_n = K_n δ + η_n v_n (eqs. 2.6, 2.7), clamped at 0 (no tension, eq. 2.8, and no dashpot
+// pull); f_t = e_s + d_s with d_s = −η_s v_s, d_s = 0 while sliding (eqs. 2.9–2.14).
+struct CundallDashpot {
+  struct Params {
+    double kn = 1.0e6, ks = 3.0e5, eta_n = 0.0, eta_s = 0.0;
+  } p;
+
+  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+
+  ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
+    ContactResult r;
+    if (in.delta <= 0.0) {
+      if (h.flags != 0) detail::end_contact(h, p.ks, r);
+      return r;
+    }
+    h.flags |= kHistActive;
+    const double en = p.kn * in.delta;           // eq. 2.6
+    const double dn = p.eta_n * in.vn;           // eq. 2.7: d_n = η_n Δu_n/Δt
+    const double fn = std::max(0.0, en + dn);    // no tension (eq. 2.8)
+    const double ft_trial = h.ft - p.ks * in.vs * in.dt; // eq. 2.9
+    h.ft = detail::coulomb(ft_trial, en, in.mu_s, in.mu_d, p.ks, h.flags, r.e_friction);
+    const double ds = (h.flags & kHistSliding) ? 0.0 : -p.eta_s * in.vs; // eq. 2.10, 2.13
+    r.fn = fn;
+    r.ft = h.ft + ds;
+    r.e_damping = ((fn - en) * in.vn - ds * in.vs) * in.dt; // power of the dashpots
+    h.fn = static_cast<float>(fn);
+    r.e_normal = 0.5 * en * en / p.kn;
+    r.e_shear = 0.5 * h.ft * h.ft / p.ks;
+    r.touching = true;
+    return r;
+  }
+};
+
+// ---- linear-restitution: spring–dashpot with the damping ratio of a restitution coefficient ----
+// ζ = −ln e/√(π² + ln² e), c_n = 2ζ√(m* K_n) (e.g. Schwager & Pöschel, Computational Granular
+// Dynamics, 2005), same ζ on the shear spring: c_t = 2ζ√(m* K_s). No tension.
+struct LinearRestitution {
+  struct Params {
+    double kn = 1.0e6, ks = 3.0e5, zeta = 0.0;
+  } p;
+
+  static double damping_ratio(double e) { // ζ(e) for the linear spring–dashpot
+    const double le = std::log(e);
+    return -le / std::sqrt(M_PI * M_PI + le * le);
+  }
+  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+
+  ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
+    ContactResult r;
+    if (in.delta <= 0.0) {
+      if (h.flags != 0) detail::end_contact(h, p.ks, r);
+      return r;
+    }
+    h.flags |= kHistActive;
+    const double en = p.kn * in.delta;
+    const double cn = 2.0 * p.zeta * std::sqrt(in.m_eff * p.kn); // critical-damping fraction ζ
+    const double fn = std::max(0.0, en + cn * in.vn);
+    const double ft_trial = h.ft - p.ks * in.vs * in.dt;
+    h.ft = detail::coulomb(ft_trial, en, in.mu_s, in.mu_d, p.ks, h.flags, r.e_friction);
+    const double ct = 2.0 * p.zeta * std::sqrt(in.m_eff * p.ks);
+    const double ds = (h.flags & kHistSliding) ? 0.0 : -ct * in.vs;
+    r.fn = fn;
+    r.ft = h.ft + ds;
+    r.e_damping = ((fn - en) * in.vn - ds * in.vs) * in.dt;
+    h.fn = static_cast<float>(fn);
+    r.e_normal = 0.5 * en * en / p.kn;
+    r.e_shear = 0.5 * h.ft * h.ft / p.ks;
+    r.touching = true;
+    return r;
+  }
+};
+
+// ---- hertz-mindlin: Hertz normal force with Mindlin–Deresiewicz (no-slip) tangential stiffness
+// The 3D sphere law used by most 2D DEM codes (its force is in N whatever the thickness):
+//   f_n = (4/3) E* √(R*) δ^{3/2},  E* = E/(2(1 − ν²))          (Johnson, Contact Mechanics, 4.22)
+//   k_t = 8 G* √(R* δ),            G* = E/(4(2 − ν)(1 + ν))     (Mindlin 1949, equal materials)
+// Incremental shear spring with the current k_t; static/dynamic Coulomb limit; no damping.
+struct HertzMindlin {
+  struct Params {
+    double e_star = 1.0, g_star = 1.0;
+  } p;
+
+  // dF/dδ = 2 E* √(R* δ) at δ = 5 % of the smallest radius, R* = r_min/2 (for the time step).
+  [[nodiscard]] double max_stiffness(double r_min) const {
+    return 2.0 * p.e_star * std::sqrt(0.5 * r_min * 0.05 * r_min);
+  }
+
+  ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
+    ContactResult r;
+    const double kt = 8.0 * p.g_star * std::sqrt(in.r_eff * std::max(in.delta, 0.0));
+    if (in.delta <= 0.0) {
+      h = ContactHistory{}; // k_t → 0 as δ → 0: the shear spring is already unloaded
+      return r;
+    }
+    h.flags |= kHistActive;
+    const double sq = std::sqrt(in.r_eff * in.delta);
+    const double fn = 4.0 / 3.0 * p.e_star * sq * in.delta; // Hertz
+    const double ft_trial = h.ft - kt * in.vs * in.dt;
+    h.ft = detail::coulomb(ft_trial, fn, in.mu_s, in.mu_d, kt, h.flags, r.e_friction);
+    r.fn = fn;
+    r.ft = h.ft;
+    h.fn = static_cast<float>(fn);
+    r.e_normal = 0.4 * fn * in.delta; // ∫ f_n dδ = (2/5) f_n δ
+    r.e_shear = 0.5 * h.ft * h.ft / kt;
+    r.touching = true;
+    return r;
+  }
+};
+
+} // namespace demfem::dem

@@ -1,0 +1,224 @@
+// The DEM engine core: particles (disks), contact laws, persistent contact history, cell-grid
+// neighbour search with a Verlet skin, line walls / polylines, rigid structures, loads and a
+// symplectic Euler integrator (paper eqs. 2.1–2.18). Sign convention: contact_laws.hpp.
+//
+// Usage (tests, run.cpp):
+//   Engine e(config);                    // config from the scene (make_config) or by hand
+//   e.add_particle(x, z, r, vx, vz, ω);  // explicit particles
+//   e.add_wall({{x0, z0}, {x1, z1}});    // polyline wall, two-sided
+//   e.add_structure(structure);          // rigid polygon (pile, footing, wall)
+//   e.set_dt(e.auto_dt());               // or a chosen Δt (checked against the stable limit)
+//   e.step(); …                          // or run_steps(n)
+// Probes read particles(), structures(), boundary_reaction(), energy(), contacts().
+// Everything here is plain computation: no I/O.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "demfem/dem/contact_laws.hpp"
+#include "demfem/dem/state.hpp"
+#include "demfem/scene/scene.hpp"
+
+namespace demfem::dem {
+
+struct Material {
+  double mu_s = 0.5; // static friction
+  double mu_d = 0.2; // dynamic friction
+};
+
+struct EngineConfig {
+  scene::ContactLaw law = scene::ContactLaw::CundallRebound;
+  double kn = 1.0e6, ks = 3.0e5;           // [N/m]
+  double rebound = 0.1, rebound_speed = 1.0;
+  bool tension = false;
+  double tensile_strength = 0.0;
+  double eta_n = 0.0, eta_s = 0.0;
+  double restitution = 0.5;
+  double young = 7.0e10, poisson = 0.25;
+  double damping_c = 0.0, damping_d = 0.0; // global damping (eqs. 2.1, 2.2) [1/s]
+  double density = 2650.0, thickness = 1.0;
+  double gravity = 9.81;                   // along −z [m/s²]
+  double max_overlap = 0.5;                // blow-up: δ > max_overlap · r
+  double dt_safety = 0.2;
+  std::vector<Material> materials{Material{}}; // index 0: the soil
+  // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
+  bool shaking = false;
+  char shaking_direction = 'x';
+  scene::TimeFunction shaking_acceleration;
+  // Neighbour search
+  double skin_factor = 0.3;   // Verlet skin = skin_factor · r_min
+  int reorder_every = 25;     // space-filling-curve reordering every … neighbour rebuilds (0 = never)
+};
+
+// Engine configuration from a scene's [soil.dem] and [load] sections.
+[[nodiscard]] EngineConfig make_config(const scene::Scene& scene);
+
+// State of one rigid structure. Displacements are those of the pivot; rotation is
+// counter-clockwise positive (the paper's foundation θ is clockwise positive: θ_paper = −rotation).
+struct StructureState {
+  std::string name;
+  double mass = 0.0, inertia = 0.0;        // inertia about the pivot [kg·m²]
+  double px0 = 0.0, pz0 = 0.0;             // initial pivot [m]
+  double ux = 0.0, uz = 0.0, rot = 0.0;    // pivot displacement [m], rotation [rad]
+  double vx = 0.0, vz = 0.0, omega = 0.0;  // [m/s], [rad/s]
+  double cx_local = 0.0, cz_local = 0.0;   // centroid relative to the pivot, unrotated [m]
+  // Soil (particle) reaction on the structure in the last step: force and moment about the pivot.
+  double soil_fx = 0.0, soil_fz = 0.0, soil_moment = 0.0;
+  double applied_fx = 0.0, applied_fz = 0.0, applied_moment = 0.0; // external loads (about pivot)
+  scene::Structure spec;                   // modes, time functions, load point
+  std::uint32_t first_vertex = 0, vertex_count = 0;
+  std::uint32_t boundary = 0;              // index into the boundary list
+};
+
+// Energy budget (probe "energy"). Closure: kinetic + rotational + potential + springs +
+// dissipated − external_work = constant (the value at the first call of energy()).
+struct EnergyBudget {
+  double kinetic = 0.0;          // ½ m v², particles and free structures [J]
+  double rotational = 0.0;       // ½ I ω² [J]
+  double potential = 0.0;        // gravity, m g z (relative to the start) [J]
+  double spring_normal = 0.0;    // [J]
+  double spring_shear = 0.0;     // [J]
+  double friction = 0.0;         // dissipated by sliding, cumulative [J]
+  double damping = 0.0;          // dissipated by dashpots and global damping, cumulative [J]
+  double rebound = 0.0;          // dissipated by the rebound rule, cumulative [J]
+  double external_work = 0.0;    // shaking, structure loads, prescribed motions, cumulative [J]
+  double gravity_work = 0.0;     // −(potential change) [J]
+  [[nodiscard]] double total() const {
+    return kinetic + rotational + potential + spring_normal + spring_shear + friction + damping +
+           rebound - external_work;
+  }
+};
+
+struct EngineStats {
+  long long steps = 0;
+  long long neighbour_rebuilds = 0;
+  long long reorders = 0;
+  long long structure_updates = 0; // stays 0 for scenes without structures (issue item 8)
+  std::size_t pair_entries = 0;    // particle pairs within cut-off + skin
+  std::size_t boundary_entries = 0;
+};
+
+// Boundary = a wall polyline or a structure outline, made of segment and vertex features.
+struct Boundary {
+  std::string name;
+  std::uint32_t first_vertex = 0, vertex_count = 0;
+  bool closed = false;      // structures: closed polygon, one-sided edges (outward normal)
+  bool active = true;       // false once opened
+  int structure = -1;       // index into structures() or −1 for a wall
+  double mu_s = 0.5, mu_d = 0.2;
+  bool own_friction = false; // false: use the particle's material
+  double reaction_x = 0.0, reaction_z = 0.0; // force of the particles on it, last step [N]
+};
+
+class Engine {
+public:
+  explicit Engine(EngineConfig config);
+
+  // ---- building ---------------------------------------------------------------------------
+  std::uint32_t add_particle(double x, double z, double r, double vx = 0.0, double vz = 0.0,
+                             double omega = 0.0, std::uint16_t material = 0);
+  // Returns the boundary index. Walls are two-sided; friction defaults to the particle's.
+  int add_wall(const std::vector<scene::Vec2>& points, const std::string& name = "wall",
+               const double* mu_s = nullptr, const double* mu_d = nullptr);
+  int add_wall(const scene::Wall& wall);
+  // Rigid polygon; mass and inertia from density·thickness unless given. Returns its index.
+  int add_structure(const scene::Structure& s);
+  std::uint16_t add_material(Material m);
+
+  // ---- time step --------------------------------------------------------------------------
+  [[nodiscard]] double stable_dt() const; // 2√(m_min/k_max)
+  [[nodiscard]] double auto_dt() const { return config_.dt_safety * stable_dt(); }
+  // Throws scene::SceneError (key soil.dem.dt) when dt exceeds stable_dt().
+  void set_dt(double dt);
+  [[nodiscard]] double dt() const { return dt_; }
+
+  // ---- stepping ---------------------------------------------------------------------------
+  void step();
+  void run_steps(long long n);
+  [[nodiscard]] double time() const { return time_; }
+  void set_time(double t) { time_ = t; }
+
+  // Blow-up state: empty while healthy.
+  [[nodiscard]] const std::string& failure() const { return failure_; }
+  [[nodiscard]] bool failed() const { return !failure_.empty(); }
+
+  // ---- events -----------------------------------------------------------------------------
+  void open_wall(const std::string& name);
+  // Particles whose centre is in `region` get a new material with the given friction.
+  std::size_t set_friction(const scene::Polygon& region, double mu_s, double mu_d);
+
+  // ---- access -----------------------------------------------------------------------------
+  [[nodiscard]] Particles& particles() { return p_; }
+  [[nodiscard]] const Particles& particles() const { return p_; }
+  [[nodiscard]] const std::vector<StructureState>& structures() const { return structures_; }
+  [[nodiscard]] std::vector<StructureState>& structures() { return structures_; }
+  [[nodiscard]] const std::vector<Boundary>& boundaries() const { return boundaries_; }
+  [[nodiscard]] int boundary_index(const std::string& name) const;
+  [[nodiscard]] int structure_index(const std::string& name) const;
+  [[nodiscard]] const EngineConfig& config() const { return config_; }
+  [[nodiscard]] const EngineStats& stats() const { return stats_; }
+  [[nodiscard]] const std::vector<Material>& materials() const { return config_.materials; }
+  // Index of the particle with the given stable id (particles are reordered), or −1.
+  [[nodiscard]] long index_of(std::uint32_t id) const;
+
+  // Energy budget at the current state (computes the kinetic/potential/spring parts).
+  [[nodiscard]] EnergyBudget energy() const;
+  // Contacts touching now (for force chains, coordination, wall profiles).
+  void contacts(std::vector<ContactView>& out) const;
+  void boundary_views(std::vector<BoundaryView>& out) const;
+  // Current world vertices of a boundary.
+  void boundary_vertices(int b, std::vector<scene::Vec2>& out) const;
+
+private:
+  template <class Law> void pair_forces(const Law& law);
+  template <class Law> void boundary_forces(const Law& law);
+  void compute_forces();
+  void integrate();
+  void update_structures();
+  void rebuild();
+  void reorder();
+  void update_boundary_vertices();
+  void check_rebuild();
+  void compute_mass(std::uint32_t i);
+
+  EngineConfig config_;
+  Particles p_;
+  double dt_ = 0.0, time_ = 0.0;
+  std::string failure_;
+  EngineStats stats_;
+
+  // Boundary geometry: vertex arrays (local = reference, world = current) and features.
+  std::vector<Boundary> boundaries_;
+  std::vector<double> bvx_, bvz_, bvx0_, bvz0_;       // world / reference vertices
+  std::vector<double> bvx_ref_, bvz_ref_;             // at the last rebuild
+  struct Feature {
+    std::uint32_t boundary, v0, v1; // v1 == v0: a vertex feature
+    std::int32_t adj0 = -1, adj1 = -1; // vertex features: adjacent segment features
+  };
+  std::vector<Feature> features_;
+  std::vector<StructureState> structures_;
+
+  // Verlet neighbour list (CSR, owner i < partner j) with contact history per entry.
+  std::vector<std::uint32_t> nbr_start_, nbr_j_;
+  std::vector<ContactHistory> nbr_hist_;
+  // Boundary candidates: (particle, feature) sorted by particle, with history.
+  std::vector<std::uint32_t> bnd_i_, bnd_f_;
+  std::vector<ContactHistory> bnd_hist_;
+  std::vector<double> x_ref_, z_ref_;
+  double skin_ = 0.0, r_min_ = 0.0, r_max_ = 0.0, m_min_ = 0.0;
+  bool need_rebuild_ = true;
+  long long rebuilds_since_reorder_ = 0;
+  std::vector<std::uint32_t> id_to_index_;
+  std::uint32_t next_id_ = 0;
+
+  // Energy accumulators
+  double e_friction_ = 0.0, e_damping_ = 0.0, e_rebound_ = 0.0, e_external_ = 0.0;
+  double e_normal_ = 0.0, e_shear_ = 0.0; // spring energies, last step
+  double pe_ref_ = 0.0;
+  bool pe_ref_set_ = false;
+  std::vector<double> fbx_, fbz_; // body force per particle this step (shaking) [N]
+};
+
+} // namespace demfem::dem

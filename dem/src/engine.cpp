@@ -1,0 +1,1033 @@
+#include "demfem/dem/engine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "demfem/scene/load.hpp"
+
+namespace demfem::dem {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+template <class T> void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
+  std::vector<T> out(v.size());
+  for (std::size_t k = 0; k < order.size(); ++k) out[k] = v[order[k]];
+  v.swap(out);
+}
+
+// Interleaves the bits of x and z (Morton / Z-order key).
+std::uint64_t morton(std::uint32_t x, std::uint32_t z) {
+  auto spread = [](std::uint64_t v) {
+    v &= 0xffffffffull;
+    v = (v | (v << 16)) & 0x0000ffff0000ffffull;
+    v = (v | (v << 8)) & 0x00ff00ff00ff00ffull;
+    v = (v | (v << 4)) & 0x0f0f0f0f0f0f0f0full;
+    v = (v | (v << 2)) & 0x3333333333333333ull;
+    v = (v | (v << 1)) & 0x5555555555555555ull;
+    return v;
+  };
+  return spread(x) | (spread(z) << 1);
+}
+
+} // namespace
+
+EngineConfig make_config(const scene::Scene& scene) {
+  EngineConfig c;
+  if (!scene.soil.dem) return c;
+  const auto& d = *scene.soil.dem;
+  c.law = d.law;
+  c.kn = d.kn;
+  c.ks = d.ks;
+  c.rebound = d.rebound;
+  c.rebound_speed = d.rebound_speed;
+  c.tension = d.tension;
+  c.tensile_strength = d.tensile_strength;
+  c.eta_n = d.eta_n;
+  c.eta_s = d.eta_s;
+  c.restitution = d.restitution;
+  c.young = d.young;
+  c.poisson = d.poisson;
+  c.damping_c = d.damping_c;
+  c.damping_d = d.damping_d;
+  c.density = d.density;
+  c.thickness = d.thickness;
+  c.max_overlap = d.max_overlap;
+  c.dt_safety = d.dt_safety;
+  c.materials = {Material{d.mu_static, d.mu_dynamic}};
+  c.gravity = scene.load.gravity;
+  if (scene.load.shaking) {
+    c.shaking = true;
+    c.shaking_direction = scene.load.shaking->direction;
+    c.shaking_acceleration = scene.load.shaking->acceleration;
+  }
+  return c;
+}
+
+Engine::Engine(EngineConfig config) : config_(std::move(config)) {
+  if (config_.materials.empty()) config_.materials.push_back(Material{});
+}
+
+std::uint16_t Engine::add_material(Material m) {
+  config_.materials.push_back(m);
+  return static_cast<std::uint16_t>(config_.materials.size() - 1);
+}
+
+void Engine::compute_mass(std::uint32_t i) {
+  const double r = p_.radius[i];
+  const double m = config_.density * kPi * r * r * config_.thickness; // m = ρπr²t (PFC2D)
+  p_.mass[i] = m;
+  p_.inv_mass[i] = 1.0 / m;
+  p_.inv_inertia[i] = 1.0 / (0.5 * m * r * r); // I = ½ m r² (disk)
+}
+
+std::uint32_t Engine::add_particle(double x, double z, double r, double vx, double vz,
+                                   double omega, std::uint16_t material) {
+  const auto i = static_cast<std::uint32_t>(p_.size());
+  p_.x.push_back(x);
+  p_.z.push_back(z);
+  p_.phi.push_back(0.0);
+  p_.vx.push_back(vx);
+  p_.vz.push_back(vz);
+  p_.omega.push_back(omega);
+  p_.fx.push_back(0.0);
+  p_.fz.push_back(0.0);
+  p_.torque.push_back(0.0);
+  p_.radius.push_back(r);
+  p_.mass.push_back(0.0);
+  p_.inv_mass.push_back(0.0);
+  p_.inv_inertia.push_back(0.0);
+  p_.id.push_back(next_id_++);
+  p_.material.push_back(material);
+  p_.flags.push_back(kFlagNone);
+  compute_mass(i);
+  r_min_ = i == 0 ? r : std::min(r_min_, r);
+  r_max_ = i == 0 ? r : std::max(r_max_, r);
+  m_min_ = i == 0 ? p_.mass[i] : std::min(m_min_, p_.mass[i]);
+  need_rebuild_ = true;
+  return p_.id.back();
+}
+
+int Engine::add_wall(const std::vector<scene::Vec2>& points, const std::string& name,
+                     const double* mu_s, const double* mu_d) {
+  Boundary b;
+  b.name = name;
+  b.first_vertex = static_cast<std::uint32_t>(bvx_.size());
+  b.vertex_count = static_cast<std::uint32_t>(points.size());
+  if (mu_s || mu_d) {
+    b.own_friction = true;
+    b.mu_s = mu_s ? *mu_s : config_.materials[0].mu_s;
+    b.mu_d = mu_d ? *mu_d : std::min(b.mu_s, config_.materials[0].mu_d);
+  }
+  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
+  for (const auto& q : points) {
+    bvx_.push_back(q.x);
+    bvz_.push_back(q.z);
+    bvx0_.push_back(q.x);
+    bvz0_.push_back(q.z);
+  }
+  // Segments, then vertices with their adjacent segments.
+  const std::uint32_t n = b.vertex_count;
+  const auto seg0 = static_cast<std::int32_t>(features_.size());
+  const std::uint32_t nseg = n < 2 ? 0 : n - 1;
+  for (std::uint32_t k = 0; k < nseg; ++k)
+    features_.push_back({bi, b.first_vertex + k, b.first_vertex + k + 1});
+  for (std::uint32_t k = 0; k < n; ++k) {
+    Feature f{bi, b.first_vertex + k, b.first_vertex + k};
+    if (k > 0) f.adj0 = seg0 + static_cast<std::int32_t>(k) - 1;
+    if (k < nseg) f.adj1 = seg0 + static_cast<std::int32_t>(k);
+    features_.push_back(f);
+  }
+  boundaries_.push_back(b);
+  need_rebuild_ = true;
+  return static_cast<int>(bi);
+}
+
+int Engine::add_wall(const scene::Wall& wall) {
+  const double* ms = wall.mu_static ? &*wall.mu_static : nullptr;
+  const double* md = wall.mu_dynamic ? &*wall.mu_dynamic : nullptr;
+  return add_wall(wall.points, wall.name, ms, md);
+}
+
+int Engine::add_structure(const scene::Structure& s) {
+  StructureState st;
+  st.name = s.name;
+  st.spec = s;
+  st.px0 = s.pivot.x;
+  st.pz0 = s.pivot.z;
+  // Area, centroid and second moment about the pivot of the polygon (shoelace formulas).
+  const auto& P = s.outline;
+  double a2 = 0.0, cx = 0.0, cz = 0.0, j0 = 0.0;
+  for (std::size_t k = 0; k < P.size(); ++k) {
+    const double x0 = P[k].x - s.pivot.x, z0 = P[k].z - s.pivot.z;
+    const double x1 = P[(k + 1) % P.size()].x - s.pivot.x, z1 = P[(k + 1) % P.size()].z - s.pivot.z;
+    const double cr = x0 * z1 - x1 * z0;
+    a2 += cr;
+    cx += (x0 + x1) * cr;
+    cz += (z0 + z1) * cr;
+    j0 += (x0 * x0 + x0 * x1 + x1 * x1 + z0 * z0 + z0 * z1 + z1 * z1) * cr; // polar moment ×12
+  }
+  const double area = 0.5 * std::abs(a2);
+  st.cx_local = a2 != 0.0 ? cx / (3.0 * a2) : 0.0;
+  st.cz_local = a2 != 0.0 ? cz / (3.0 * a2) : 0.0;
+  const double rho_t = s.density * config_.thickness;
+  st.mass = s.mass > 0.0 ? s.mass : rho_t * area;
+  const double polar = std::abs(j0) / 12.0; // ∫(x²+z²) dA about the pivot
+  st.inertia = s.inertia > 0.0 ? s.inertia : (area > 0.0 ? st.mass / area * polar : 0.0);
+
+  // Outline as a closed boundary with one-sided (outward) edges.
+  Boundary b;
+  b.name = s.name;
+  b.closed = true;
+  b.first_vertex = static_cast<std::uint32_t>(bvx_.size());
+  b.vertex_count = static_cast<std::uint32_t>(P.size());
+  b.structure = static_cast<int>(structures_.size());
+  if (s.mu_static || s.mu_dynamic) {
+    b.own_friction = true;
+    b.mu_s = s.mu_static.value_or(config_.materials[0].mu_s);
+    b.mu_d = s.mu_dynamic.value_or(std::min(b.mu_s, config_.materials[0].mu_d));
+  }
+  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
+  for (const auto& q : P) {
+    bvx_.push_back(q.x);
+    bvz_.push_back(q.z);
+    bvx0_.push_back(q.x);
+    bvz0_.push_back(q.z);
+  }
+  const std::uint32_t n = b.vertex_count;
+  const auto seg0 = static_cast<std::int32_t>(features_.size());
+  for (std::uint32_t k = 0; k < n; ++k)
+    features_.push_back({bi, b.first_vertex + k, b.first_vertex + (k + 1) % n});
+  for (std::uint32_t k = 0; k < n; ++k) {
+    Feature f{bi, b.first_vertex + k, b.first_vertex + k};
+    f.adj0 = seg0 + static_cast<std::int32_t>((k + n - 1) % n);
+    f.adj1 = seg0 + static_cast<std::int32_t>(k);
+    features_.push_back(f);
+  }
+  st.first_vertex = b.first_vertex;
+  st.vertex_count = n;
+  st.boundary = bi;
+  boundaries_.push_back(b);
+  structures_.push_back(st);
+  need_rebuild_ = true;
+  return static_cast<int>(structures_.size() - 1);
+}
+
+int Engine::boundary_index(const std::string& name) const {
+  for (std::size_t b = 0; b < boundaries_.size(); ++b)
+    if (boundaries_[b].name == name) return static_cast<int>(b);
+  return -1;
+}
+
+int Engine::structure_index(const std::string& name) const {
+  for (std::size_t s = 0; s < structures_.size(); ++s)
+    if (structures_[s].name == name) return static_cast<int>(s);
+  return -1;
+}
+
+long Engine::index_of(std::uint32_t id) const {
+  for (std::size_t i = 0; i < p_.size(); ++i)
+    if (p_.id[i] == id) return static_cast<long>(i);
+  return -1;
+}
+
+// ---- time step ----------------------------------------------------------------------------------
+
+double Engine::stable_dt() const {
+  double kmax = config_.kn;
+  switch (config_.law) {
+  case scene::ContactLaw::HertzMindlin: {
+    HertzMindlin h;
+    h.p.e_star = config_.young / (2.0 * (1.0 - config_.poisson * config_.poisson));
+    kmax = h.max_stiffness(r_min_);
+    break;
+  }
+  default: kmax = std::max(config_.kn, config_.ks); break;
+  }
+  if (p_.size() == 0 || !(kmax > 0.0)) return std::numeric_limits<double>::infinity();
+  return 2.0 * std::sqrt(m_min_ / kmax); // critical step of a mass on a spring, 2/ω
+}
+
+void Engine::set_dt(double dt) {
+  const double lim = stable_dt();
+  if (!(dt > 0.0) || dt > lim) {
+    scene::Diagnostic d;
+    d.key = "soil.dem.dt";
+    d.message = fmt::format("time step {:.4g} s is above the stable limit 2·sqrt(m_min/k_max) = "
+                            "{:.4g} s; use dt ≤ {:.4g} s or 0 for automatic ({:.4g} s)",
+                            dt, lim, lim, auto_dt());
+    throw scene::SceneError({d});
+  }
+  dt_ = dt;
+}
+
+// ---- neighbour search ---------------------------------------------------------------------------
+
+void Engine::update_boundary_vertices() {
+  for (auto& st : structures_) {
+    if (!(st.ux != 0.0 || st.uz != 0.0 || st.rot != 0.0 || st.vx != 0.0 || st.vz != 0.0 ||
+          st.omega != 0.0))
+      continue;
+    const double c = std::cos(st.rot), s = std::sin(st.rot);
+    const double px = st.px0 + st.ux, pz = st.pz0 + st.uz;
+    for (std::uint32_t k = st.first_vertex; k < st.first_vertex + st.vertex_count; ++k) {
+      const double lx = bvx0_[k] - st.px0, lz = bvz0_[k] - st.pz0;
+      bvx_[k] = px + c * lx - s * lz; // rigid rotation about the pivot
+      bvz_[k] = pz + s * lx + c * lz;
+    }
+  }
+}
+
+void Engine::check_rebuild() {
+  if (need_rebuild_ || x_ref_.size() != p_.size()) {
+    rebuild();
+    return;
+  }
+  const double lim2 = 0.25 * skin_ * skin_;
+  double m2 = 0.0;
+  const std::size_t n = p_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = p_.x[i] - x_ref_[i], dz = p_.z[i] - z_ref_[i];
+    m2 = std::max(m2, dx * dx + dz * dz);
+  }
+  double b2 = 0.0;
+  for (std::size_t k = 0; k < bvx_.size(); ++k) {
+    const double dx = bvx_[k] - bvx_ref_[k], dz = bvz_[k] - bvz_ref_[k];
+    b2 = std::max(b2, dx * dx + dz * dz);
+  }
+  // A pair's gap changes by at most the sum of both displacements; both are < skin/2.
+  if (m2 > lim2 || b2 > lim2) rebuild();
+}
+
+void Engine::reorder() {
+  const std::size_t n = p_.size();
+  if (n < 2) return;
+  double xmin = p_.x[0], zmin = p_.z[0];
+  for (std::size_t i = 0; i < n; ++i) {
+    xmin = std::min(xmin, p_.x[i]);
+    zmin = std::min(zmin, p_.z[i]);
+  }
+  const double h = 2.0 * r_max_;
+  std::vector<std::uint64_t> key(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(p_.x[i]) || !std::isfinite(p_.z[i])) {
+      key[i] = ~0ull;
+      continue;
+    }
+    const auto cx = static_cast<std::uint32_t>(std::min((p_.x[i] - xmin) / h, 1.0e9));
+    const auto cz = static_cast<std::uint32_t>(std::min((p_.z[i] - zmin) / h, 1.0e9));
+    key[i] = morton(cx, cz);
+  }
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+  // Old index → new index, to carry the contact history over.
+  std::vector<std::uint32_t> new_of(n);
+  for (std::size_t k = 0; k < n; ++k) new_of[order[k]] = static_cast<std::uint32_t>(k);
+  // Re-key the pair history: (owner, partner) → new indices, owner < partner.
+  std::vector<std::uint32_t> pi, pj;
+  std::vector<ContactHistory> ph;
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
+      if (nbr_hist_[k].flags != 0) {
+        // Swapping the owner flips both n and t, so f_t (force on the owner along t) is unchanged.
+        std::uint32_t a = new_of[i], b = new_of[nbr_j_[k]];
+        if (a > b) std::swap(a, b);
+        pi.push_back(a);
+        pj.push_back(b);
+        ph.push_back(nbr_hist_[k]);
+      }
+  // Store as a CSR list holding only the active pairs; rebuild() merges it.
+  std::vector<std::uint32_t> ord(pi.size());
+  std::iota(ord.begin(), ord.end(), 0u);
+  std::sort(ord.begin(), ord.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return pi[a] != pi[b] ? pi[a] < pi[b] : pj[a] < pj[b];
+  });
+  nbr_start_.assign(n + 1, 0);
+  nbr_j_.resize(ord.size());
+  nbr_hist_.resize(ord.size());
+  for (std::size_t k = 0; k < ord.size(); ++k) {
+    ++nbr_start_[pi[ord[k]] + 1];
+    nbr_j_[k] = pj[ord[k]];
+    nbr_hist_[k] = ph[ord[k]];
+  }
+  for (std::size_t i = 0; i < n; ++i) nbr_start_[i + 1] += nbr_start_[i];
+  for (auto& bi : bnd_i_) bi = new_of[bi];
+  {
+    std::vector<std::uint32_t> o(bnd_i_.size());
+    std::iota(o.begin(), o.end(), 0u);
+    std::sort(o.begin(), o.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return bnd_i_[a] != bnd_i_[b] ? bnd_i_[a] < bnd_i_[b] : bnd_f_[a] < bnd_f_[b];
+    });
+    permute(bnd_i_, o);
+    permute(bnd_f_, o);
+    permute(bnd_hist_, o);
+  }
+  permute(p_.x, order);
+  permute(p_.z, order);
+  permute(p_.phi, order);
+  permute(p_.vx, order);
+  permute(p_.vz, order);
+  permute(p_.omega, order);
+  permute(p_.fx, order);
+  permute(p_.fz, order);
+  permute(p_.torque, order);
+  permute(p_.radius, order);
+  permute(p_.mass, order);
+  permute(p_.inv_mass, order);
+  permute(p_.inv_inertia, order);
+  permute(p_.id, order);
+  permute(p_.material, order);
+  permute(p_.flags, order);
+  ++stats_.reorders;
+}
+
+void Engine::rebuild() {
+  const std::size_t n = p_.size();
+  skin_ = config_.skin_factor * r_min_;
+  if (config_.reorder_every > 0 && rebuilds_since_reorder_ >= config_.reorder_every) {
+    reorder();
+    rebuilds_since_reorder_ = 0;
+  }
+  ++rebuilds_since_reorder_;
+  ++stats_.neighbour_rebuilds;
+
+  // Remove particles that left the scene (e.g. fell through an opened wall): far outside the
+  // bounding box of all boundaries.
+  if (!boundaries_.empty()) {
+    double bx0 = bvx_[0], bx1 = bvx_[0], bz0 = bvz_[0], bz1 = bvz_[0];
+    for (std::size_t k = 0; k < bvx_.size(); ++k) {
+      bx0 = std::min(bx0, bvx_[k]);
+      bx1 = std::max(bx1, bvx_[k]);
+      bz0 = std::min(bz0, bvz_[k]);
+      bz1 = std::max(bz1, bvz_[k]);
+    }
+    const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(p_.flags[i] & kFlagRemoved) &&
+          (p_.z[i] < bz0 - margin || p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
+        p_.flags[i] |= kFlagRemoved;
+        p_.vx[i] = p_.vz[i] = p_.omega[i] = 0.0;
+      }
+  }
+
+  // Cell grid: cell size = largest diameter + skin, so every pair within reach sits in
+  // neighbouring cells; counting sort of particles into cells.
+  std::vector<std::uint32_t> new_start(n + 1, 0), new_j;
+  if (n > 0) {
+    double xmin = std::numeric_limits<double>::infinity(), zmin = xmin, xmax = -xmin, zmax = -xmin;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p_.flags[i] & kFlagRemoved) continue;
+      xmin = std::min(xmin, p_.x[i]);
+      xmax = std::max(xmax, p_.x[i]);
+      zmin = std::min(zmin, p_.z[i]);
+      zmax = std::max(zmax, p_.z[i]);
+    }
+    if (!(xmax >= xmin)) xmin = xmax = zmin = zmax = 0.0;
+    double h = 2.0 * r_max_ + skin_;
+    auto ncell = [&](double ext) { return static_cast<std::size_t>(ext / h) + 1; };
+    while (ncell(xmax - xmin) * ncell(zmax - zmin) > 4 * n + 64) h *= 2.0; // sparse clouds
+    const std::size_t nx = ncell(xmax - xmin), nz = ncell(zmax - zmin);
+    std::vector<std::uint32_t> cell_of(n), cell_start(nx * nz + 1, 0), cell_items(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p_.flags[i] & kFlagRemoved) {
+        cell_of[i] = ~0u;
+        continue;
+      }
+      const auto cx = std::min(static_cast<std::size_t>((p_.x[i] - xmin) / h), nx - 1);
+      const auto cz = std::min(static_cast<std::size_t>((p_.z[i] - zmin) / h), nz - 1);
+      cell_of[i] = static_cast<std::uint32_t>(cz * nx + cx);
+      ++cell_start[cell_of[i] + 1];
+    }
+    for (std::size_t c = 0; c < nx * nz; ++c) cell_start[c + 1] += cell_start[c];
+    {
+      std::vector<std::uint32_t> fill(cell_start.begin(), cell_start.end() - 1);
+      for (std::size_t i = 0; i < n; ++i)
+        if (cell_of[i] != ~0u) cell_items[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+    }
+    new_j.reserve(n * 4);
+    std::vector<std::uint32_t> local;
+    for (std::size_t i = 0; i < n; ++i) {
+      new_start[i] = static_cast<std::uint32_t>(new_j.size());
+      if (cell_of[i] == ~0u) continue;
+      const std::size_t cx = cell_of[i] % nx, cz = cell_of[i] / nx;
+      local.clear();
+      for (std::size_t zz = cz > 0 ? cz - 1 : 0; zz <= std::min(cz + 1, nz - 1); ++zz)
+        for (std::size_t xx = cx > 0 ? cx - 1 : 0; xx <= std::min(cx + 1, nx - 1); ++xx) {
+          const std::size_t c = zz * nx + xx;
+          for (std::uint32_t k = cell_start[c]; k < cell_start[c + 1]; ++k) {
+            const std::uint32_t j = cell_items[k];
+            if (j <= i) continue;
+            const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
+            const double cut = p_.radius[i] + p_.radius[j] + skin_;
+            if (dx * dx + dz * dz < cut * cut) local.push_back(j);
+          }
+        }
+      std::sort(local.begin(), local.end());
+      new_j.insert(new_j.end(), local.begin(), local.end());
+    }
+    new_start[n] = static_cast<std::uint32_t>(new_j.size());
+  }
+  // Carry the history over: both lists are sorted by (owner, partner).
+  std::vector<ContactHistory> new_hist(new_j.size());
+  if (nbr_start_.size() == n + 1) {
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint32_t a = nbr_start_[i];
+      const std::uint32_t ae = nbr_start_[i + 1];
+      for (std::uint32_t k = new_start[i]; k < new_start[i + 1] && a < ae; ++k) {
+        while (a < ae && nbr_j_[a] < new_j[k]) ++a;
+        if (a < ae && nbr_j_[a] == new_j[k]) new_hist[k] = nbr_hist_[a];
+      }
+    }
+  }
+  nbr_start_.swap(new_start);
+  nbr_j_.swap(new_j);
+  nbr_hist_.swap(new_hist);
+
+  // Boundary candidates: every (particle, active feature) pair within reach.
+  std::vector<std::uint32_t> ni, nf;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (p_.flags[i] & kFlagRemoved) continue;
+    const double reach = p_.radius[i] + skin_;
+    for (std::size_t f = 0; f < features_.size(); ++f) {
+      const Feature& F = features_[f];
+      if (!boundaries_[F.boundary].active) continue;
+      double d2;
+      const double px = p_.x[i], pz = p_.z[i];
+      if (F.v0 == F.v1) {
+        const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
+        d2 = dx * dx + dz * dz;
+      } else {
+        const double ax = bvx_[F.v0], az = bvz_[F.v0];
+        const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+        const double len2 = ex * ex + ez * ez;
+        double t = len2 > 0.0 ? ((px - ax) * ex + (pz - az) * ez) / len2 : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        const double dx = px - ax - t * ex, dz = pz - az - t * ez;
+        d2 = dx * dx + dz * dz;
+      }
+      if (d2 < reach * reach) {
+        ni.push_back(static_cast<std::uint32_t>(i));
+        nf.push_back(static_cast<std::uint32_t>(f));
+      }
+    }
+  }
+  std::vector<ContactHistory> nh(ni.size());
+  {
+    std::size_t a = 0;
+    for (std::size_t k = 0; k < ni.size(); ++k) {
+      while (a < bnd_i_.size() && (bnd_i_[a] < ni[k] || (bnd_i_[a] == ni[k] && bnd_f_[a] < nf[k])))
+        ++a;
+      if (a < bnd_i_.size() && bnd_i_[a] == ni[k] && bnd_f_[a] == nf[k]) nh[k] = bnd_hist_[a];
+    }
+  }
+  bnd_i_.swap(ni);
+  bnd_f_.swap(nf);
+  bnd_hist_.swap(nh);
+
+  x_ref_ = p_.x;
+  z_ref_ = p_.z;
+  bvx_ref_ = bvx_;
+  bvz_ref_ = bvz_;
+  stats_.pair_entries = nbr_j_.size();
+  stats_.boundary_entries = bnd_i_.size();
+  need_rebuild_ = false;
+}
+
+// ---- forces -------------------------------------------------------------------------------------
+
+template <class Law> void Engine::pair_forces(const Law& law) {
+  const std::size_t n = p_.size();
+  const double dt = dt_;
+  const double* __restrict x = p_.x.data();
+  const double* __restrict z = p_.z.data();
+  const double* __restrict vx = p_.vx.data();
+  const double* __restrict vz = p_.vz.data();
+  const double* __restrict om = p_.omega.data();
+  const double* __restrict rad = p_.radius.data();
+  const double* __restrict mass = p_.mass.data();
+  double* __restrict fx = p_.fx.data();
+  double* __restrict fz = p_.fz.data();
+  double* __restrict tq = p_.torque.data();
+  const auto& mats = config_.materials;
+  const bool one_material = mats.size() == 1;
+  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  const double max_ov = config_.max_overlap;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t kb = nbr_start_[i], ke = nbr_start_[i + 1];
+    if (kb == ke) continue;
+    const double xi = x[i], zi = z[i], ri = rad[i];
+    double fxi = 0.0, fzi = 0.0, ti = 0.0;
+    for (std::uint32_t k = kb; k < ke; ++k) {
+      const std::uint32_t j = nbr_j_[k];
+      ContactHistory& h = nbr_hist_[k];
+      const double dx = xi - x[j], dz = zi - z[j];
+      const double rsum = ri + rad[j];
+      const double d2 = dx * dx + dz * dz;
+      if (d2 >= rsum * rsum && h.flags == 0) continue; // not touching, no history
+      const double dist = std::sqrt(d2);
+      const double delta = rsum - dist; // eq. 2.3
+      const double inv = dist > 0.0 ? 1.0 / dist : 0.0;
+      const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4: cos α, sin α)
+      const double tx = -nz, tz = nx;
+      const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta;
+      const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
+      ContactInput in;
+      in.delta = delta;
+      in.vn = -(dvx * nx + dvz * nz);                        // eq. 2.5, approach positive
+      in.vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5, slip
+      in.m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+      in.r_eff = ri * rad[j] / rsum;
+      if (one_material) {
+        in.mu_s = mats[0].mu_s;
+        in.mu_d = mats[0].mu_d;
+      } else { // the weaker of the two materials
+        const auto& a = mats[p_.material[i]];
+        const auto& b = mats[p_.material[j]];
+        in.mu_s = std::min(a.mu_s, b.mu_s);
+        in.mu_d = std::min(a.mu_d, b.mu_d);
+      }
+      in.dt = dt;
+      const ContactResult r = law.evaluate(in, h);
+      e_fric += r.e_friction;
+      if (!r.touching) continue;
+      e_damp += r.e_damping;
+      e_reb += r.e_rebound;
+      e_n += r.e_normal;
+      e_s += r.e_shear;
+      if (delta > max_ov * std::min(ri, rad[j]) && failure_.empty())
+        failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
+                               delta, p_.id[i], p_.id[j]);
+      const double fnt = r.fn + r.impulse;
+      const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz; // eq. 2.15
+      fxi += Fx;
+      fzi += Fz;
+      ti -= li * r.ft;
+      fx[j] -= Fx;
+      fz[j] -= Fz;
+      tq[j] -= lj * r.ft;
+    }
+    fx[i] += fxi;
+    fz[i] += fzi;
+    tq[i] += ti;
+  }
+  e_friction_ += e_fric;
+  e_damping_ += e_damp;
+  e_rebound_ += e_reb;
+  e_normal_ = e_n;
+  e_shear_ = e_s;
+}
+
+template <class Law> void Engine::boundary_forces(const Law& law) {
+  const double dt = dt_;
+  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
+  for (auto& s : structures_) s.soil_fx = s.soil_fz = s.soil_moment = 0.0;
+  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  const std::size_t m = bnd_i_.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::uint32_t i = bnd_i_[k];
+    const Feature& F = features_[bnd_f_[k]];
+    Boundary& B = boundaries_[F.boundary];
+    ContactHistory& h = bnd_hist_[k];
+    if (!B.active) {
+      h = ContactHistory{};
+      continue;
+    }
+    const double px = p_.x[i], pz = p_.z[i], ri = p_.radius[i];
+    // Closest point q on the feature and the normal from q towards the centre.
+    double qx, qz, nx, nz, dist;
+    bool valid = true;
+    if (F.v0 == F.v1) { // vertex: only in its own Voronoi region (no adjacent edge contact)
+      qx = bvx_[F.v0];
+      qz = bvz_[F.v0];
+      for (std::int32_t adj : {F.adj0, F.adj1}) {
+        if (adj < 0) continue;
+        const Feature& S = features_[static_cast<std::size_t>(adj)];
+        const double ax = bvx_[S.v0], az = bvz_[S.v0];
+        const double ex = bvx_[S.v1] - ax, ez = bvz_[S.v1] - az;
+        const double t = ((px - ax) * ex + (pz - az) * ez) / (ex * ex + ez * ez);
+        if (t > 0.0 && t < 1.0) valid = false;
+      }
+      const double dx = px - qx, dz = pz - qz;
+      dist = std::sqrt(dx * dx + dz * dz);
+      nx = dist > 0.0 ? dx / dist : 0.0;
+      nz = dist > 0.0 ? dz / dist : 1.0;
+    } else {
+      const double ax = bvx_[F.v0], az = bvz_[F.v0];
+      const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+      const double len2 = ex * ex + ez * ez;
+      const double t = ((px - ax) * ex + (pz - az) * ez) / len2;
+      if (!(t > 0.0 && t < 1.0)) valid = false;
+      qx = ax + t * ex;
+      qz = az + t * ez;
+      if (B.closed) { // structure edge: one-sided, outward normal of a counter-clockwise outline
+        const double len = std::sqrt(len2);
+        nx = ez / len;
+        nz = -ex / len;
+        dist = (px - ax) * nx + (pz - az) * nz;
+        if (dist < -ri) valid = false;
+      } else {
+        const double dx = px - qx, dz = pz - qz;
+        dist = std::sqrt(dx * dx + dz * dz);
+        nx = dist > 0.0 ? dx / dist : 0.0;
+        nz = dist > 0.0 ? dz / dist : 1.0;
+      }
+    }
+    double delta = ri - dist;
+    if (!valid) delta = -1.0e300; // not this feature's contact: ends any history
+    const double tx = -nz, tz = nx;
+    const double li = ri - std::max(delta, 0.0);
+    // Velocity of the boundary at q (rigid structure: v_P + ω × (q − P)).
+    double bvx = 0.0, bvz = 0.0;
+    StructureState* st = nullptr;
+    if (B.structure >= 0) {
+      st = &structures_[static_cast<std::size_t>(B.structure)];
+      const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
+      bvx = st->vx - st->omega * rz;
+      bvz = st->vz + st->omega * rx;
+    }
+    const double dvx = p_.vx[i] - bvx, dvz = p_.vz[i] - bvz;
+    ContactInput in;
+    in.delta = delta;
+    in.vn = -(dvx * nx + dvz * nz);
+    in.vs = dvx * tx + dvz * tz - li * p_.omega[i];
+    in.m_eff = p_.mass[i];
+    in.r_eff = ri;
+    if (B.own_friction) {
+      in.mu_s = B.mu_s;
+      in.mu_d = B.mu_d;
+    } else {
+      in.mu_s = config_.materials[p_.material[i]].mu_s;
+      in.mu_d = config_.materials[p_.material[i]].mu_d;
+    }
+    in.dt = dt;
+    if (!valid && h.flags == 0) continue;
+    const ContactResult r = law.evaluate(in, h);
+    e_fric += r.e_friction;
+    if (!r.touching) continue;
+    e_damp += r.e_damping;
+    e_reb += r.e_rebound;
+    e_n += r.e_normal;
+    e_s += r.e_shear;
+    if (delta > config_.max_overlap * ri && failure_.empty())
+      failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
+                             "boundary '{}'", delta, p_.id[i], B.name);
+    const double fnt = r.fn + r.impulse;
+    const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
+    p_.fx[i] += Fx;
+    p_.fz[i] += Fz;
+    p_.torque[i] -= li * r.ft;
+    B.reaction_x -= Fx;
+    B.reaction_z -= Fz;
+    if (st) {
+      st->soil_fx -= Fx;
+      st->soil_fz -= Fz;
+      const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
+      st->soil_moment += rx * (-Fz) - rz * (-Fx); // (q − P) × (−F)
+    }
+  }
+  e_friction_ += e_fric;
+  e_damping_ += e_damp;
+  e_rebound_ += e_reb;
+  e_normal_ += e_n;
+  e_shear_ += e_s;
+}
+
+void Engine::compute_forces() {
+  const std::size_t n = p_.size();
+  std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
+  std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
+  std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
+  switch (config_.law) {
+  case scene::ContactLaw::CundallRebound: {
+    CundallRebound law;
+    law.p = {config_.kn, config_.ks, config_.rebound, config_.rebound_speed, config_.tension,
+             config_.tensile_strength};
+    pair_forces(law);
+    boundary_forces(law);
+    break;
+  }
+  case scene::ContactLaw::CundallDashpot: {
+    CundallDashpot law;
+    law.p = {config_.kn, config_.ks, config_.eta_n, config_.eta_s};
+    pair_forces(law);
+    boundary_forces(law);
+    break;
+  }
+  case scene::ContactLaw::LinearRestitution: {
+    LinearRestitution law;
+    law.p = {config_.kn, config_.ks, LinearRestitution::damping_ratio(config_.restitution)};
+    pair_forces(law);
+    boundary_forces(law);
+    break;
+  }
+  case scene::ContactLaw::HertzMindlin: {
+    HertzMindlin law;
+    const double E = config_.young, nu = config_.poisson;
+    law.p.e_star = E / (2.0 * (1.0 - nu * nu));             // equal materials
+    law.p.g_star = E / (4.0 * (2.0 - nu) * (1.0 + nu));     // G/(2(2−ν)) with G = E/(2(1+ν))
+    pair_forces(law);
+    boundary_forces(law);
+    break;
+  }
+  }
+  (void)n;
+}
+
+// ---- integration --------------------------------------------------------------------------------
+
+void Engine::integrate() {
+  const std::size_t n = p_.size();
+  const double dt = dt_;
+  const double g = config_.gravity;
+  const double C = config_.damping_c, D = config_.damping_d;
+  double ax_body = 0.0, az_body = 0.0;
+  if (config_.shaking) {
+    const double a = config_.shaking_acceleration(time_); // body force m·A·sin(2πft) (paper §6)
+    (config_.shaking_direction == 'z' ? az_body : ax_body) = a;
+  }
+  double w_ext = 0.0, e_damp = 0.0;
+  bool bad = false;
+  std::size_t bad_i = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (p_.flags[i] & kFlagRemoved) continue;
+    const double m = p_.mass[i], im = p_.inv_mass[i], ii = p_.inv_inertia[i];
+    // eq. 2.1: m ü + C u̇ + F = 0 with C per unit mass; eq. 2.2 likewise with D per inertia.
+    const double fx = p_.fx[i] + m * ax_body - C * m * p_.vx[i];
+    const double fz = p_.fz[i] + m * (az_body - g) - C * m * p_.vz[i];
+    const double tq = p_.torque[i] - D * p_.omega[i] / ii;
+    const double vx0 = p_.vx[i], vz0 = p_.vz[i], om0 = p_.omega[i];
+    p_.vx[i] += fx * im * dt;    // eq. 2.16
+    p_.vz[i] += fz * im * dt;
+    p_.omega[i] += tq * ii * dt; // eq. 2.17
+    p_.x[i] += p_.vx[i] * dt;    // eq. 2.18
+    p_.z[i] += p_.vz[i] * dt;
+    p_.phi[i] += p_.omega[i] * dt;
+    w_ext += m * (ax_body * p_.vx[i] + az_body * p_.vz[i]) * dt;
+    if (C > 0.0) e_damp += C * m * (0.5 * (vx0 + p_.vx[i]) * p_.vx[i] + 0.5 * (vz0 + p_.vz[i]) * p_.vz[i]) * dt;
+    if (D > 0.0) e_damp += D / ii * 0.5 * (om0 + p_.omega[i]) * p_.omega[i] * dt;
+    if (!std::isfinite(p_.x[i] + p_.z[i] + p_.omega[i]) && !bad) {
+      bad = true;
+      bad_i = i;
+    }
+  }
+  e_external_ += w_ext;
+  e_damping_ += e_damp;
+  if (bad && failure_.empty())
+    failure_ = fmt::format("non-finite position or velocity of particle {}", p_.id[bad_i]);
+}
+
+void Engine::update_structures() {
+  if (structures_.empty()) return;
+  ++stats_.structure_updates;
+  const double dt = dt_;
+  const double g = config_.gravity;
+  const double tn = time_ + dt;
+  for (auto& st : structures_) {
+    const auto& sp = st.spec;
+    const double c = std::cos(st.rot), s = std::sin(st.rot);
+    const double px = st.px0 + st.ux, pz = st.pz0 + st.uz;
+    // External loads: force at the load point (rotating with the body) and a moment.
+    const double lx0 = sp.load_point.x - st.px0, lz0 = sp.load_point.z - st.pz0;
+    const double lrx = c * lx0 - s * lz0, lrz = s * lx0 + c * lz0;
+    st.applied_fx = sp.force_x(time_);
+    st.applied_fz = sp.force_z(time_);
+    st.applied_moment = sp.moment(time_) + lrx * st.applied_fz - lrz * st.applied_fx;
+    // Dead weight at the centroid.
+    const double crx = c * st.cx_local - s * st.cz_local; // centroid lever arm (x)
+    const double W = sp.dead_weight ? st.mass * g : 0.0;
+    const double Fx = st.soil_fx + st.applied_fx;
+    const double Fz = st.soil_fz + st.applied_fz - W;
+    const double M = st.soil_moment + st.applied_moment + crx * (-W); // paper eqs. 5.2–5.7
+    const double vx0 = st.vx, vz0 = st.vz, om0 = st.omega;
+    auto advance = [&](scene::DofMode mode, const scene::TimeFunction& motion, double force,
+                       double inv_m, double& u, double& v) {
+      switch (mode) {
+      case scene::DofMode::Fixed: v = 0.0; break;
+      case scene::DofMode::Free:
+        v += force * inv_m * dt; // symplectic Euler, like the particles
+        u += v * dt;
+        break;
+      case scene::DofMode::Prescribed: {
+        const double un = motion(tn);
+        v = (un - u) / dt;
+        u = un;
+        break;
+      }
+      }
+    };
+    advance(sp.dof_x, sp.motion_x, Fx, 1.0 / st.mass, st.ux, st.vx);
+    advance(sp.dof_z, sp.motion_z, Fz, 1.0 / st.mass, st.uz, st.vz);
+    // Rotation about the pivot: I_P θ̈ = M_P (paper eq. 5.7). With free translations the
+    // coupling through a centroid off the pivot is neglected (exact when pivot = centroid).
+    advance(sp.dof_rotation, sp.motion_rotation, M, 1.0 / st.inertia, st.rot, st.omega);
+    // Work of the external loads on the structure (free DOFs) and of imposed motions.
+    double w = 0.0;
+    if (sp.dof_x == scene::DofMode::Free) w += st.applied_fx * st.vx * dt;
+    if (sp.dof_z == scene::DofMode::Free) w += st.applied_fz * st.vz * dt;
+    if (sp.dof_rotation == scene::DofMode::Free) w += st.applied_moment * st.omega * dt;
+    // Imposed motion: the driver does the work the soil receives, −(soil force)·v.
+    if (sp.dof_x == scene::DofMode::Prescribed) w -= st.soil_fx * st.vx * dt;
+    if (sp.dof_z == scene::DofMode::Prescribed) w -= st.soil_fz * st.vz * dt;
+    if (sp.dof_rotation == scene::DofMode::Prescribed) w -= st.soil_moment * st.omega * dt;
+    e_external_ += w;
+    (void)vx0;
+    (void)vz0;
+    (void)om0;
+    (void)px;
+    (void)pz;
+  }
+  update_boundary_vertices();
+}
+
+void Engine::step() {
+  if (!(dt_ > 0.0)) set_dt(auto_dt());
+  if (!pe_ref_set_) {
+    pe_ref_set_ = true;
+    pe_ref_ = 0.0;
+    const double g = config_.gravity;
+    for (std::size_t i = 0; i < p_.size(); ++i) pe_ref_ += p_.mass[i] * g * p_.z[i];
+    for (const auto& st : structures_)
+      if (st.spec.dead_weight) pe_ref_ += st.mass * g * (st.pz0 + st.uz + st.cz_local);
+  }
+  check_rebuild();
+  compute_forces();
+  integrate();
+  update_structures();
+  time_ += dt_;
+  ++stats_.steps;
+}
+
+void Engine::run_steps(long long n) {
+  for (long long k = 0; k < n && failure_.empty(); ++k) step();
+}
+
+// ---- events -------------------------------------------------------------------------------------
+
+void Engine::open_wall(const std::string& name) {
+  const int b = boundary_index(name);
+  if (b < 0) throw std::runtime_error("open_wall: no wall named '" + name + "'");
+  boundaries_[static_cast<std::size_t>(b)].active = false;
+  need_rebuild_ = true;
+}
+
+std::size_t Engine::set_friction(const scene::Polygon& region, double mu_s, double mu_d) {
+  const std::uint16_t mat = add_material({mu_s, mu_d});
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < p_.size(); ++i)
+    if (scene::contains(region, {p_.x[i], p_.z[i]})) {
+      p_.material[i] = mat;
+      ++count;
+    }
+  return count;
+}
+
+// ---- observation --------------------------------------------------------------------------------
+
+EnergyBudget Engine::energy() const {
+  EnergyBudget e;
+  const double g = config_.gravity;
+  double pe = 0.0;
+  for (std::size_t i = 0; i < p_.size(); ++i) {
+    if (p_.flags[i] & kFlagRemoved) continue;
+    e.kinetic += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]);
+    e.rotational += 0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
+    pe += p_.mass[i] * g * p_.z[i];
+  }
+  for (const auto& st : structures_) {
+    e.kinetic += 0.5 * st.mass * (st.vx * st.vx + st.vz * st.vz);
+    e.rotational += 0.5 * st.inertia * st.omega * st.omega;
+    if (st.spec.dead_weight) {
+      const double c = std::cos(st.rot), s = std::sin(st.rot);
+      pe += st.mass * g * (st.pz0 + st.uz + s * st.cx_local + c * st.cz_local);
+    }
+  }
+  e.potential = pe - (pe_ref_set_ ? pe_ref_ : pe);
+  e.gravity_work = -e.potential;
+  e.spring_normal = e_normal_;
+  e.spring_shear = e_shear_;
+  e.friction = e_friction_;
+  e.damping = e_damping_;
+  e.rebound = e_rebound_;
+  e.external_work = e_external_;
+  return e;
+}
+
+void Engine::contacts(std::vector<ContactView>& out) const {
+  out.clear();
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
+      const auto& h = nbr_hist_[k];
+      if (!(h.flags & kHistActive)) continue;
+      const std::uint32_t j = nbr_j_[k];
+      const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
+      const double d = std::sqrt(dx * dx + dz * dz);
+      const double delta = p_.radius[i] + p_.radius[j] - d;
+      const double li = p_.radius[i] - 0.5 * delta;
+      ContactView v;
+      v.i = static_cast<std::uint32_t>(i);
+      v.j = j;
+      v.cx = p_.x[i] - dx / d * li;
+      v.cz = p_.z[i] - dz / d * li;
+      v.fn = h.fn;
+      v.fs = h.ft;
+      v.tensile = h.fn < 0.0f;
+      out.push_back(v);
+    }
+  for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
+    const auto& h = bnd_hist_[k];
+    if (!(h.flags & kHistActive)) continue;
+    const auto& F = features_[bnd_f_[k]];
+    const std::uint32_t i = bnd_i_[k];
+    ContactView v;
+    v.i = i;
+    v.j = -1 - static_cast<std::int64_t>(F.boundary);
+    // Contact point: the closest point of the feature.
+    if (F.v0 == F.v1) {
+      v.cx = bvx_[F.v0];
+      v.cz = bvz_[F.v0];
+    } else {
+      const double ax = bvx_[F.v0], az = bvz_[F.v0];
+      const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+      const double t = std::clamp(((p_.x[i] - ax) * ex + (p_.z[i] - az) * ez) / (ex * ex + ez * ez),
+                                  0.0, 1.0);
+      v.cx = ax + t * ex;
+      v.cz = az + t * ez;
+    }
+    v.fn = h.fn;
+    v.fs = h.ft;
+    v.tensile = h.fn < 0.0f;
+    out.push_back(v);
+  }
+}
+
+void Engine::boundary_vertices(int b, std::vector<scene::Vec2>& out) const {
+  out.clear();
+  const auto& B = boundaries_[static_cast<std::size_t>(b)];
+  for (std::uint32_t k = B.first_vertex; k < B.first_vertex + B.vertex_count; ++k)
+    out.push_back({bvx_[k], bvz_[k]});
+}
+
+void Engine::boundary_views(std::vector<BoundaryView>& out) const {
+  out.clear();
+  for (const auto& B : boundaries_) {
+    BoundaryView v;
+    v.name = B.name;
+    v.closed = B.closed;
+    v.open = !B.active;
+    for (std::uint32_t k = B.first_vertex; k < B.first_vertex + B.vertex_count; ++k) {
+      v.x.push_back(bvx_[k]);
+      v.z.push_back(bvz_[k]);
+    }
+    out.push_back(std::move(v));
+  }
+}
+
+} // namespace demfem::dem
