@@ -12,6 +12,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "demfem/compare/report.hpp"
+#include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
 #include "progress.hpp"
@@ -91,6 +93,65 @@ std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& 
   return out;
 }
 
+struct SolverOutcome {
+  bool ran = false;       // false: not built or not listed by the scene
+  bool ok = false;
+  bool bad_input = false; // the solver refused the scene (SceneError)
+  std::string message;
+};
+
+// Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum).
+SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::path& out,
+                         const RunArgs& a) {
+  SolverOutcome r;
+  app::ProgressReporter reporter;
+  const auto progress = [&](const scene::Progress& p) { reporter(p); };
+  try {
+    if (solver == scene::Solver::Dem) {
+      dem::RunOptions o;
+      o.out_dir = out;
+      o.resume = a.resume;
+      o.threads = a.threads;
+      o.progress = progress;
+      const auto x = dem::run(s, o);
+      r.ran = true;
+      r.ok = x.ok;
+      r.message = x.message;
+    } else {
+#ifdef DEMFEM_WITH_CONTINUUM
+      continuum::RunOptions o;
+      o.out_dir = out;
+      o.refinement = a.refinement;
+      o.degree = a.degree;
+      o.progress = progress;
+      const auto x = continuum::run(s, o);
+      r.ran = true;
+      r.ok = x.ok;
+      r.message = x.message;
+#else
+      r.message = "the continuum solver is not in this build (-DDEMFEM_WITH_CONTINUUM=OFF)";
+#endif
+    }
+  } catch (const scene::SceneError& e) {
+    r.ran = true;
+    r.bad_input = true;
+    r.message = e.what();
+  }
+  reporter.finish();
+  return r;
+}
+
+fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count) {
+  fs::path out = a.out.empty() ? fs::path("runs") / s.info.name : fs::path(a.out);
+  if (count > 1 || (!s.variant.empty() && a.out.empty())) out /= s.variant.empty() ? "base" : s.variant;
+  return out;
+}
+
+void start_run_dir(const scene::Scene& s, const fs::path& out) {
+  setup_run_log(out);
+  std::ofstream(out / "scene.resolved.toml") << scene::to_toml(s);
+}
+
 int cmd_run(const RunArgs& a) {
   int rc = kOk;
   const auto file = load_or_report(a.scene, rc);
@@ -114,61 +175,101 @@ int cmd_run(const RunArgs& a) {
                  s->label(), a.solver);
       return kBadInput;
     }
-    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name : fs::path(a.out);
-    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
-      out /= s->variant.empty() ? "base" : s->variant;
-    setup_run_log(out);
-    {
-      std::ofstream(out / "scene.resolved.toml") << scene::to_toml(*s);
-    }
+    const fs::path out = run_dir_for(*s, a, scenes.size());
+    start_run_dir(*s, out);
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
-    app::ProgressReporter reporter;
-    bool ok = false;
-    std::string message;
-    if (solver == scene::Solver::Dem) {
-      dem::RunOptions o;
-      o.out_dir = out;
-      o.resume = a.resume;
-      o.threads = a.threads;
-      o.progress = [&](const scene::Progress& p) { reporter(p); };
-      try {
-        const auto r = dem::run(*s, o);
-        ok = r.ok;
-        message = r.message;
-      } catch (const scene::SceneError& e) {
-        reporter.finish();
-        fmt::print(stderr, "{}\n", e.what());
-        return kBadInput;
-      }
+    const auto r = run_solver(*s, solver, out, a);
+    if (r.bad_input) {
+      fmt::print(stderr, "{}\n", r.message);
+      return kBadInput;
     }
-#ifdef DEMFEM_WITH_CONTINUUM
-    else {
-      continuum::RunOptions o;
-      o.out_dir = out;
-      o.refinement = a.refinement;
-      o.degree = a.degree;
-      o.progress = [&](const scene::Progress& p) { reporter(p); };
-      try {
-        const auto r = continuum::run(*s, o);
-        ok = r.ok;
-        message = r.message;
-      } catch (const scene::SceneError& e) {
-        reporter.finish();
-        fmt::print(stderr, "{}\n", e.what());
-        return kBadInput;
-      }
-    }
-#endif
-    reporter.finish();
-    if (ok) {
+    if (r.ok) {
       spdlog::info("{}: done; outputs in {}", s->label(), out.string());
     } else {
-      spdlog::error("{}: run failed: {}", s->label(), message);
+      spdlog::error("{}: run failed: {}", s->label(), r.message);
       worst = kRunFailed;
     }
   }
   return worst;
+}
+
+// Both solvers on the same scene, then the comparison report.
+int cmd_compare(const RunArgs& a) {
+  int rc = kOk;
+  const auto file = load_or_report(a.scene, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  int worst = kOk;
+  for (const scene::Scene* s : scenes) {
+    const fs::path out = run_dir_for(*s, a, scenes.size());
+    start_run_dir(*s, out);
+    compare::ReportOptions ro;
+    ro.title = fmt::format("demfem comparison: {}", s->label());
+    if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
+    bool any_ok = false;
+    for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
+      const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";
+      if (!s->uses(solver)) {
+        ro.notes.push_back(fmt::format("The scene does not list \"{}\" in scene.solvers.", name));
+        continue;
+      }
+      spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), name,
+                   out.string());
+      const auto r = run_solver(*s, solver, out, a);
+      if (r.bad_input) {
+        fmt::print(stderr, "{}\n", r.message);
+        return kBadInput;
+      }
+      if (r.ok) {
+        any_ok = true;
+      } else {
+        ro.notes.push_back(fmt::format("The {} solver {}: {}", name, r.ran ? "failed" : "did not run",
+                                       r.message));
+        spdlog::error("{}: {} solver: {}", s->label(), name, r.message);
+      }
+    }
+    const auto rep = compare::write_report(out, ro);
+    spdlog::info("{}: report {} ({} quantities compared), metrics {}", s->label(), rep.html.string(),
+                 rep.compared.size(), rep.metrics_json.string());
+    if (!any_ok) worst = kRunFailed;
+  }
+  return worst;
+}
+
+// `demfem pack`: deposit (or find in the cache) the packing of each chosen scene (issue 4).
+int cmd_pack(const RunArgs& a) {
+  int rc = kOk;
+  const auto file = load_or_report(a.scene, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  for (const scene::Scene* s : scenes) {
+    if (!s->soil.dem) {
+      fmt::print(stderr, "demfem pack: scene '{}' has no [soil.dem]\n", s->label());
+      return kBadInput;
+    }
+    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name : fs::path(a.out);
+    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
+      out /= s->variant.empty() ? "base" : s->variant;
+    app::ProgressReporter reporter;
+    try {
+      const auto r = dem::pack_or_load(*s, out, [&](const scene::Progress& p) { reporter(p); });
+      reporter.finish();
+      fmt::print("{}: {} particles, {} {} (deposition {:.3g} s simulated, {} steps, KE/PE {:.2e}{}, "
+                 "{} layer(s), {:.1f} s wall), surface top {:.4g} m\n",
+                 s->label(), r.particles.size(), r.from_cache ? "found in the cache" : "packed into",
+                 r.path.string(), r.deposition_time, r.steps, r.ke_ratio,
+                 r.converged ? "" : " — stopped at packing.max_time", r.layers, r.wall_seconds,
+                 r.surface_max);
+    } catch (const scene::SceneError& e) {
+      reporter.finish();
+      fmt::print(stderr, "{}\n", e.what());
+      return kBadInput;
+    }
+  }
+  return kOk;
 }
 
 int cmd_check(const std::string& path, bool quiet) {
@@ -219,11 +320,16 @@ int main(int argc, char** argv) {
 
   std::string other_scene;
   auto* compare = app.add_subcommand("compare", "Run DEM and continuum on the same scene and write "
-                                                "the comparison report. (not built yet)");
-  compare->add_option("scene", other_scene, "Scene file")->required();
+                                                "report.html and metrics.json comparing every "
+                                                "quantity both wrote.");
+  compare->add_option("scene", ra.scene, "Scene file")->required()->check(CLI::ExistingFile);
   compare->add_option("--variant", ra.variants, "Variant name");
   compare->add_flag("--all-variants", ra.all_variants, "All variants");
-  compare->add_option("--out", ra.out, "Output directory");
+  compare->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
+  compare->add_flag("--resume", ra.resume, "DEM: continue from the last checkpoint");
+  compare->add_option("--threads", ra.threads, "DEM: OpenMP threads (0 = default)");
+  compare->add_option("--refinement", ra.refinement, "Continuum: refinement level");
+  compare->add_option("--degree", ra.degree, "Continuum: polynomial degree");
   compare->footer(kExitCodes);
   std::string study_kind;
   auto* study = app.add_subcommand("study", "error-vs-time or stability study. (not built yet)");
@@ -234,9 +340,13 @@ int main(int argc, char** argv) {
   auto* calibrate = app.add_subcommand("calibrate", "Continuum parameters from a DEM element test. (not built yet)");
   calibrate->add_option("scene", other_scene, "Scene file")->required();
   calibrate->footer(kExitCodes);
-  auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing. (not built yet)");
-  pack->add_option("scene", other_scene, "Scene file")->required();
-  pack->add_option("--out", ra.out, "Output directory");
+  auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing "
+                                          "(reused from the cache when it exists).");
+  pack->add_option("scene", ra.scene, "Scene file")->required()->check(CLI::ExistingFile);
+  pack->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
+  pack->add_flag("--all-variants", ra.all_variants, "Every [[variant]] of the file");
+  pack->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>]); the "
+                                    "packing goes to packing.cache or <out>/packing");
   pack->footer(kExitCodes);
 
   try {
@@ -255,10 +365,10 @@ int main(int argc, char** argv) {
   try {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet);
-    if (*compare) return not_built("compare", "the comparison layer is a later issue");
+    if (*compare) return cmd_compare(ra);
     if (*study) return not_built("study", "the error-vs-time and stability studies are a later issue");
     if (*calibrate) return not_built("calibrate", "calibration is a later issue");
-    if (*pack) return not_built("pack", "packing arrives with the paper scenes");
+    if (*pack) return cmd_pack(ra);
   } catch (const std::exception& e) {
     fmt::print(stderr, "demfem: error: {}\n", e.what());
     return kRunFailed;
