@@ -1,0 +1,922 @@
+// The deal.II/PETSc plane-strain solver (the only deal.II translation unit of the library).
+#include "fem.hpp"
+
+#include <deal.II/base/index_set.h>
+#include <deal.II/base/mpi.h>
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/base/table.h>
+#include <deal.II/base/utilities.h>
+#include <deal.II/distributed/shared_tria.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/dofs/dof_tools.h>
+#include <deal.II/fe/fe_q.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/fe/mapping_q.h>
+#include <deal.II/grid/grid_generator.h>
+#include <deal.II/grid/grid_tools.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/dynamic_sparsity_pattern.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/petsc_precondition.h>
+#include <deal.II/lac/petsc_solver.h>
+#include <deal.II/lac/petsc_sparse_matrix.h>
+#include <deal.II/lac/petsc_vector.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/sparsity_tools.h>
+#include <deal.II/lac/vector.h>
+#include <deal.II/numerics/data_out.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace demfem::continuum::fem {
+
+using namespace dealii;
+using Vec = PETScWrappers::MPI::Vector;
+using Mat = PETScWrappers::MPI::SparseMatrix;
+
+// ---- MPI -----------------------------------------------------------------------------------------
+struct MpiScope::Impl {
+  std::unique_ptr<Utilities::MPI::MPI_InitFinalize> init;
+};
+
+MpiScope::MpiScope(int& argc, char**& argv) : impl_(std::make_unique<Impl>()) {
+  int initialised = 0;
+  MPI_Initialized(&initialised);
+  if (!initialised) impl_->init = std::make_unique<Utilities::MPI::MPI_InitFinalize>(argc, argv, 1);
+}
+MpiScope::~MpiScope() = default;
+int MpiScope::rank() { return static_cast<int>(Utilities::MPI::this_mpi_process(MPI_COMM_WORLD)); }
+int MpiScope::size() { return static_cast<int>(Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD)); }
+
+void ensure_mpi() {
+  static int argc = 1;
+  static char name[] = "demfem";
+  static char* args[] = {name, nullptr};
+  static char** argv = args;
+  static MpiScope scope(argc, argv);
+}
+
+namespace {
+
+bool inside(const std::vector<Point>& poly, double x, double z) {
+  // even–odd rule (ray casting)
+  bool in = false;
+  const std::size_t n = poly.size();
+  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+    const Point& a = poly[i];
+    const Point& b = poly[j];
+    if ((a.z > z) != (b.z > z) && x < (b.x - a.x) * (z - a.z) / (b.z - a.z) + a.x) in = !in;
+  }
+  return in;
+}
+
+bool on_segment(const Point& a, const Point& b, double x, double z, double tol) {
+  const double ex = b.x - a.x, ez = b.z - a.z;
+  const double len2 = ex * ex + ez * ez;
+  const double t = len2 > 0 ? ((x - a.x) * ex + (z - a.z) * ez) / len2 : 0.0;
+  if (t < -1e-9 || t > 1 + 1e-9) return false;
+  const double px = a.x + t * ex - x, pz = a.z + t * ez - z;
+  return std::sqrt(px * px + pz * pz) <= tol;
+}
+
+struct QpState {
+  mc::ElasticStrain ee;
+  mc::Vec3 eps{{0, 0, 0}};    // total strain (εxx, εzz, γxz)
+  mc::Vec3 stress{{0, 0, 0}};
+  double syy = 0.0;
+  double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
+};
+
+} // namespace
+
+// ---- the model -----------------------------------------------------------------------------------
+struct Model::Impl {
+  Problem pb;
+  MPI_Comm comm = MPI_COMM_WORLD;
+  parallel::shared::Triangulation<2> tria{MPI_COMM_WORLD};
+  FESystem<2> fe;
+  MappingQ<2> mapping{1};
+  DoFHandler<2> dof{};
+  QGauss<2> quad;
+  QGauss<1> face_quad;
+  IndexSet owned, relevant;
+  AffineConstraints<double> hom, inh;
+  std::map<types::global_dof_index, double> patch_target; // dof → value at load factor 1
+  std::vector<std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>>> patch_dofs;
+  Mat K, M, K0;
+  Vec u, rhs, res, f_internal, du, v, acc, u_n, v_n, a_n;
+  Vec u_ghost;
+  std::vector<QpState> committed, trial;
+  std::vector<mc::Parameters> mat; // by material id
+  std::vector<double> rho;
+  struct RegionGeom { double area = 0, xc = 0, zc = 0, J = 0; };
+  std::vector<RegionGeom> geom;
+  double lambda = 0.0, gfactor = 0.0;
+  double t = 0.0;
+  bool dyn_init = false;
+  double xmin = 0, xmax = 0, zmin = 0, zmax = 0;
+  std::ostringstream log;
+  std::string log_str;
+  std::vector<std::pair<double, std::string>> pvd_records;
+
+  explicit Impl(const Problem& p)
+      : pb(p), fe(FE_Q<2>(static_cast<unsigned>(p.degree)), 2),
+        quad(static_cast<unsigned>(p.degree) + 1), face_quad(static_cast<unsigned>(p.degree) + 1) {
+    build_mesh();
+    setup();
+  }
+
+  unsigned nq() const { return quad.size(); }
+
+  void build_mesh() {
+    const Mesh& m = pb.mesh;
+    const std::size_t nx = m.dx.size(), nz = m.dz.size();
+    Table<2, types::material_id> ids(nx, nz);
+    double x = m.x0;
+    for (std::size_t i = 0; i < nx; ++i) {
+      double z = m.z0;
+      for (std::size_t j = 0; j < nz; ++j) {
+        const double xc = x + 0.5 * m.dx[i], zc = z + 0.5 * m.dz[j];
+        types::material_id id = numbers::invalid_material_id;
+        if (m.domain.empty() || inside(m.domain, xc, zc)) id = 0;
+        for (std::size_t r = 0; r < pb.regions.size(); ++r)
+          if (inside(pb.regions[r].outline, xc, zc)) id = static_cast<types::material_id>(r + 1);
+        ids[i][j] = id;
+        z += m.dz[j];
+      }
+      x += m.dx[i];
+    }
+    GridGenerator::subdivided_hyper_rectangle(tria, {m.dx, m.dz}, dealii::Point<2>(m.x0, m.z0),
+                                              ids, false);
+    xmin = m.x0;
+    zmin = m.z0;
+    xmax = xmin;
+    for (double d : m.dx) xmax += d;
+    zmax = zmin;
+    for (double d : m.dz) zmax += d;
+    const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
+    for (const auto& cell : tria.active_cell_iterators())
+      for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f)
+        if (cell->face(f)->at_boundary()) {
+          const auto c = cell->face(f)->center();
+          types::boundary_id b = 4;
+          if (std::abs(c[0] - xmin) < tol) b = 0;
+          else if (std::abs(c[0] - xmax) < tol) b = 1;
+          else if (std::abs(c[1] - zmin) < tol) b = 2;
+          else if (std::abs(c[1] - zmax) < tol) b = 3;
+          cell->face(f)->set_boundary_id(b);
+        }
+    tria.refine_global(static_cast<unsigned>(std::max(0, m.refinement)));
+  }
+
+  // dofs on boundary faces selected by pred(face centre, boundary id) → (component, support point)
+  template <class Pred>
+  std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>> face_dofs(Pred pred) {
+    std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>> out;
+    const auto& usp = fe.get_unit_support_points();
+    std::vector<types::global_dof_index> ld(fe.n_dofs_per_cell());
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+        if (!cell->face(f)->at_boundary()) continue;
+        if (!pred(cell->face(f)->center(), cell->face(f)->boundary_id())) continue;
+        cell->get_dof_indices(ld);
+        for (unsigned i = 0; i < fe.n_dofs_per_cell(); ++i)
+          if (fe.has_support_on_face(i, f))
+            out[ld[i]] = {fe.system_to_component_index(i).first,
+                          mapping.transform_unit_to_real_cell(cell, usp[i])};
+      }
+    }
+    return out;
+  }
+
+  void setup() {
+    dof.reinit(tria);
+    dof.distribute_dofs(fe);
+    owned = dof.locally_owned_dofs();
+    DoFTools::extract_locally_relevant_dofs(dof, relevant);
+
+    // materials
+    mat.assign(pb.regions.size() + 1, pb.soil);
+    rho.assign(pb.regions.size() + 1, pb.density);
+    for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+      mat[r + 1] = pb.regions[r].material;
+      mat[r + 1].plastic = false;
+      rho[r + 1] = pb.regions[r].density;
+    }
+    // region geometry (all cells: every rank holds the whole shared mesh)
+    geom.assign(pb.regions.size() + 1, RegionGeom{});
+    {
+      FEValues<2> fv(mapping, fe, quad, update_quadrature_points | update_JxW_values);
+      for (const auto& cell : dof.active_cell_iterators()) {
+        fv.reinit(cell);
+        auto& g = geom[cell->material_id()];
+        for (unsigned q = 0; q < nq(); ++q) {
+          g.area += fv.JxW(q);
+          g.xc += fv.quadrature_point(q)[0] * fv.JxW(q);
+          g.zc += fv.quadrature_point(q)[1] * fv.JxW(q);
+        }
+      }
+      for (auto& g : geom)
+        if (g.area > 0) {
+          g.xc /= g.area;
+          g.zc /= g.area;
+        }
+      for (const auto& cell : dof.active_cell_iterators()) {
+        fv.reinit(cell);
+        auto& g = geom[cell->material_id()];
+        for (unsigned q = 0; q < nq(); ++q) {
+          const double rx = fv.quadrature_point(q)[0] - g.xc, rz = fv.quadrature_point(q)[1] - g.zc;
+          g.J += (rx * rx + rz * rz) * fv.JxW(q);
+        }
+      }
+    }
+
+    // constraints: box boundary conditions, patches, pure-shear kinematics, periodicity
+    hom.clear();
+    hom.reinit(relevant);
+    auto constrain = [&](types::global_dof_index i) {
+      if (relevant.is_element(i) && !hom.is_constrained(i)) hom.add_line(i);
+    };
+    const Bc bcs[4] = {pb.left, pb.right, pb.bottom, pb.top};
+    for (types::boundary_id b = 0; b < 4; ++b) {
+      if (bcs[b] == Bc::Free) continue;
+      if (pb.mesh.periodic_x && b < 2) continue;
+      const unsigned normal = b < 2 ? 0u : 1u;
+      for (const auto& [i, cp] : face_dofs([b](const dealii::Point<2>&, types::boundary_id id) { return id == b; }))
+        if (bcs[b] == Bc::Fixed || cp.first == normal) constrain(i);
+    }
+    const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+    patch_dofs.clear();
+    patch_target.clear();
+    for (const Patch& p : pb.patches) {
+      auto d = face_dofs([&](const dealii::Point<2>& c, types::boundary_id) {
+        return on_segment(p.a, p.b, c[0], c[1], tol);
+      });
+      std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>> sel;
+      for (const auto& [i, cp] : d) {
+        if ((cp.first == 0 && !p.constrain_x) || (cp.first == 1 && !p.constrain_z)) continue;
+        sel[i] = cp;
+        const double rx = cp.second[0] - p.pivot.x, rz = cp.second[1] - p.pivot.z;
+        // small rigid rotation: u = (ux − θ rz, uz + θ rx)
+        patch_target[i] = cp.first == 0 ? p.ux - p.rotation * rz : p.uz + p.rotation * rx;
+        if (relevant.is_element(i) && !hom.is_constrained(i)) hom.add_line(i);
+      }
+      patch_dofs.push_back(std::move(sel));
+    }
+    if (pb.fix_z_everywhere) {
+      std::vector<types::global_dof_index> ld(fe.n_dofs_per_cell());
+      for (const auto& cell : dof.active_cell_iterators()) {
+        if (cell->is_artificial()) continue;
+        cell->get_dof_indices(ld);
+        for (unsigned i = 0; i < ld.size(); ++i)
+          if (fe.system_to_component_index(i).first == 1) constrain(ld[i]);
+      }
+    }
+    if (pb.mesh.periodic_x) {
+      // u(right, z) = u(left, z), component by component (single-rank construction)
+      auto left = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 0; });
+      auto right = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 1; });
+      const double ptol = 1e-9 * (zmax - zmin);
+      for (const auto& [r, rc] : right) {
+        if (hom.is_constrained(r) || !relevant.is_element(r)) continue;
+        for (const auto& [l, lc] : left)
+          if (lc.first == rc.first && std::abs(lc.second[1] - rc.second[1]) < ptol) {
+            hom.add_line(r);
+            if (!hom.is_constrained(l)) hom.add_entry(r, l, 1.0);
+            break;
+          }
+      }
+    }
+    hom.close();
+
+    DynamicSparsityPattern dsp(relevant);
+    DoFTools::make_sparsity_pattern(dof, dsp, hom, false);
+    SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
+    K.reinit(owned, owned, dsp, comm);
+    M.reinit(owned, owned, dsp, comm);
+    K0.reinit(owned, owned, dsp, comm);
+    for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n}) w->reinit(owned, comm);
+    u_ghost.reinit(owned, relevant, comm);
+
+    committed.assign(tria.n_active_cells() * nq(), QpState{});
+    trial = committed;
+    assemble_mass_and_elastic();
+  }
+
+  void update_ghost() { u_ghost = u; }
+
+  // Consistent mass matrix and initial elastic stiffness (for Rayleigh damping).
+  void assemble_mass_and_elastic() {
+    FEValues<2> fv(mapping, fe, quad, update_values | update_gradients | update_JxW_values);
+    const unsigned n = fe.n_dofs_per_cell();
+    FullMatrix<double> cm(n, n), ck(n, n);
+    std::vector<types::global_dof_index> ld(n);
+    M = 0;
+    K0 = 0;
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fv.reinit(cell);
+      cm = 0;
+      ck = 0;
+      const auto C = mc::elastic_tangent(mat[cell->material_id()]);
+      const double r = rho[cell->material_id()];
+      for (unsigned q = 0; q < nq(); ++q) {
+        for (unsigned i = 0; i < n; ++i) {
+          const unsigned ci = fe.system_to_component_index(i).first;
+          const auto gi = fv.shape_grad(i, q);
+          const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
+                                ci == 0 ? gi[1] : gi[0]};
+          for (unsigned j = 0; j < n; ++j) {
+            const unsigned cj = fe.system_to_component_index(j).first;
+            if (ci == cj) cm(i, j) += r * fv.shape_value(i, q) * fv.shape_value(j, q) * fv.JxW(q);
+            const auto gj = fv.shape_grad(j, q);
+            const double Bj[3] = {cj == 0 ? gj[0] : 0.0, cj == 1 ? gj[1] : 0.0,
+                                  cj == 0 ? gj[1] : gj[0]};
+            double s = 0;
+            for (int a = 0; a < 3; ++a)
+              for (int b = 0; b < 3; ++b) s += Bi[a] * C[a][b] * Bj[b];
+            ck(i, j) += s * fv.JxW(q);
+          }
+        }
+      }
+      cell->get_dof_indices(ld);
+      hom.distribute_local_to_global(cm, ld, M);
+      hom.distribute_local_to_global(ck, ld, K0);
+    }
+    M.compress(VectorOperation::add);
+    K0.compress(VectorOperation::add);
+  }
+
+  // body force of region r at a point (resultant F at load_point plus moment M, distributed
+  // linearly over the area: b = F/A + M_tot/J · e_z×r)
+  void region_force(std::size_t r, double x, double z, double& bx, double& bz) const {
+    const Region& reg = pb.regions[r];
+    const RegionGeom& g = geom[r + 1];
+    const double Fx = reg.force_x(t), Fz = reg.force_z(t);
+    const double Mt = reg.moment(t) + (reg.load_point.x - g.xc) * Fz - (reg.load_point.z - g.zc) * Fx;
+    bx = Fx / g.area - Mt * (z - g.zc) / g.J;
+    bz = Fz / g.area + Mt * (x - g.xc) / g.J;
+  }
+
+  // Residual (f_internal − fext, raw) and, if `matrix`, the tangent; the linear system (K, rhs = −R)
+  // goes through `cons`. Trial states are updated.
+  void assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
+    update_ghost();
+    FEValues<2> fv(mapping, fe, quad,
+                   update_values | update_gradients | update_quadrature_points | update_JxW_values);
+    FEFaceValues<2> ffv(mapping, fe, face_quad,
+                        update_values | update_quadrature_points | update_normal_vectors |
+                            update_JxW_values);
+    const FEValuesExtractors::Vector disp(0);
+    const unsigned n = fe.n_dofs_per_cell();
+    FullMatrix<double> ck(n, n);
+    dealii::Vector<double> cr(n), cf(n), crhs(n);
+    std::vector<types::global_dof_index> ld(n);
+    std::vector<SymmetricTensor<2, 2>> eps(nq());
+    if (matrix) K = 0;
+    rhs = 0;
+    res = 0;
+    f_internal = 0;
+    const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+    const double shake = pb.shaking_component >= 0 && dynamic ? pb.shaking(t) : 0.0;
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fv.reinit(cell);
+      fv[disp].get_function_symmetric_gradients(u_ghost, eps);
+      ck = 0;
+      cr = 0;
+      cf = 0;
+      const auto id = cell->material_id();
+      const mc::Parameters& P = mat[id];
+      const std::size_t base = cell->active_cell_index() * nq();
+      for (unsigned q = 0; q < nq(); ++q) {
+        const QpState& c0 = committed[base + q];
+        QpState& s = trial[base + q];
+        const mc::Vec3 e = {{eps[q][0][0], eps[q][1][1], 2.0 * eps[q][0][1]}};
+        mc::ElasticStrain tr = c0.ee;
+        for (int k = 0; k < 3; ++k) tr.in_plane[k] += e[k] - c0.eps[k];
+        const mc::Result r = mc::integrate(P, tr);
+        s.ee = r.elastic;
+        s.eps = e;
+        s.stress = r.stress;
+        s.syy = r.stress_yy;
+        for (int k = 0; k < 3; ++k)
+          s.eps_p[k] = c0.eps_p[k] + (e[k] - c0.eps[k]) - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
+        s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
+        // body force: gravity along −z, base shaking ρ·a(t), structure loads
+        const auto xq = fv.quadrature_point(q);
+        double b[2] = {0.0, -rho[id] * pb.gravity * gfactor};
+        if (pb.shaking_component >= 0) b[pb.shaking_component] += rho[id] * shake;
+        if (id > 0) {
+          double bx = 0, bz = 0;
+          region_force(id - 1, xq[0], xq[1], bx, bz);
+          b[0] += bx * lambda;
+          b[1] += bz * lambda;
+        }
+        const double w = fv.JxW(q);
+        for (unsigned i = 0; i < n; ++i) {
+          const unsigned ci = fe.system_to_component_index(i).first;
+          const auto gi = fv.shape_grad(i, q);
+          const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
+                                ci == 0 ? gi[1] : gi[0]};
+          cf(i) += (Bi[0] * r.stress[0] + Bi[1] * r.stress[1] + Bi[2] * r.stress[2]) * w;
+          cr(i) -= fv.shape_value(i, q) * b[ci] * w;
+          if (!matrix) continue;
+          double BiC[3] = {0, 0, 0};
+          for (int a = 0; a < 3; ++a)
+            for (int bb = 0; bb < 3; ++bb) BiC[bb] += Bi[a] * r.tangent[a][bb];
+          for (unsigned j = 0; j < n; ++j) {
+            const unsigned cj = fe.system_to_component_index(j).first;
+            const auto gj = fv.shape_grad(j, q);
+            const double Bj[3] = {cj == 0 ? gj[0] : 0.0, cj == 1 ? gj[1] : 0.0,
+                                  cj == 0 ? gj[1] : gj[0]};
+            ck(i, j) += (BiC[0] * Bj[0] + BiC[1] * Bj[1] + BiC[2] * Bj[2]) * w;
+          }
+        }
+      }
+      // strip tractions: t = −p n on the selected boundary faces
+      for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+        if (!cell->face(f)->at_boundary()) continue;
+        const auto fc = cell->face(f)->center();
+        for (const Traction& tr : pb.tractions) {
+          if (!on_segment(tr.a, tr.b, fc[0], fc[1], tol)) continue;
+          ffv.reinit(cell, f);
+          for (unsigned q = 0; q < ffv.n_quadrature_points; ++q)
+            for (unsigned i = 0; i < n; ++i) {
+              const unsigned ci = fe.system_to_component_index(i).first;
+              cr(i) -= ffv.shape_value(i, q) * (-tr.pressure * lambda * ffv.normal_vector(q)[ci]) *
+                       ffv.JxW(q);
+            }
+        }
+      }
+      cell->get_dof_indices(ld);
+      for (unsigned i = 0; i < n; ++i) {
+        cr(i) += cf(i);
+        crhs(i) = -cr(i);
+      }
+      res.add(ld, cr);
+      f_internal.add(ld, cf);
+      if (matrix) cons.distribute_local_to_global(ck, crhs, ld, K, rhs, true);
+      else cons.distribute_local_to_global(crhs, ld, rhs);
+    }
+    if (matrix) K.compress(VectorOperation::add);
+    rhs.compress(VectorOperation::add);
+    res.compress(VectorOperation::add);
+    f_internal.compress(VectorOperation::add);
+  }
+
+  // Newmark constants (Newmark 1959): a = a0(u − u_n) − a2 v_n − a3 a_n, v = v_n + dt((1−γ)a_n + γa)
+  double dt_ = 0.0;
+  void newmark_va(Vec& vel, Vec& accel) const {
+    const double b = pb.newmark_beta, g = pb.newmark_gamma;
+    accel = u;
+    accel -= u_n;
+    accel *= 1.0 / (b * dt_ * dt_);
+    accel.add(-1.0 / (b * dt_), v_n);
+    accel.add(-(1.0 / (2 * b) - 1.0), a_n);
+    vel = v_n;
+    vel.add(dt_ * (1 - g), a_n);
+    vel.add(dt_ * g, accel);
+  }
+
+  // Add the inertia and Rayleigh damping forces M(a + αv) + βK0 v (C = αM + βK0, Rayleigh).
+  void add_dynamic(bool matrix) {
+    Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm), tmp2(owned, comm);
+    newmark_va(vel, accel);
+    tmp = accel;
+    tmp.add(pb.rayleigh_alpha, vel);
+    M.vmult(tmp2, tmp);
+    K0.vmult(tmp, vel);
+    tmp2.add(pb.rayleigh_beta, tmp);
+    res += tmp2;
+    hom.set_zero(tmp2);
+    rhs -= tmp2;
+    if (matrix) {
+      const double b = pb.newmark_beta, g = pb.newmark_gamma;
+      const double a0 = 1.0 / (b * dt_ * dt_), a1 = g / (b * dt_);
+      K.add(a0 + a1 * pb.rayleigh_alpha, M);
+      K.add(a1 * pb.rayleigh_beta, K0);
+    }
+  }
+
+  int solve_linear(bool symmetric) {
+    SolverControl control(10000, std::max(1e-14, 1e-12 * rhs.l2_norm()));
+    const std::string& s = pb.linear_solver;
+    du = 0;
+    if (s == "direct") {
+      PETScWrappers::SparseDirectMUMPS solver(control, comm);
+      solver.solve(K, du, rhs);
+      return 1;
+    }
+    PETScWrappers::PreconditionBoomerAMG::AdditionalData data;
+    data.symmetric_operator = symmetric && s == "cg-amg";
+    data.strong_threshold = 0.5;
+    PETScWrappers::PreconditionBoomerAMG amg(K, data);
+    if (s == "cg-amg" && symmetric) {
+      PETScWrappers::SolverCG solver(control, comm);
+      solver.solve(K, du, rhs, amg);
+    } else {
+      PETScWrappers::SolverGMRES solver(control, comm);
+      solver.solve(K, du, rhs, amg);
+    }
+    return static_cast<int>(control.last_step());
+  }
+
+  bool symmetric_tangent() const {
+    return !pb.soil.plastic || std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12;
+  }
+
+  double free_norm(const Vec& r) const {
+    Vec tmp(r);
+    hom.set_zero(tmp);
+    return tmp.l2_norm();
+  }
+
+  // Newton iteration to equilibrium at (lambda, gfactor) [and time t when dynamic].
+  StepStats newton(bool dynamic) {
+    StepStats st;
+    // predictor: prescribed patch values through inhomogeneous constraints
+    inh.clear();
+    inh.reinit(relevant);
+    update_ghost();
+    for (types::global_dof_index i : relevant) {
+      if (!hom.is_constrained(i)) continue;
+      inh.add_line(i);
+      const auto* entries = hom.get_constraint_entries(i);
+      if (entries)
+        for (const auto& e : *entries) inh.add_entry(i, e.first, e.second);
+      auto it = patch_target.find(i);
+      if (it != patch_target.end()) inh.set_inhomogeneity(i, lambda * it->second - u_ghost(i));
+    }
+    inh.close();
+    const bool sym = symmetric_tangent();
+    double ref = 0.0;
+    for (int it = 0; it <= pb.newton_max_iterations; ++it) {
+      const AffineConstraints<double>& cons = it == 0 ? inh : hom;
+      assemble(true, cons, dynamic);
+      if (dynamic) add_dynamic(true);
+      const double rn = free_norm(res);
+      ref = std::max({ref, f_internal.l2_norm(), res.l2_norm()});
+      st.residual = ref > 0 ? rn / ref : rn;
+      if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
+        st.converged = true;
+        st.newton_iterations = it;
+        return st;
+      }
+      if (it == pb.newton_max_iterations) break;
+      st.linear_iterations += solve_linear(sym);
+      cons.distribute(du);
+      if (!std::isfinite(du.l2_norm())) break;
+      // backtracking line search on the free residual norm
+      const Vec u0(u);
+      double alpha = 1.0, best = 0.0, best_alpha = 1.0;
+      for (int ls = 0; ls < 4; ++ls) {
+        u = u0;
+        u.add(alpha, du);
+        if (it == 0) break; // the predictor carries the prescribed jump: take it whole
+        assemble(false, hom, dynamic);
+        if (dynamic) add_dynamic(false);
+        const double rl = free_norm(res);
+        if (ls == 0 || rl < best) {
+          best = rl;
+          best_alpha = alpha;
+        }
+        if (rl < rn) break;
+        alpha *= 0.5;
+      }
+      if (it > 0 && alpha != best_alpha) {
+        u = u0;
+        u.add(best_alpha, du);
+      }
+    }
+    st.converged = false;
+    st.newton_iterations = pb.newton_max_iterations;
+    return st;
+  }
+
+  void commit() { committed = trial; }
+
+  // static load stepping with step cutting
+  StepStats static_to(double lam, double gf, int depth = 0) {
+    const Vec u_save(u);
+    const double lam0 = lambda, gf0 = gfactor;
+    lambda = lam;
+    gfactor = gf;
+    StepStats st = newton(false);
+    if (st.converged) {
+      commit();
+      log << "static step λ=" << lam << " g=" << gf << " newton=" << st.newton_iterations
+          << " linear=" << st.linear_iterations << " residual=" << st.residual << "\n";
+      return st;
+    }
+    u = u_save;
+    lambda = lam0;
+    gfactor = gf0;
+    trial = committed;
+    if (depth >= 6) return st;
+    log << "step cut at λ=" << lam << "\n";
+    StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1);
+    if (!a.converged) return a;
+    StepStats b = static_to(lam, gf, depth + 1);
+    b.cuts = a.cuts + b.cuts + 1;
+    b.newton_iterations += a.newton_iterations;
+    b.linear_iterations += a.linear_iterations;
+    return b;
+  }
+
+  double top_at(double x) const {
+    const auto& poly = pb.mesh.domain;
+    if (poly.empty()) return zmax;
+    double top = zmin;
+    for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+      const Point& a = poly[i];
+      const Point& b = poly[j];
+      if ((a.x <= x && b.x >= x) || (b.x <= x && a.x >= x)) {
+        const double zz = std::abs(b.x - a.x) < 1e-300 ? std::max(a.z, b.z)
+                                                       : a.z + (b.z - a.z) * (x - a.x) / (b.x - a.x);
+        top = std::max(top, zz);
+      }
+    }
+    return top;
+  }
+
+  template <class F>
+  double sum(F f) const { return Utilities::MPI::sum(f(), comm); }
+};
+
+Model::Model(const Problem& problem) : impl_(std::make_unique<Impl>(problem)) {}
+Model::~Model() = default;
+
+std::size_t Model::n_dofs() const { return impl_->dof.n_dofs(); }
+std::size_t Model::n_cells() const { return impl_->tria.n_active_cells(); }
+double Model::time() const { return impl_->t; }
+const std::string& Model::log() const {
+  impl_->log_str = impl_->log.str();
+  return impl_->log_str;
+}
+
+StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
+  Impl& m = *impl_;
+  StepStats total;
+  if (use_k0) {
+    // K0 procedure: σzz = −ρ g (z_top − z), σxx = σyy = K0 σzz (Jaky 1944 when K0 = 1 − sin φ)
+    FEValues<2> fv(m.mapping, m.fe, m.quad, update_quadrature_points);
+    for (const auto& cell : m.dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fv.reinit(cell);
+      const auto id = cell->material_id();
+      for (unsigned q = 0; q < m.nq(); ++q) {
+        const auto x = fv.quadrature_point(q);
+        const double szz = -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
+        QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
+        s.stress = mc::Vec3{{k0 * szz, szz, 0.0}};
+        s.syy = k0 * szz;
+        s.ee = mc::elastic_strain_from_stress(m.mat[id], s.stress, s.syy);
+      }
+    }
+    m.trial = m.committed;
+    total = m.static_to(m.lambda, 1.0);
+  } else {
+    steps = std::max(1, steps);
+    for (int k = 1; k <= steps; ++k) {
+      StepStats st = m.static_to(m.lambda, double(k) / steps);
+      total.newton_iterations += st.newton_iterations;
+      total.linear_iterations += st.linear_iterations;
+      total.converged = st.converged;
+      if (!st.converged) break;
+    }
+  }
+  // displacements restart from zero; stresses stay
+  m.u = 0;
+  for (auto& s : m.committed) s.eps = mc::Vec3{{0, 0, 0}};
+  m.trial = m.committed;
+  return total;
+}
+
+StepStats Model::static_step(double lambda) { return impl_->static_to(lambda, impl_->gfactor); }
+
+void Model::set_displacement(const std::function<Point(Point)>& f) {
+  Impl& m = *impl_;
+  const auto& usp = m.fe.get_unit_support_points();
+  std::vector<types::global_dof_index> ld(m.fe.n_dofs_per_cell());
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    cell->get_dof_indices(ld);
+    for (unsigned i = 0; i < ld.size(); ++i) {
+      if (!m.owned.is_element(ld[i])) continue;
+      const auto p = m.mapping.transform_unit_to_real_cell(cell, usp[i]);
+      const Point d = f(Point{p[0], p[1]});
+      m.u(ld[i]) = m.fe.system_to_component_index(i).first == 0 ? d.x : d.z;
+    }
+  }
+  m.u.compress(VectorOperation::insert);
+  m.hom.distribute(m.u);
+  m.dyn_init = false;
+  // make the committed strains consistent with u
+  m.assemble(false, m.hom, false);
+  m.commit();
+}
+
+StepStats Model::dynamic_step(double dt) {
+  Impl& m = *impl_;
+  if (!m.dyn_init) {
+    // initial acceleration: M a0 = fext − f_internal(u0)
+    m.assemble(false, m.hom, false);
+    m.v_n = m.v;
+    m.K = 0;
+    m.K.add(1.0, m.M);
+    m.rhs = m.res;
+    m.rhs *= -1.0;
+    m.hom.set_zero(m.rhs);
+    m.solve_linear(true);
+    m.hom.distribute(m.du);
+    m.a_n = m.du;
+    m.dyn_init = true;
+  }
+  m.dt_ = dt;
+  m.u_n = m.u;
+  m.v_n = m.v;
+  m.lambda = 1.0;
+  m.t += dt;
+  // predictor u = u_n + dt v_n + dt²(½ − β) a_n (Newmark 1959)
+  m.u.add(dt, m.v_n);
+  m.u.add(dt * dt * (0.5 - m.pb.newmark_beta), m.a_n);
+  StepStats st = m.newton(true);
+  m.newmark_va(m.v, m.acc);
+  m.a_n = m.acc;
+  m.commit();
+  return st;
+}
+
+namespace {
+// value and gradient of the displacement-like field at a point; collective
+template <class M>
+bool eval_at(const M& m, const Vec& field_ghost, Point p, double val[2]) {
+  val[0] = val[1] = 0;
+  double found = 0;
+  try {
+    const auto hit = GridTools::find_active_cell_around_point(m.mapping, m.dof, dealii::Point<2>(p.x, p.z));
+    if (hit.first->is_locally_owned()) {
+      const Quadrature<2> q(GeometryInfo<2>::project_to_unit_cell(hit.second));
+      FEValues<2> fv(m.mapping, m.fe, q, update_values);
+      fv.reinit(hit.first);
+      std::vector<dealii::Vector<double>> v(1, dealii::Vector<double>(2));
+      fv.get_function_values(field_ghost, v);
+      val[0] = v[0][0];
+      val[1] = v[0][1];
+      found = 1;
+    }
+  } catch (...) {
+  }
+  found = Utilities::MPI::sum(found, m.comm);
+  val[0] = Utilities::MPI::sum(val[0], m.comm) / std::max(1.0, found);
+  val[1] = Utilities::MPI::sum(val[1], m.comm) / std::max(1.0, found);
+  return found > 0;
+}
+} // namespace
+
+Point Model::displacement(Point p) const {
+  impl_->update_ghost();
+  double v[2];
+  eval_at(*impl_, impl_->u_ghost, p, v);
+  return {v[0], v[1]};
+}
+
+Point Model::velocity(Point p) const {
+  Vec g(impl_->owned, impl_->relevant, impl_->comm);
+  g = impl_->v;
+  double v[2];
+  eval_at(*impl_, g, p, v);
+  return {v[0], v[1]};
+}
+
+Reaction Model::reaction(std::size_t patch) const {
+  const Impl& m = *impl_;
+  Reaction r;
+  const Patch& p = m.pb.patches.at(patch);
+  for (const auto& [i, cp] : m.patch_dofs.at(patch)) {
+    if (!m.owned.is_element(i)) continue;
+    const double f = m.res(i);
+    if (cp.first == 0) r.fx += f;
+    else r.fz += f;
+    const double rx = cp.second[0] - p.pivot.x, rz = cp.second[1] - p.pivot.z;
+    r.moment += cp.first == 0 ? -rz * f : rx * f;
+  }
+  r.fx = Utilities::MPI::sum(r.fx, m.comm);
+  r.fz = Utilities::MPI::sum(r.fz, m.comm);
+  r.moment = Utilities::MPI::sum(r.moment, m.comm);
+  return r;
+}
+
+Model::RegionMotion Model::region_motion(std::size_t region) const {
+  Impl& m = *impl_;
+  m.update_ghost();
+  FEValues<2> fv(m.mapping, m.fe, m.quad, update_values | update_gradients | update_JxW_values);
+  const FEValuesExtractors::Vector disp(0);
+  std::vector<Tensor<1, 2>> val(m.nq());
+  std::vector<Tensor<2, 2>> grad(m.nq());
+  double a = 0, ux = 0, uz = 0, rot = 0;
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned() || cell->material_id() != region + 1) continue;
+    fv.reinit(cell);
+    fv[disp].get_function_values(m.u_ghost, val);
+    fv[disp].get_function_gradients(m.u_ghost, grad);
+    for (unsigned q = 0; q < m.nq(); ++q) {
+      const double w = fv.JxW(q);
+      a += w;
+      ux += val[q][0] * w;
+      uz += val[q][1] * w;
+      rot += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w; // ½ curl u = ½(∂uz/∂x − ∂ux/∂z)
+    }
+  }
+  a = Utilities::MPI::sum(a, m.comm);
+  RegionMotion r;
+  if (a <= 0) return r;
+  r.ux = Utilities::MPI::sum(ux, m.comm) / a;
+  r.uz = Utilities::MPI::sum(uz, m.comm) / a;
+  r.rotation = Utilities::MPI::sum(rot, m.comm) / a;
+  return r;
+}
+
+std::vector<QpStress> Model::stresses() const {
+  const Impl& m = *impl_;
+  std::vector<QpStress> out;
+  FEValues<2> fv(m.mapping, m.fe, m.quad, update_quadrature_points);
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    for (unsigned q = 0; q < m.nq(); ++q) {
+      const QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
+      out.push_back({fv.quadrature_point(q)[0], fv.quadrature_point(q)[1], s.stress[0],
+                     s.stress[1], s.stress[2], s.syy, int(cell->material_id())});
+    }
+  }
+  return out;
+}
+
+void Model::write_vtu(const std::string& directory, const std::string& basename, int index) {
+  Impl& m = *impl_;
+  m.update_ghost();
+  Vec vg(m.owned, m.relevant, m.comm);
+  vg = m.v;
+  const std::size_t nc = m.tria.n_active_cells();
+  std::vector<dealii::Vector<float>> cd(9, dealii::Vector<float>(nc));
+  const char* names[9] = {"stress_xx", "stress_zz", "stress_xz", "stress_yy", "plastic_strain",
+                          "volumetric_strain", "rotation", "material", "subdomain"};
+  FEValues<2> fv(m.mapping, m.fe, m.quad, update_gradients | update_JxW_values);
+  const FEValuesExtractors::Vector disp(0);
+  std::vector<Tensor<2, 2>> grad(m.nq());
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    fv[disp].get_function_gradients(m.u_ghost, grad);
+    const auto c = cell->active_cell_index();
+    double a = 0;
+    double acc[7] = {0, 0, 0, 0, 0, 0, 0};
+    for (unsigned q = 0; q < m.nq(); ++q) {
+      const QpState& s = m.committed[c * m.nq() + q];
+      const double w = fv.JxW(q);
+      a += w;
+      acc[0] += s.stress[0] * w;
+      acc[1] += s.stress[1] * w;
+      acc[2] += s.stress[2] * w;
+      acc[3] += s.syy * w;
+      // equivalent plastic strain √(2/3 εp:εp)
+      const double e2 = s.eps_p[0] * s.eps_p[0] + s.eps_p[1] * s.eps_p[1] + s.eps_p[3] * s.eps_p[3] +
+                        0.5 * s.eps_p[2] * s.eps_p[2];
+      acc[4] += std::sqrt(2.0 / 3.0 * e2) * w;
+      acc[5] += (grad[q][0][0] + grad[q][1][1]) * w;
+      acc[6] += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w;
+    }
+    for (int k = 0; k < 7; ++k) cd[k][c] = float(acc[k] / a);
+    cd[7][c] = float(cell->material_id());
+    cd[8][c] = float(cell->subdomain_id());
+  }
+  DataOut<2> out;
+  out.attach_dof_handler(m.dof);
+  std::vector<DataComponentInterpretation::DataComponentInterpretation> vec(
+      2, DataComponentInterpretation::component_is_part_of_vector);
+  out.add_data_vector(m.u_ghost, std::vector<std::string>(2, "displacement"),
+                      DataOut<2>::type_dof_data, vec);
+  out.add_data_vector(vg, std::vector<std::string>(2, "velocity"), DataOut<2>::type_dof_data, vec);
+  for (int k = 0; k < 9; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
+  out.build_patches(m.mapping, static_cast<unsigned>(m.pb.degree));
+  const std::string name =
+      out.write_vtu_with_pvtu_record(directory + "/", basename, static_cast<unsigned>(index), m.comm, 4);
+  m.pvd_records.emplace_back(m.t, name);
+}
+
+void Model::write_pvd(const std::string& directory, const std::string& basename) const {
+  if (Utilities::MPI::this_mpi_process(impl_->comm) != 0) return;
+  std::ofstream f(directory + "/" + basename + ".pvd");
+  DataOutBase::write_pvd_record(f, impl_->pvd_records);
+}
+
+} // namespace demfem::continuum::fem

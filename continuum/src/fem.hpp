@@ -1,0 +1,163 @@
+// Internal interface of the deal.II/PETSc plane-strain solver. No deal.II type appears here and
+// the header is C++17/C++20-neutral: fem.cpp compiles with deal.II's flags (C++17), run.cpp and
+// the tests with the project's (C++20).
+//
+// Coordinates: x horizontal, z vertical (up); deal.II's point[0] = x, point[1] = z.
+// Stresses are tension-positive (continuum convention); soil compression is negative.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "demfem/scene/time_function.hpp"
+#include "mohr_coulomb.hpp"
+
+namespace demfem::continuum::fem {
+
+struct Point {
+  double x = 0.0;
+  double z = 0.0;
+};
+
+// MPI (and PETSc) for the lifetime of the object; a no-op when MPI is already initialised.
+class MpiScope {
+public:
+  MpiScope(int& argc, char**& argv);
+  ~MpiScope();
+  MpiScope(const MpiScope&) = delete;
+  MpiScope& operator=(const MpiScope&) = delete;
+  static int rank();
+  static int size();
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+// For library callers (the app) that did not start MPI: starts it once for the process.
+void ensure_mpi();
+
+// A region of the mesh with its own material (structures as very stiff elastic bodies).
+struct Region {
+  std::string name;
+  std::vector<Point> outline;   // cells whose centre lies inside get this material
+  mc::Parameters material;      // elastic
+  double density = 2400.0;
+  // external loads on the region (body-force distribution with the given resultant and moment)
+  scene::TimeFunction force_x, force_z, moment;
+  Point load_point;             // where force_x/force_z act
+  Point pivot;                  // reference point for rotation and moment output
+};
+
+struct Mesh {
+  double x0 = 0.0, z0 = 0.0;
+  std::vector<double> dx, dz;    // coarse tensor-grid step sizes
+  std::vector<Point> domain;     // soil polygon; cells with centre outside (and outside all
+                                 // regions) are removed; empty = the whole rectangle
+  int refinement = 0;            // global refinements of the coarse grid
+  bool periodic_x = false;       // tie the left and right boundaries (shear column)
+};
+
+enum class Bc { Free, Roller, Fixed }; // roller: normal component fixed
+
+// Distributed traction on the boundary faces whose centre lies on the segment a–b
+// (value × load factor), e.g. a strip load. Pressure p > 0 pushes into the body.
+struct Traction {
+  Point a, b;
+  double pressure = 0.0;
+};
+
+// Prescribed rigid motion of the boundary faces whose centre lies on the segment a–b:
+// u = load factor × (ux − θ(z − zp), uz + θ(x − xp)) for the constrained components.
+struct Patch {
+  std::string name;
+  Point a, b;
+  bool constrain_x = true, constrain_z = true;
+  double ux = 0.0, uz = 0.0, rotation = 0.0;
+  Point pivot;
+};
+
+struct Reaction {
+  double fx = 0.0, fz = 0.0, moment = 0.0; // force of the patch on the soil reversed: the force
+                                           // the soil exerts on the patch is −(fx, fz)
+};
+
+struct Problem {
+  Mesh mesh;
+  int degree = 2;
+  mc::Parameters soil;
+  double density = 1700.0;
+  std::vector<Region> regions;   // material id k+1
+  double gravity = 9.81;         // along −z
+  Bc left = Bc::Roller, right = Bc::Roller, bottom = Bc::Fixed, top = Bc::Free;
+  bool fix_z_everywhere = false; // pure horizontal kinematics (shear column)
+  std::vector<Traction> tractions;
+  std::vector<Patch> patches;
+  std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct
+  double newton_tolerance = 1e-8;
+  int newton_max_iterations = 25;
+  // dynamics
+  double newmark_beta = 0.25, newmark_gamma = 0.5;
+  double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
+  bool absorbing = false;        // Lysmer dashpots on free sides (and their tangential part)
+  int shaking_component = -1;    // 0 = x, 1 = z, −1 = none
+  scene::TimeFunction shaking;   // base acceleration [m/s²] applied as body force ρ·a(t)
+};
+
+struct QpStress {
+  double x = 0.0, z = 0.0;
+  double sxx = 0.0, szz = 0.0, sxz = 0.0, syy = 0.0;
+  int material = 0;
+};
+
+struct StepStats {
+  bool converged = true;
+  int newton_iterations = 0;
+  int linear_iterations = 0;
+  int cuts = 0;
+  double residual = 0.0;
+};
+
+class Model {
+public:
+  explicit Model(const Problem& problem);
+  ~Model();
+  Model(const Model&) = delete;
+  Model& operator=(const Model&) = delete;
+
+  [[nodiscard]] std::size_t n_dofs() const;
+  [[nodiscard]] std::size_t n_cells() const;
+
+  // Geostatic stresses. use_k0: σzz = −ρ g depth (depth below the domain top at that x),
+  // σxx = σyy = K0 σzz, followed by an equilibrium correction; otherwise gravity is switched on
+  // in `steps` load steps. Displacements are reset to zero afterwards; stresses are kept.
+  StepStats initialise_gravity(bool use_k0, double k0, int steps);
+  // Static equilibrium at load factor `lambda` (tractions and patches scale with it; gravity is
+  // on when it was initialised). Newton with line search; the increment is halved on failure.
+  StepStats static_step(double lambda);
+  // One Newmark-β step (Newmark 1959) from t to t + dt with patches/tractions at factor 1.
+  StepStats dynamic_step(double dt);
+  // Initial displacement for free vibration tests (gravity off).
+  void set_displacement(const std::function<Point(Point)>& u);
+
+  [[nodiscard]] double time() const;
+  // Displacement at a point (collective: every rank must call).
+  [[nodiscard]] Point displacement(Point p) const;
+  [[nodiscard]] Point velocity(Point p) const;
+  [[nodiscard]] Reaction reaction(std::size_t patch) const;       // collective
+  // Mean displacement and rotation (½ curl u averaged over the area) of region k (collective).
+  struct RegionMotion { double ux = 0, uz = 0, rotation = 0; };
+  [[nodiscard]] RegionMotion region_motion(std::size_t region) const;
+  [[nodiscard]] std::vector<QpStress> stresses() const;           // locally owned only
+  void write_vtu(const std::string& directory, const std::string& basename, int index);
+  void write_pvd(const std::string& directory, const std::string& basename) const;
+  [[nodiscard]] const std::string& log() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+} // namespace demfem::continuum::fem

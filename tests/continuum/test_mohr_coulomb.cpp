@@ -1,0 +1,202 @@
+// Mohr–Coulomb return mapping: admissibility, consistency, flow direction, consistent tangent
+// (against central finite differences) in every return region.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "mohr_coulomb.hpp"
+
+using namespace demfem::continuum::mc;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Parameters soil(double tension = -1.0) {
+  Parameters p;
+  p.young = 2.0e7;
+  p.poisson = 0.3;
+  p.plastic = true;
+  p.friction = 30.0 * kPi / 180.0;
+  p.cohesion = 1.0e4;
+  p.dilation = 10.0 * kPi / 180.0;
+  p.tension_cutoff = tension;
+  return p;
+}
+
+// trial elastic strain from in-plane principal strains rotated by θ and the out-of-plane strain
+ElasticStrain trial(double ea, double eb, double eyy, double theta) {
+  const double c = std::cos(theta), s = std::sin(theta);
+  ElasticStrain e;
+  e.in_plane = {{ea * c * c + eb * s * s, ea * s * s + eb * c * c, 2.0 * (ea - eb) * c * s}};
+  e.out_of_plane = eyy;
+  return e;
+}
+
+void principal(const Result& r, double s[3]) {
+  const double m = 0.5 * (r.stress[0] + r.stress[1]);
+  const double d = std::hypot(0.5 * (r.stress[0] - r.stress[1]), r.stress[2]);
+  s[0] = m + d;
+  s[1] = m - d;
+  s[2] = r.stress_yy;
+  std::sort(s, s + 3, [](double a, double b) { return a > b; });
+}
+
+// admissible: on or inside the MC surface and the cut-off; consistent: re-integrating the
+// returned elastic strain is elastic and gives the same stress
+void check_admissible(const Parameters& p, const ElasticStrain& tr) {
+  const Result r = integrate(p, tr);
+  double s[3];
+  principal(r, s);
+  const double scale = std::abs(s[0]) + std::abs(s[2]) + p.cohesion;
+  EXPECT_LE(mc_yield(p, s[0], s[2]), 1e-8 * scale);
+  if (p.tension_cutoff >= 0) {
+    EXPECT_LE(s[0], p.tension_cutoff + 1e-8 * scale);
+  }
+  if (r.region != Return::Elastic) {
+    // on the surface: the main plane or the cut-off is active
+    const double f = std::max(mc_yield(p, s[0], s[2]),
+                              p.tension_cutoff >= 0 ? s[0] - p.tension_cutoff : -1e300);
+    EXPECT_NEAR(f, 0.0, 1e-8 * scale);
+  }
+  const Result again = integrate(p, r.elastic);
+  EXPECT_EQ(again.region, Return::Elastic);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(again.stress[k], r.stress[k], 1e-8 * scale);
+}
+
+// consistent tangent vs central differences of the integrated stress
+void check_tangent(const Parameters& p, const ElasticStrain& tr, Return expected) {
+  const Result r = integrate(p, tr);
+  ASSERT_EQ(r.region, expected);
+  const double h = 1e-9;
+  double maxerr = 0.0, maxval = 0.0;
+  for (int j = 0; j < 3; ++j) {
+    ElasticStrain a = tr, b = tr;
+    a.in_plane[j] += h;
+    b.in_plane[j] -= h;
+    const Result ra = integrate(p, a), rb = integrate(p, b);
+    ASSERT_EQ(ra.region, expected);
+    ASSERT_EQ(rb.region, expected);
+    for (int i = 0; i < 3; ++i) {
+      const double fd = (ra.stress[i] - rb.stress[i]) / (2 * h);
+      maxerr = std::max(maxerr, std::abs(fd - r.tangent[i][j]));
+      maxval = std::max(maxval, std::abs(r.tangent[i][j]));
+    }
+  }
+  EXPECT_LE(maxerr, 1e-5 * maxval + 1e-6) << "tangent mismatch";
+}
+
+} // namespace
+
+TEST(MohrCoulomb, ElasticBelowYield) {
+  const Parameters p = soil();
+  const ElasticStrain tr = trial(-1e-5, -2e-5, -1.5e-5, 0.3);
+  const Result r = integrate(p, tr);
+  EXPECT_EQ(r.region, Return::Elastic);
+  Vec3 s;
+  double syy;
+  elastic_stress(p, tr, s, syy);
+  for (int k = 0; k < 3; ++k) EXPECT_DOUBLE_EQ(r.stress[k], s[k]);
+  const Mat3 D = elastic_tangent(p);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(r.tangent[i][j], D[i][j], 1e-6 * D[0][0]);
+  check_tangent(p, tr, Return::Elastic);
+}
+
+TEST(MohrCoulomb, MainPlaneReturnAndFlowDirection) {
+  const Parameters p = soil();
+  const ElasticStrain tr = trial(2e-3, -3e-3, -0.5e-3, 0.4);
+  const Result r = integrate(p, tr);
+  ASSERT_EQ(r.region, Return::MainPlane);
+  check_admissible(p, tr);
+  check_tangent(p, tr, Return::MainPlane);
+  // plastic strain increment Δεp = εe_trial − εe_new is along N = (1+sin ψ, 0, −(1−sin ψ))
+  // in the (major, intermediate, minor) principal frame (non-associated flow)
+  const double c = std::cos(0.4), s = std::sin(0.4);
+  auto along = [&](const ElasticStrain& e, double ux, double uz) {
+    return e.in_plane[0] * ux * ux + e.in_plane[1] * uz * uz + e.in_plane[2] * ux * uz;
+  };
+  const double dp1 = along(tr, c, s) - along(r.elastic, c, s);   // major (tensile) direction
+  const double dp3 = along(tr, -s, c) - along(r.elastic, -s, c); // minor direction
+  const double dpy = tr.out_of_plane - r.elastic.out_of_plane;
+  const double spsi = std::sin(p.dilation);
+  EXPECT_NEAR(dp3 / dp1, -(1 - spsi) / (1 + spsi), 1e-8);
+  EXPECT_NEAR(dpy / dp1, 0.0, 1e-8);
+}
+
+TEST(MohrCoulomb, EdgeReturns) {
+  const Parameters p = soil();
+  // σ1 > σ2 ≈ σ3 (triaxial compression): the return lands on the σ2 = σ3 edge
+  const ElasticStrain compression = trial(3e-3, -2e-3, -1.98e-3, 0.2);
+  // σ1 ≈ σ2 > σ3 (triaxial extension): the σ1 = σ2 edge
+  const ElasticStrain extension = trial(1e-3, -2e-3, 0.98e-3, 0.7);
+  const Result a = integrate(p, compression), b = integrate(p, extension);
+  EXPECT_EQ(a.region, Return::EdgeRight);
+  EXPECT_EQ(b.region, Return::EdgeLeft);
+  check_admissible(p, compression);
+  check_admissible(p, extension);
+  check_tangent(p, compression, Return::EdgeRight);
+  check_tangent(p, extension, Return::EdgeLeft);
+  double s[3];
+  principal(a, s);
+  EXPECT_NEAR(s[1], s[2], 1e-8 * std::abs(s[2]));
+  principal(b, s);
+  EXPECT_NEAR(s[0], s[1], 1e-8 * std::abs(s[2]));
+}
+
+TEST(MohrCoulomb, ApexReturn) {
+  const Parameters p = soil();
+  const ElasticStrain tr = trial(3e-3, 2e-3, 2.5e-3, 0.1);
+  const Result r = integrate(p, tr);
+  ASSERT_EQ(r.region, Return::Apex);
+  const double apex = p.cohesion / std::tan(p.friction); // p = c cot φ
+  EXPECT_NEAR(r.stress[0], apex, 1e-8 * apex);
+  EXPECT_NEAR(r.stress[1], apex, 1e-8 * apex);
+  EXPECT_NEAR(r.stress_yy, apex, 1e-8 * apex);
+  check_admissible(p, tr);
+  check_tangent(p, tr, Return::Apex);
+}
+
+TEST(MohrCoulomb, TensionCutOff) {
+  const Parameters p = soil(5.0e3);
+  const ElasticStrain tr = trial(1.0e-3, -0.2e-3, -0.1e-3, 0.5);
+  const Result r = integrate(p, tr);
+  EXPECT_TRUE(r.region == Return::Tension || r.region == Return::TensionMain) << int(r.region);
+  check_admissible(p, tr);
+  check_tangent(p, tr, r.region);
+  double s[3];
+  principal(r, s);
+  EXPECT_NEAR(s[0], p.tension_cutoff, 1e-6 * p.cohesion);
+}
+
+TEST(MohrCoulomb, TrescaLimitWhenFrictionless) {
+  Parameters p = soil();
+  p.friction = 0.0;
+  p.dilation = 0.0;
+  const ElasticStrain tr = trial(3e-3, -3e-3, 0.0, 0.25);
+  const Result r = integrate(p, tr);
+  double s[3];
+  principal(r, s);
+  EXPECT_NEAR(s[0] - s[2], 2 * p.cohesion, 1e-8 * p.cohesion); // Tresca: σ1 − σ3 = 2c
+  check_tangent(p, tr, r.region);
+}
+
+TEST(MohrCoulomb, RandomTrialsAdmissibleInAllRegions) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-4e-3, 4e-3), ang(0.0, kPi);
+  std::set<int> regions;
+  for (const double t : {-1.0, 5.0e3}) {
+    const Parameters p = soil(t);
+    for (int k = 0; k < 4000; ++k) {
+      const ElasticStrain tr = trial(u(rng), u(rng), u(rng), ang(rng));
+      regions.insert(int(integrate(p, tr).region));
+      check_admissible(p, tr);
+      if (HasFailure()) return;
+    }
+  }
+  for (Return r : {Return::Elastic, Return::MainPlane, Return::EdgeLeft, Return::EdgeRight,
+                   Return::Apex, Return::Tension, Return::TensionMain, Return::TensionEdge})
+    EXPECT_TRUE(regions.count(int(r))) << "region never reached: " << int(r);
+}

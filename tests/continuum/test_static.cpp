@@ -1,0 +1,204 @@
+// Static verification problems of the plane-strain solver against closed forms.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include "fem.hpp"
+
+using namespace demfem::continuum;
+using namespace demfem::continuum::fem;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::vector<double> uniform(double length, int n) { return std::vector<double>(n, length / n); }
+
+// sizes growing geometrically from h0 (after a uniform zone of length `fine`) until `length`
+std::vector<double> graded(double fine, double h0, double length, double growth) {
+  std::vector<double> d;
+  double x = 0.0;
+  while (x < fine - 1e-12) {
+    d.push_back(h0);
+    x += h0;
+  }
+  double h = h0;
+  while (x < length - 1e-9) {
+    h = std::min(h * growth, length - x);
+    if (length - x - h < 0.5 * h) h = length - x; // no sliver at the end
+    d.push_back(h);
+    x += h;
+  }
+  return d;
+}
+
+mc::Parameters elastic(double E, double nu) {
+  mc::Parameters p;
+  p.young = E;
+  p.poisson = nu;
+  p.plastic = false;
+  return p;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+} // namespace
+
+// Laterally confined elastic column under gravity: σzz = −ρg(H − z), σxx = ν/(1−ν) σzz
+// (one-dimensional compression, e.g. Timoshenko & Goodier).
+TEST(ContinuumStatic, GravityColumn) {
+  Problem pb;
+  const double H = 10.0, rho = 1700.0, g = 9.81, nu = 0.3;
+  pb.mesh.dx = {1.0};
+  pb.mesh.dz = uniform(H, 10);
+  pb.mesh.refinement = 1;
+  pb.soil = elastic(3.0e7, nu);
+  pb.density = rho;
+  pb.gravity = g;
+  Model m(pb);
+  const StepStats st = m.initialise_gravity(false, 0.0, 1);
+  ASSERT_TRUE(st.converged);
+  double worst = 0.0;
+  for (const QpStress& s : m.stresses()) {
+    const double szz = -rho * g * (H - s.z);
+    const double sxx = nu / (1 - nu) * szz;
+    const double tol = 0.01 * std::abs(szz) + 1e-9 * rho * g * H;
+    EXPECT_NEAR(s.szz, szz, tol);
+    EXPECT_NEAR(s.sxx, sxx, tol);
+    EXPECT_NEAR(s.syy, sxx, tol);
+    worst = std::max({worst, std::abs(s.szz - szz) / (rho * g * H), std::abs(s.sxx - sxx) / (rho * g * H)});
+  }
+  std::printf("gravity column: dofs=%zu max |error|/(ρgH) = %.2e\n", m.n_dofs(), worst);
+}
+
+// Flamant strip load on an elastic half-plane (Poulos & Davis 1974, strip of half-width b):
+// settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E.
+namespace {
+double flamant(int refinement, std::size_t& dofs) {
+  Problem pb;
+  const double L = 200.0, b = 1.0, q = 1.0e5, E = 2.0e7, nu = 0.3;
+  pb.mesh.x0 = 0.0;
+  pb.mesh.z0 = -L;
+  pb.mesh.dx = graded(2.0 * b, 0.25 * b, L, 1.35);
+  pb.mesh.dz = graded(2.0 * b, 0.25 * b, L, 1.35);
+  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end()); // fine at the top
+  pb.mesh.refinement = refinement;
+  pb.soil = elastic(E, nu);
+  pb.gravity = 0.0;
+  pb.left = Bc::Roller; // symmetry plane x = 0
+  pb.tractions.push_back({{0.0, 0.0}, {b, 0.0}, q});
+  Model m(pb);
+  const StepStats st = m.static_step(1.0);
+  EXPECT_TRUE(st.converged);
+  dofs = m.n_dofs();
+  return -m.displacement({0.0, 0.0}).z + m.displacement({b, 0.0}).z;
+}
+} // namespace
+
+TEST(ContinuumStatic, FlamantStripLoad) {
+  const double exact = 4.0 * std::log(2.0) / kPi * (1 - 0.09) * 1.0e5 * 1.0 / 2.0e7;
+  double prev_err = 0.0;
+  for (int r = 0; r <= 2; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::size_t dofs = 0;
+    const double d = flamant(r, dofs);
+    const double err = std::abs(d - exact) / exact;
+    std::printf("flamant refinement %d: dofs=%zu Δs=%.6e m (exact %.6e) rel.err=%.3e rate=%.2f "
+                "wall=%.2fs\n",
+                r, dofs, d, exact, err, r > 0 ? std::log2(prev_err / err) : 0.0, seconds_since(t0));
+    prev_err = err;
+    if (r == 2) {
+      EXPECT_LT(err, 0.03);
+    }
+  }
+}
+
+// Rigid rough strip footing on weightless undrained clay (φ = 0): limit pressure (2 + π)c
+// (Prandtl 1920).
+TEST(ContinuumStatic, StripFootingUndrainedBearingCapacity) {
+  Problem pb;
+  const double B = 1.0, c = 1.0e4;
+  pb.mesh.x0 = 0.0;
+  pb.mesh.z0 = -5.0 * B;
+  pb.mesh.dx = graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
+  pb.mesh.dz = graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
+  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
+  pb.soil.young = 1.0e7;
+  pb.soil.poisson = 0.3;
+  pb.soil.plastic = true;
+  pb.soil.friction = 0.0;
+  pb.soil.dilation = 0.0;
+  pb.soil.cohesion = c;
+  pb.gravity = 0.0;
+  Patch footing;
+  footing.name = "footing";
+  footing.a = {0.0, 0.0};
+  footing.b = {0.5 * B, 0.0};
+  footing.uz = -0.03 * B;
+  pb.patches.push_back(footing);
+  Model m(pb);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int steps = 30;
+  double q = 0.0;
+  int newton = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const StepStats st = m.static_step(double(k) / steps);
+    ASSERT_TRUE(st.converged) << "step " << k;
+    newton += st.newton_iterations;
+    q = -m.reaction(0).fz / (0.5 * B);
+  }
+  const double exact = (2.0 + kPi) * c;
+  std::printf("footing: dofs=%zu q/c=%.4f (exact %.4f) rel.err=%.3e newton=%d wall=%.2fs\n",
+              m.n_dofs(), q / c, exact / c, (q - exact) / exact, newton, seconds_since(t0));
+  EXPECT_NEAR(q, exact, 0.05 * exact);
+}
+
+// Smooth wall moving away from a cohesionless Mohr–Coulomb backfill: Rankine active thrust
+// P = ½ K_a γ H², K_a = (1 − sin φ)/(1 + sin φ) (Rankine 1857).
+TEST(ContinuumStatic, RankineActiveThrust) {
+  Problem pb;
+  const double H = 5.0, phi = 30.0 * kPi / 180.0, rho = 1700.0, g = 9.81;
+  pb.mesh.dx = uniform(H, 10);
+  pb.mesh.dz = uniform(H, 10);
+  pb.soil.young = 3.0e7;
+  pb.soil.poisson = 0.3;
+  pb.soil.plastic = true;
+  pb.soil.friction = phi;
+  pb.soil.dilation = 0.0;
+  pb.soil.cohesion = 0.0;
+  pb.density = rho;
+  pb.gravity = g;
+  pb.bottom = Bc::Roller;
+  Patch wall;
+  wall.name = "wall";
+  wall.a = {0.0, 0.0};
+  wall.b = {0.0, H};
+  wall.constrain_z = false; // smooth
+  wall.ux = -0.01 * H;
+  pb.patches.push_back(wall);
+  Model m(pb);
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(m.initialise_gravity(true, 1.0 - std::sin(phi), 1).converged);
+  const double at_rest = m.reaction(0).fx;
+  const int steps = 20;
+  int newton = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const StepStats st = m.static_step(double(k) / steps);
+    ASSERT_TRUE(st.converged) << "step " << k;
+    newton += st.newton_iterations;
+  }
+  const double thrust = m.reaction(0).fx;
+  const double Ka = (1 - std::sin(phi)) / (1 + std::sin(phi));
+  const double exact = 0.5 * Ka * rho * g * H * H;
+  std::printf("rankine: dofs=%zu at-rest=%.1f N/m thrust=%.1f N/m (exact %.1f) rel.err=%.3e "
+              "newton=%d wall=%.2fs\n",
+              m.n_dofs(), at_rest, thrust, exact, (thrust - exact) / exact, newton,
+              seconds_since(t0));
+  EXPECT_NEAR(thrust, exact, 0.05 * exact);
+}
