@@ -1,14 +1,431 @@
+// `demfem run SCENE --solver dem`: builds the engine from the scene, runs it to the scene's
+// duration, applies events, and writes probes (CSV), snapshots (VTK) and a final checkpoint
+// under <out>/dem. Probes are computed here, in the engine layer, never inside kernels.
+//
+// Files (every CSV has a header naming quantity and unit):
+//   energy.csv            energy budget (always)
+//   structures.csv        per structure: <s>.settlement [m] (downward positive: −z displacement
+//                         of the pivot), <s>.rotation [rad] (counter-clockwise positive; the
+//                         paper's foundation θ is clockwise positive, θ = −rotation),
+//                         <s>.moment [N·m] (soil reaction about the pivot), <s>.force_x [N],
+//                         <s>.force_z [N] (soil reaction), <s>.applied_moment [N·m] (external
+//                         loads about the pivot), <s>.displacement_x [m]
+//   walls.csv             <w>.thrust [N] (reaction normal to the wall's chord), <w>.reaction_x,
+//                         <w>.reaction_z [N]; for walls with record = true, structures of kind
+//                         wall or with record "thrust", and wall-thrust probe targets
+//   pressure_<t>.csv      pressure-profile probe: normal contact force per unit area on the
+//                         boundary <t> in `bins` height bins [Pa]
+//   surface.csv           surface-profile probe: top of the highest particle per x bin [m]
+//   loci.csv              loci probe: positions of the particles nearest to the given points
+//   coordination.csv      coordination number (2 × particle contacts / particles)
 #include "demfem/dem/run.hpp"
 
-#include <stdexcept>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "demfem/dem/engine.hpp"
+#include "demfem/dem/io.hpp"
+#if __has_include("demfem/dem/pack.hpp")
+#include "demfem/dem/pack.hpp"
+#define DEMFEM_DEM_HAS_PACK 1
+#endif
+#include "demfem/scene/csv.hpp"
+#include "demfem/scene/load.hpp"
 
 namespace demfem::dem {
 
-RunSummary run(const scene::Scene& /*scene*/, const RunOptions& /*options*/) {
-  RunSummary s;
-  s.ok = false;
-  s.message = "the DEM engine is not built yet";
-  return s;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+struct ThrustTarget {
+  std::string name;
+  int boundary = -1;
+};
+
+// Unit normal of a boundary's chord (first → last vertex), used to split its reaction.
+std::pair<double, double> chord_normal(const std::vector<scene::Vec2>& v) {
+  if (v.size() < 2) return {1.0, 0.0};
+  double dx = v.back().x - v.front().x, dz = v.back().z - v.front().z;
+  if (v.size() > 2 && std::hypot(dx, dz) == 0.0) { // closed outline: use its first edge
+    dx = v[1].x - v[0].x;
+    dz = v[1].z - v[0].z;
+  }
+  const double l = std::hypot(dx, dz);
+  return l > 0.0 ? std::pair{dz / l, -dx / l} : std::pair{1.0, 0.0};
+}
+
+} // namespace
+
+RunSummary run(const scene::Scene& scene, const RunOptions& options) {
+  RunSummary summary;
+  const auto t_start = Clock::now();
+  if (!scene.soil.dem) {
+    scene::Diagnostic d;
+    d.file = scene.source_file;
+    d.key = "soil.dem";
+    d.message = "the DEM solver needs a [soil.dem] section";
+    throw scene::SceneError({d});
+  }
+  const auto out = options.out_dir / "dem";
+  std::filesystem::create_directories(out);
+
+  // ---- build ------------------------------------------------------------------------------
+  Engine e(make_config(scene));
+#ifdef DEMFEM_DEM_HAS_PACK
+  {
+    const PackResult pr = pack_or_load(scene, options.out_dir, options.progress);
+    const auto& p = pr.particles;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
+  }
+#else
+  if (scene.soil.dem->particles.empty()) {
+    scene::Diagnostic d;
+    d.file = scene.source_file;
+    d.key = "soil.dem.particles";
+    d.message = "this build has no packing generator; list the particles explicitly";
+    throw scene::SceneError({d});
+  }
+  for (const auto& q : scene.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+#endif
+  for (const auto& w : scene.walls) e.add_wall(w);
+  for (const auto& s : scene.structures) e.add_structure(s);
+  const double dt_scene = scene.soil.dem->dt;
+  try {
+    e.set_dt(dt_scene > 0.0 ? dt_scene : e.auto_dt());
+  } catch (scene::SceneError& err) {
+    auto diags = err.diagnostics();
+    for (auto& d : diags) d.file = scene.source_file;
+    throw scene::SceneError(diags);
+  }
+  summary.particles = e.particles().size();
+
+  // ---- events: friction changes and wall openings, in time order ----------------------------
+  struct Ev {
+    double time;
+    const scene::Event* event;
+    std::string wall;
+  };
+  std::vector<Ev> events;
+  for (const auto& ev : scene.events) events.push_back({ev.time, &ev, ev.wall});
+  for (const auto& w : scene.walls)
+    if (w.opens_at) events.push_back({*w.opens_at, nullptr, w.name});
+  std::stable_sort(events.begin(), events.end(),
+                   [](const Ev& a, const Ev& b) { return a.time < b.time; });
+  std::size_t next_event = 0;
+
+  // ---- probes -----------------------------------------------------------------------------
+  const double probe_dt = scene.output.probe_interval > 0.0 ? scene.output.probe_interval : 0.01;
+  scene::TimeSeriesOptions csv_opt;
+  csv_opt.comments = {fmt::format("demfem dem run of {}", scene.label())};
+  csv_opt.flush_every_rows = 50;
+  scene::TimeSeriesWriter energy_csv(
+      out / "energy.csv",
+      {"time [s]", "kinetic [J]", "rotational [J]", "potential [J]", "spring_normal [J]",
+       "spring_shear [J]", "friction [J]", "damping [J]", "rebound [J]", "external_work [J]",
+       "gravity_work [J]", "imbalance [J]"},
+      csv_opt);
+  std::optional<scene::TimeSeriesWriter> struct_csv, wall_csv, surface_csv, loci_csv, coord_csv;
+  std::vector<std::pair<std::size_t, scene::TimeSeriesWriter>> pressure_csv; // probe index
+  if (!e.structures().empty()) {
+    std::vector<std::string> cols{"time [s]"};
+    for (const auto& s : e.structures())
+      for (const char* q : {"settlement [m]", "rotation [rad]", "moment [N·m]", "force_x [N]",
+                            "force_z [N]", "applied_moment [N·m]", "displacement_x [m]"})
+        cols.push_back(s.name + "." + q);
+    struct_csv.emplace(out / "structures.csv", cols, csv_opt);
+  }
+  std::vector<ThrustTarget> thrust;
+  auto add_thrust = [&](const std::string& name) {
+    const int b = e.boundary_index(name);
+    if (b < 0) return;
+    for (const auto& t : thrust)
+      if (t.boundary == b) return;
+    thrust.push_back({name, b});
+  };
+  for (const auto& w : scene.walls)
+    if (w.record) add_thrust(w.name);
+  for (const auto& s : scene.structures)
+    if (s.kind == scene::StructureKind::Wall ||
+        std::find(s.record.begin(), s.record.end(), "thrust") != s.record.end())
+      add_thrust(s.name);
+  std::vector<std::uint32_t> loci_ids;
+  int surface_bins = 0;
+  for (std::size_t k = 0; k < scene.probes.size(); ++k) {
+    const auto& pr = scene.probes[k];
+    switch (pr.kind) {
+    case scene::ProbeKind::WallThrust: add_thrust(pr.target); break;
+    case scene::ProbeKind::PressureProfile: {
+      if (e.boundary_index(pr.target) < 0) break;
+      std::vector<std::string> cols{"time [s]"};
+      for (int b = 0; b < pr.bins; ++b) cols.push_back(fmt::format("{}.bin{} [Pa]", pr.target, b));
+      pressure_csv.emplace_back(k, scene::TimeSeriesWriter(out / ("pressure_" + pr.target + ".csv"),
+                                                           cols, csv_opt));
+      break;
+    }
+    case scene::ProbeKind::SurfaceProfile: {
+      surface_bins = pr.bins;
+      std::vector<std::string> cols{"time [s]"};
+      for (int b = 0; b < pr.bins; ++b) cols.push_back(fmt::format("surface.bin{} [m]", b));
+      surface_csv.emplace(out / "surface.csv", cols, csv_opt);
+      break;
+    }
+    case scene::ProbeKind::Loci: {
+      const auto& p = e.particles();
+      std::vector<std::string> cols{"time [s]"};
+      for (const auto& q : pr.points) {
+        std::size_t best = 0;
+        double bd = 1e300;
+        for (std::size_t i = 0; i < p.size(); ++i) {
+          const double d = std::hypot(p.x[i] - q.x, p.z[i] - q.z);
+          if (d < bd) {
+            bd = d;
+            best = i;
+          }
+        }
+        if (p.size() == 0) break;
+        e.particles().flags[best] |= kFlagTagged;
+        loci_ids.push_back(p.id[best]);
+        cols.push_back(fmt::format("p{}.x [m]", p.id[best]));
+        cols.push_back(fmt::format("p{}.z [m]", p.id[best]));
+      }
+      loci_csv.emplace(out / "loci.csv", cols, csv_opt);
+      break;
+    }
+    case scene::ProbeKind::Coordination:
+      coord_csv.emplace(out / "coordination.csv",
+                        std::vector<std::string>{"time [s]", "coordination [-]"}, csv_opt);
+      break;
+    default: break;
+    }
+  }
+  if (!thrust.empty()) {
+    std::vector<std::string> cols{"time [s]"};
+    for (const auto& t : thrust)
+      for (const char* q : {"thrust [N]", "reaction_x [N]", "reaction_z [N]"})
+        cols.push_back(t.name + "." + q);
+    wall_csv.emplace(out / "walls.csv", cols, csv_opt);
+  }
+  // Domain extent for profiles.
+  double xmin = 0, xmax = 1;
+  if (!scene.domain.empty()) {
+    xmin = xmax = scene.domain[0].x;
+    for (const auto& q : scene.domain) {
+      xmin = std::min(xmin, q.x);
+      xmax = std::max(xmax, q.x);
+    }
+  }
+
+  std::vector<ContactView> contacts;
+  std::vector<scene::Vec2> verts;
+  double e0 = 0.0, energy_scale = 0.0;
+  bool e0_set = false;
+  auto write_probes = [&] {
+    const double t = e.time();
+    const auto b = e.energy();
+    if (!e0_set) {
+      e0 = b.total();
+      e0_set = true;
+      energy_scale = b.kinetic + b.rotational;
+    }
+    energy_csv.append({t, b.kinetic, b.rotational, b.potential, b.spring_normal, b.spring_shear,
+                       b.friction, b.damping, b.rebound, b.external_work, b.gravity_work,
+                       b.total() - e0});
+    // Blow-up by energy jump: kinetic energy far above everything that was put in.
+    energy_scale = std::max(energy_scale, std::abs(b.gravity_work) + std::abs(b.external_work) +
+                                              b.spring_normal + b.spring_shear);
+    // (energy_scale starts at the initial kinetic energy and never decreases)
+    if (b.kinetic + b.rotational > 10.0 * energy_scale + 1e-9 && t > 0.0 && !e.failed())
+      return fmt::format("energy jump: kinetic energy {:.4g} J exceeds 10 × the energy put in "
+                         "({:.4g} J)", b.kinetic + b.rotational, energy_scale);
+    if (struct_csv) {
+      std::vector<double> row{t};
+      for (const auto& s : e.structures())
+        row.insert(row.end(), {-s.uz, s.rot, s.soil_moment, s.soil_fx, s.soil_fz,
+                               s.applied_moment, s.ux});
+      struct_csv->append(row);
+    }
+    if (wall_csv) {
+      std::vector<double> row{t};
+      for (const auto& th : thrust) {
+        const auto& B = e.boundaries()[static_cast<std::size_t>(th.boundary)];
+        e.boundary_vertices(th.boundary, verts);
+        const auto [nx, nz] = chord_normal(verts);
+        row.insert(row.end(),
+                   {std::abs(B.reaction_x * nx + B.reaction_z * nz), B.reaction_x, B.reaction_z});
+      }
+      wall_csv->append(row);
+    }
+    const bool need_contacts = !pressure_csv.empty() || coord_csv;
+    if (need_contacts) e.contacts(contacts);
+    for (auto& [k, w] : pressure_csv) {
+      const auto& pr = scene.probes[k];
+      const int bi = e.boundary_index(pr.target);
+      e.boundary_vertices(bi, verts);
+      double z0 = verts.empty() ? 0 : verts[0].z, z1 = z0;
+      for (const auto& v : verts) {
+        z0 = std::min(z0, v.z);
+        z1 = std::max(z1, v.z);
+      }
+      const double h = (z1 - z0) / pr.bins;
+      std::vector<double> row(static_cast<std::size_t>(pr.bins) + 1, 0.0);
+      row[0] = t;
+      for (const auto& c : contacts)
+        if (c.j == -1 - static_cast<std::int64_t>(bi) && h > 0.0) {
+          const auto bin = std::clamp(static_cast<int>((c.cz - z0) / h), 0, pr.bins - 1);
+          row[static_cast<std::size_t>(bin) + 1] += c.fn / (h * e.config().thickness);
+        }
+      w.append(row);
+    }
+    if (surface_csv) {
+      std::vector<double> row(static_cast<std::size_t>(surface_bins) + 1, -1e300);
+      row[0] = t;
+      const auto& p = e.particles();
+      const double h = (xmax - xmin) / surface_bins;
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        if (p.flags[i] & kFlagRemoved) continue;
+        const int bin = static_cast<int>((p.x[i] - xmin) / h);
+        if (bin < 0 || bin >= surface_bins) continue;
+        auto& v = row[static_cast<std::size_t>(bin) + 1];
+        v = std::max(v, p.z[i] + p.radius[i]);
+      }
+      for (std::size_t k = 1; k < row.size(); ++k)
+        if (row[k] < -1e299) row[k] = std::nan("");
+      surface_csv->append(row);
+    }
+    if (loci_csv) {
+      std::vector<double> row{t};
+      for (auto id : loci_ids) {
+        const long i = e.index_of(id);
+        row.push_back(i >= 0 ? e.particles().x[static_cast<std::size_t>(i)] : std::nan(""));
+        row.push_back(i >= 0 ? e.particles().z[static_cast<std::size_t>(i)] : std::nan(""));
+      }
+      loci_csv->append(row);
+    }
+    if (coord_csv) {
+      std::size_t pp = 0, active = 0;
+      for (const auto& c : contacts)
+        if (c.j >= 0) ++pp;
+      for (auto f : e.particles().flags)
+        if (!(f & kFlagRemoved)) ++active;
+      coord_csv->append({t, active ? 2.0 * static_cast<double>(pp) / static_cast<double>(active) : 0.0});
+    }
+    return std::string();
+  };
+
+  // ---- snapshots (VTK, through the I/O layer) ------------------------------------------------
+  std::optional<io::PvdCollection> pvd_particles, pvd_chains, pvd_bounds;
+  long long snap = 0;
+  std::vector<BoundaryView> bviews;
+  auto write_snapshot = [&] {
+    if (!scene.output.vtk) return;
+    if (!pvd_particles) {
+      std::filesystem::create_directories(out / "vtk");
+      pvd_particles.emplace(out / "particles.pvd");
+      pvd_bounds.emplace(out / "boundaries.pvd");
+      if (scene.output.force_chains) pvd_chains.emplace(out / "force_chains.pvd");
+    }
+    const auto pf = out / "vtk" / io::numbered_file_name("particles", snap, "vtp");
+    io::write_particles_vtp(pf, e.particles());
+    pvd_particles->add(e.time(), pf);
+    e.boundary_views(bviews);
+    const auto bf = out / "vtk" / io::numbered_file_name("boundaries", snap, "vtp");
+    io::write_boundaries_vtp(bf, bviews);
+    pvd_bounds->add(e.time(), bf);
+    if (pvd_chains) {
+      e.contacts(contacts);
+      const auto cf = out / "vtk" / io::numbered_file_name("force_chains", snap, "vtp");
+      io::write_force_chains_vtp(cf, e.particles(), contacts);
+      pvd_chains->add(e.time(), cf);
+    }
+    ++snap;
+  };
+
+  // ---- time loop ----------------------------------------------------------------------------
+  const double t_end = scene.info.duration;
+  const double dt = e.dt();
+  double next_probe = 0.0, next_snap = 0.0;
+  const double snap_dt = scene.output.interval > 0.0 ? scene.output.interval : t_end;
+  auto last_progress = Clock::now();
+  const auto loop_start = Clock::now();
+  std::string failure;
+  auto report = [&](const char* stage) {
+    if (!options.progress) return;
+    scene::Progress pg;
+    pg.stage = stage;
+    pg.time = e.time();
+    pg.end_time = t_end;
+    pg.step = e.stats().steps;
+    pg.wall_seconds = seconds_since(loop_start);
+    options.progress(pg);
+  };
+  report("dem");
+  while (e.time() < t_end - 0.5 * dt) {
+    while (next_event < events.size() && events[next_event].time <= e.time() + 0.5 * dt) {
+      const auto& ev = events[next_event++];
+      if (!ev.event || ev.event->action == scene::EventAction::OpenWall) {
+        if (e.boundary_index(ev.wall) >= 0) e.open_wall(ev.wall);
+      } else if (const auto* g = scene.group(ev.event->group)) {
+        e.set_friction(g->region, ev.event->mu_static, ev.event->mu_dynamic);
+      }
+    }
+    if (e.time() >= next_probe - 0.5 * dt) {
+      failure = write_probes();
+      next_probe += probe_dt;
+    }
+    if (e.time() >= next_snap - 0.5 * dt) {
+      write_snapshot();
+      next_snap += snap_dt;
+    }
+    if (!failure.empty()) break;
+    e.step();
+    if (e.failed()) {
+      failure = e.failure();
+      break;
+    }
+    if ((e.stats().steps & 255) == 0 && seconds_since(last_progress) > 0.5) {
+      last_progress = Clock::now();
+      report("dem");
+    }
+  }
+  if (failure.empty()) {
+    failure = write_probes();
+    write_snapshot();
+  }
+  energy_csv.flush();
+  report("dem");
+  // Final state as a checkpoint (restart of a run is not wired yet: see the engine report).
+  try {
+    io::CheckpointMeta meta;
+    meta.time = e.time();
+    meta.step = e.stats().steps;
+    meta.dt = e.dt();
+    meta.label = scene.label();
+    io::write_checkpoint(out / "final.ckpt", e.particles(), meta);
+  } catch (const io::IoError&) {
+    // a failed checkpoint does not invalidate the run's results
+  }
+  summary.steps = e.stats().steps;
+  summary.simulated_time = e.time();
+  summary.wall_seconds = seconds_since(t_start);
+  if (failure.empty()) {
+    summary.ok = true;
+  } else {
+    summary.ok = false;
+    summary.message = fmt::format("DEM run stopped at step {}, t = {:.6g} s: {}", e.stats().steps,
+                                  e.time(), failure);
+  }
+  return summary;
 }
 
 } // namespace demfem::dem

@@ -120,6 +120,11 @@ std::string to_toml(const Scene& s) {
         {"dt_safety", d->dt_safety}, {"max_overlap", d->max_overlap}, {"fill", pts(d->fill)},
         {"packing", toml::table{{"ke_ratio", d->packing.ke_ratio}, {"max_time", d->packing.max_time},
                                 {"damping", d->packing.damping}, {"cache", d->packing.cache}}}});
+    if (!d->particles.empty()) {
+      toml::array list;
+      for (const auto& q : d->particles) list.push_back(toml::array{q[0], q[1], q[2], q[3], q[4], q[5]});
+      soil.get_as<toml::table>("dem")->insert("particles", list);
+    }
   }
   if (const auto& c = s.soil.continuum) {
     soil.insert("continuum", toml::table{

@@ -491,10 +491,31 @@ DemSoil read_dem_soil(Reader& r) {
     s.packing.cache = p.string("cache", s.packing.cache);
     p.finish({"ke_ratio", "max_time", "damping", "cache"});
   }
+  if (const toml::node* n = r.node("particles")) {
+    const auto* a = n->as_array();
+    if (!a) r.error("particles", "expected a list [[x, z, r], …] or [[x, z, r, vx, vz, omega], …]");
+    for (std::size_t i = 0; a && i < a->size(); ++i) {
+      const auto* e = (*a)[i].as_array();
+      std::array<double, 6> q{};
+      bool ok = e && (e->size() == 3 || e->size() == 6);
+      for (std::size_t k = 0; ok && k < e->size(); ++k) {
+        if (!(*e)[k].is_number()) ok = false;
+        else q[k] = (*e)[k].value<double>().value_or(0.0);
+      }
+      if (ok && !(q[2] > 0.0)) ok = false;
+      if (!ok)
+        r.error_at((*a)[i].source(), fmt::format("{}[{}]", r.key_path("particles"), i),
+                   "expected [x, z, r] or [x, z, r, vx, vz, omega] with r > 0");
+      else
+        s.particles.push_back(q);
+    }
+    if (a && static_cast<std::size_t>(s.count) != a->size())
+      r.error("particles", fmt::format("count = {} but {} particles are listed", s.count, a->size()));
+  }
   r.finish({"count", "radius", "density", "thickness", "contact", "kn", "ks", "mu_static",
             "mu_dynamic", "rebound", "rebound_speed", "tension", "tensile_strength", "eta_n",
             "eta_s", "restitution", "young", "poisson", "damping_c", "damping_d", "dt",
-            "dt_safety", "max_overlap", "fill", "packing"});
+            "dt_safety", "max_overlap", "fill", "packing", "particles"});
   return s;
 }
 

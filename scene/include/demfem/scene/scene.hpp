@@ -105,6 +105,9 @@ struct DemSoil {
   double max_overlap = 0.5;          // blow-up: overlap beyond this fraction of the radius
   Polygon fill;                      // region filled by packing (default: the domain polygon)
   Packing packing;
+  // Explicit particles [x, z, r, vx, vz, ω] (verification scenes); when given, no packing is
+  // generated and count must equal their number.
+  std::vector<std::array<double, 6>> particles;
 };
 
 struct ContinuumSoil {
