@@ -1,0 +1,90 @@
+// Packing: the initial granular assembly of a scene. Particles are drawn from the scene's radius
+// distribution with the scene seed, placed without overlap by random sequential addition in the
+// fill polygon (and, when it is too small to hold them loosely, in copies of it stacked above),
+// then deposited under gravity until they come to rest. The result is cached as a checkpoint
+// keyed by everything that shapes it, so every variant of a scene starts from the same assembly
+// and a rerun skips the deposition.
+//
+// Deposition (decided once for all scenes, documented in cases/README.md):
+//   * the scene's walls act (openings stay closed: an opening is an event of the run);
+//   * the scene's structures act as fixed obstacles where the scene places them (their loads,
+//     motions and dead weight are not applied), so soil settles around an embedded pile or
+//     foundation exactly as the run will find it;
+//   * the edges of the fill polygon that do not face upwards (outward normal n_z ≤ 0.5) and do
+//     not coincide with a scene wall or structure act as a temporary container, removed when the
+//     run starts, so a mass deposited on a slope (Ontake) keeps its section's shape; when copies
+//     are stacked above the fill, vertical walls at the fill's left and right extent guide them;
+//   * friction and contact law are the scene's; packing.damping adds global damping (ratio of
+//     critical for the mean particle) during deposition only.
+// It stops when kinetic energy < packing.ke_ratio × potential energy released, or at
+// packing.max_time.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "demfem/dem/state.hpp"
+#include "demfem/scene/progress.hpp"
+#include "demfem/scene/scene.hpp"
+
+namespace demfem::dem {
+
+// Portable uniform random numbers: std::mt19937_64 is specified bit-exactly by the standard; the
+// mapping to [0, 1) is ours (53 high bits), unlike std::uniform_real_distribution whose output
+// differs between standard libraries.
+class PortableRandom {
+public:
+  explicit PortableRandom(std::uint64_t seed);
+  double uniform();                     // [0, 1)
+  double uniform(double lo, double hi); // [lo, hi)
+
+private:
+  std::mt19937_64 engine_;
+};
+
+// `count` radii from the distribution (uniform in r; equal; tabulated histogram: radius r_k with
+// relative frequency w_k), in the order they are placed. Deterministic for a given seed.
+[[nodiscard]] std::vector<double> draw_radii(const scene::RadiusDistribution& d, int count,
+                                             std::uint64_t seed);
+
+// 64-bit FNV-1a digest of everything that shapes the packing: fill polygon, count, radius
+// distribution, density, thickness, contact law and its parameters, friction, gravity, walls,
+// structure outlines, seed and the packing settings. Hex string of 16 digits.
+[[nodiscard]] std::string packing_key(const scene::Scene& scene);
+
+// Where the packing of `scene` is cached: packing.cache (relative paths are taken relative to the
+// scene file's directory) or <out_dir>/packing; file name packing-<key>.ckpt.
+[[nodiscard]] std::filesystem::path packing_path(const scene::Scene& scene,
+                                                 const std::filesystem::path& out_dir);
+
+struct PackResult {
+  Particles particles;             // at rest, velocities zeroed, ids 0…count−1 in placement order
+  std::filesystem::path path;      // the checkpoint
+  std::string key;
+  bool from_cache = false;
+  double deposition_time = 0.0;    // simulated [s]
+  long long steps = 0;
+  double ke_ratio = 0.0;           // kinetic / released potential energy at the end
+  double wall_seconds = 0.0;
+  int layers = 1;                  // copies of the fill used for placement
+  bool converged = false;          // ke_ratio reached before max_time
+  double surface_max = 0.0;        // highest particle top after deposition [m]
+};
+
+// Places the particles without overlap (no deposition). Throws scene::SceneError (key
+// soil.dem.fill) when they cannot be placed.
+[[nodiscard]] Particles place_particles(const scene::Scene& scene, int* layers = nullptr);
+
+// Always deposits (ignores the cache) and writes the checkpoint.
+PackResult pack(const scene::Scene& scene, const std::filesystem::path& out_dir,
+                const scene::ProgressFn& progress = {});
+
+// The scene's explicit particles (soil.dem.particles) when given; otherwise the cached packing
+// when its checkpoint exists and is valid; otherwise pack().
+PackResult pack_or_load(const scene::Scene& scene, const std::filesystem::path& out_dir,
+                        const scene::ProgressFn& progress = {});
+
+} // namespace demfem::dem
