@@ -12,6 +12,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "demfem/compare/figures.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
@@ -117,6 +118,12 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       r.ran = true;
       r.ok = x.ok;
       r.message = x.message;
+      if (x.ok && s.output.figures) { // issue 4: the run's figures and summary.json
+        const auto f = compare::write_run_figures(s, out, x.wall_seconds, x.steps);
+        spdlog::info("{}: {} figure(s) in {}, {}", s.label(), f.figures.size(),
+                     (out / "figures").string(), f.summary.string());
+        for (const auto& p : f.problems) spdlog::warn("figure: {}", p);
+      }
     } else {
 #ifdef DEMFEM_WITH_CONTINUUM
       continuum::RunOptions o;

@@ -1,0 +1,327 @@
+#include "demfem/compare/figures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <vtkDataArray.h>
+#include <vtkPointData.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkXMLPolyDataReader.h>
+
+#include "demfem/compare/plot.hpp"
+#include "demfem/dem/io.hpp"
+
+namespace demfem::compare {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+double loop_area(const std::vector<double>& x, const std::vector<double>& y) {
+  const std::size_t n = std::min(x.size(), y.size());
+  double a = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t j = (i + 1) % n;
+    a += x[i] * y[j] - x[j] * y[i]; // shoelace formula
+  }
+  return 0.5 * std::abs(a);
+}
+
+double peak_snapshot_speed(const fs::path& vtk_dir) {
+  double vmax = 0.0;
+  std::error_code ec;
+  if (!fs::is_directory(vtk_dir, ec)) return 0.0;
+  for (const auto& f : fs::directory_iterator(vtk_dir, ec)) {
+    const auto name = f.path().filename().string();
+    if (name.rfind("particles_", 0) != 0 || f.path().extension() != ".vtp") continue;
+    auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+    reader->SetFileName(f.path().string().c_str());
+    reader->Update();
+    auto* pd = reader->GetOutput();
+    if (!pd || !pd->GetPointData()) continue;
+    vtkDataArray* s = pd->GetPointData()->GetArray("speed");
+    if (!s) continue;
+    for (vtkIdType i = 0; i < s->GetNumberOfTuples(); ++i) vmax = std::max(vmax, s->GetTuple1(i));
+  }
+  return vmax;
+}
+
+namespace {
+
+double mean_between(const std::vector<double>& t, const std::vector<double>& y, double a, double b) {
+  double s = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < std::min(t.size(), y.size()); ++i)
+    if (t[i] >= a && t[i] <= b) {
+      s += y[i];
+      ++n;
+    }
+  return n ? s / n : std::nan("");
+}
+
+double max_abs(const std::vector<double>& y) {
+  double m = 0.0;
+  for (double v : y) m = std::max(m, std::abs(v));
+  return m;
+}
+
+CsvTable try_csv(const fs::path& p, RunFigures& out) {
+  std::error_code ec;
+  if (!fs::exists(p, ec)) return {};
+  try {
+    return read_csv(p);
+  } catch (const std::exception& e) {
+    out.problems.push_back(fmt::format("{}: {}", p.string(), e.what()));
+    return {};
+  }
+}
+
+Series ser(std::string label, std::vector<double> x, std::vector<double> y,
+           std::string style = "lines", std::string extra = "") {
+  Series r;
+  r.label = std::move(label);
+  r.x = std::move(x);
+  r.y = std::move(y);
+  r.style = std::move(style);
+  r.extra = std::move(extra);
+  return r;
+}
+
+PlotSpec spec_of(std::string title, std::string xl, std::string yl, std::vector<Series> series) {
+  PlotSpec p;
+  p.title = std::move(title);
+  p.xlabel = std::move(xl);
+  p.ylabel = std::move(yl);
+  p.series = std::move(series);
+  return p;
+}
+
+void draw(const PlotSpec& spec, const fs::path& png, RunFigures& out) {
+  std::string err;
+  if (plot(spec, png, &err))
+    out.figures.push_back(png);
+  else
+    out.problems.push_back(fmt::format("{}: {}", png.filename().string(), err));
+}
+
+std::string strip_unit(const std::string& c) {
+  const auto k = c.find(" [");
+  return k == std::string::npos ? c : c.substr(0, k);
+}
+
+} // namespace
+
+RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir, double wall_seconds,
+                             long long steps) {
+  RunFigures out;
+  const fs::path dem = run_dir / "dem";
+  const fs::path fig = run_dir / "figures";
+  fs::create_directories(fig);
+  json sum;
+  sum["scene"] = scene.label();
+  sum["duration_s"] = scene.info.duration;
+  if (wall_seconds > 0.0) sum["run_wall_seconds"] = wall_seconds;
+  if (steps > 0) sum["steps"] = steps;
+  if (scene.soil.dem) sum["particles"] = scene.soil.dem->count;
+
+  // ---- structures: settlement, rotation, moment, M–θ loops --------------------------------
+  const auto st = try_csv(dem / "structures.csv", out);
+  if (!st.rows.empty()) {
+    const auto t = st.column("time");
+    json js = json::object();
+    for (const auto& s : scene.structures) {
+      const auto settle = st.column(s.name + ".settlement");
+      const auto rot = st.column(s.name + ".rotation");
+      const auto mom = st.column(s.name + ".moment");
+      if (settle.empty()) continue;
+      json j;
+      j["final_settlement_m"] = settle.back();
+      j["max_settlement_m"] = *std::max_element(settle.begin(), settle.end());
+      std::vector<double> theta(rot.size()); // paper's θ: clockwise positive
+      for (std::size_t i = 0; i < rot.size(); ++i) theta[i] = -rot[i];
+      j["max_abs_rotation_rad"] = max_abs(rot);
+      if (!rot.empty()) j["final_rotation_paper_theta_rad"] = theta.back();
+      draw(spec_of(fmt::format("{}: settlement (penetration) — {}", s.name, scene.label()), "time [s]",
+            "settlement [m] (down +)", {ser(s.name, t, settle)}),
+           fig / (s.name + "_settlement.png"), out);
+      if (s.dof_rotation != scene::DofMode::Fixed && !rot.empty()) {
+        draw(spec_of(fmt::format("{}: rotation θ (clockwise +) — {}", s.name, scene.label()), "time [s]",
+              "θ [rad]", {ser(s.name, t, theta)}),
+             fig / (s.name + "_rotation.png"), out);
+        draw(spec_of(fmt::format("{}: soil moment about the pivot — {}", s.name, scene.label()), "time [s]",
+              "M [N·m]", {ser(s.name, t, mom)}),
+             fig / (s.name + "_moment.png"), out);
+        draw(spec_of(fmt::format("{}: moment–rotation — {}", s.name, scene.label()), "θ [rad]", "M [N·m]",
+              {ser(s.name, theta, mom)}),
+             fig / (s.name + "_moment_rotation.png"), out);
+        // Loop area per load period (energy dissipated per cycle) when the load is A·t·sin ωt.
+        const auto& f = s.force_x.kind == scene::TimeFunction::Kind::TSine ? s.force_x : s.moment;
+        if (f.kind == scene::TimeFunction::Kind::TSine && f.omega > 0.0 && !mom.empty()) {
+          const double T = 2.0 * std::numbers::pi / f.omega;
+          json areas = json::array();
+          for (double a = 0.0; a + T <= t.back() + 1e-9; a += T) {
+            std::vector<double> xs, ys;
+            for (std::size_t i = 0; i < t.size(); ++i)
+              if (t[i] >= a && t[i] < a + T) {
+                xs.push_back(theta[i]);
+                ys.push_back(mom[i]);
+              }
+            areas.push_back(loop_area(xs, ys));
+          }
+          j["loop_area_per_cycle_J"] = areas;
+          j["load_period_s"] = T;
+        }
+      }
+      js[s.name] = j;
+    }
+    sum["structures"] = js;
+  }
+
+  // ---- walls: thrust and its running mean ---------------------------------------------------
+  const auto wl = try_csv(dem / "walls.csv", out);
+  if (!wl.rows.empty()) {
+    const auto t = wl.column("time");
+    json jw = json::object();
+    for (const auto& c : wl.columns) {
+      if (c.find(".thrust") == std::string::npos) continue;
+      const std::string name = strip_unit(c);
+      const auto y = wl.column(name);
+      const double dtp = t.size() > 1 ? t[1] - t[0] : 0.01;
+      const auto avg = running_mean(y, static_cast<std::size_t>(std::max(1.0, 1.0 / dtp))); // 1 s window
+      draw(spec_of(fmt::format("{} — {}", name, scene.label()), "time [s]", "force [N]",
+            {ser("thrust", t, y), ser("running mean (1 s)", t, avg, "lines", "lw 3")}),
+           fig / (name + ".png"), out);
+      json j;
+      const double stat = mean_between(t, y, 0.0, 0.1); // before the shaking has built up
+      const double tend = t.empty() ? 0.0 : t.back();
+      j["static_N"] = stat;
+      j["mean_early_N"] = mean_between(t, y, 1.0, 3.0);
+      j["mean_late_N"] = mean_between(t, y, std::max(0.0, tend - 3.0), tend);
+      if (std::isfinite(stat) && stat != 0.0) j["late_over_static"] = j["mean_late_N"].get<double>() / stat;
+      jw[name] = j;
+    }
+    sum["walls"] = jw;
+  }
+
+  // ---- surface profile: initial vs final, subsidence ------------------------------------------
+  const auto sf = try_csv(dem / "surface.csv", out);
+  if (sf.rows.size() >= 2) {
+    const std::size_t nb = sf.columns.size() - 1;
+    double x0 = 0, x1 = 1;
+    if (!scene.domain.empty()) {
+      x0 = x1 = scene.domain[0].x;
+      for (const auto& q : scene.domain) {
+        x0 = std::min(x0, q.x);
+        x1 = std::max(x1, q.x);
+      }
+    }
+    std::vector<double> xb(nb), z0(nb), z1(nb), dz(nb);
+    double max_sub = 0.0, max_rise = 0.0;
+    for (std::size_t b = 0; b < nb; ++b) {
+      xb[b] = x0 + (x1 - x0) * (static_cast<double>(b) + 0.5) / static_cast<double>(nb);
+      z0[b] = sf.rows.front()[b + 1];
+      z1[b] = sf.rows.back()[b + 1];
+      dz[b] = z1[b] - z0[b];
+      if (std::isfinite(dz[b])) {
+        max_sub = std::max(max_sub, -dz[b]);
+        max_rise = std::max(max_rise, dz[b]);
+      }
+    }
+    draw(spec_of(fmt::format("surface — {}", scene.label()), "x [m]", "z [m]",
+          {ser("start", xb, z0), ser("end", xb, z1, "lines", "lw 2")}),
+         fig / "surface_profile.png", out);
+    draw(spec_of(fmt::format("surface change (end − start) — {}", scene.label()), "x [m]", "Δz [m]",
+          {ser("Δz", xb, dz, "linespoints")}),
+         fig / "surface_change.png", out);
+    sum["surface"]["max_subsidence_m"] = max_sub;
+    sum["surface"]["max_rise_m"] = max_rise;
+  }
+
+  // ---- loci -----------------------------------------------------------------------------------
+  const auto lc = try_csv(dem / "loci.csv", out);
+  if (!lc.rows.empty()) {
+    PlotSpec ps = spec_of(fmt::format("loci of tagged particles — {}", scene.label()), "x [m]", "z [m]", {});
+    ps.equal_axes = true;
+    const auto t = lc.column("time");
+    double vmax = 0.0;
+    for (std::size_t c = 1; c + 1 < lc.columns.size(); c += 2) {
+      const auto x = lc.column(strip_unit(lc.columns[c]));
+      const auto z = lc.column(strip_unit(lc.columns[c + 1]));
+      ps.series.push_back(ser(strip_unit(lc.columns[c]).substr(0, strip_unit(lc.columns[c]).find('.')), x, z));
+      for (std::size_t i = 1; i < std::min({x.size(), z.size(), t.size()}); ++i)
+        if (t[i] > t[i - 1])
+          vmax = std::max(vmax, std::hypot(x[i] - x[i - 1], z[i] - z[i - 1]) / (t[i] - t[i - 1]));
+    }
+    draw(ps, fig / "loci.png", out);
+    sum["loci_peak_speed_m_s"] = vmax;
+  }
+
+  // ---- energy ---------------------------------------------------------------------------------
+  const auto en = try_csv(dem / "energy.csv", out);
+  if (!en.rows.empty()) {
+    const auto t = en.column("time");
+    draw(spec_of(fmt::format("energy — {}", scene.label()), "time [s]", "[J]",
+          {ser("kinetic", t, en.column("kinetic")), ser("friction (cum.)", t, en.column("friction")), ser("rebound (cum.)", t, en.column("rebound"))}),
+         fig / "energy.png", out);
+  }
+
+  // ---- peak speed over the snapshots; final snapshot with force chains -------------------------
+  const double vpk = peak_snapshot_speed(dem / "vtk");
+  if (vpk > 0.0) {
+    sum["snapshot_peak_speed_m_s"] = vpk;
+    sum["snapshot_peak_speed_km_h"] = vpk * 3.6;
+  }
+  std::error_code ec;
+  if (fs::exists(dem / "final.ckpt", ec)) {
+    try {
+      const auto ck = dem::io::read_checkpoint(dem / "final.ckpt");
+      const auto& p = ck.particles;
+      // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
+      const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
+      std::vector<dem::ContactView> cv;
+      for (std::size_t i = 0; i < p.size(); ++i)
+        for (std::size_t j = i + 1; j < p.size(); ++j) {
+          if ((p.flags[i] | p.flags[j]) & dem::kFlagRemoved) continue;
+          const double d = std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
+          const double delta = p.radius[i] + p.radius[j] - d;
+          if (delta <= 0.0) continue;
+          dem::ContactView c;
+          c.i = static_cast<std::uint32_t>(i);
+          c.j = static_cast<std::int64_t>(j);
+          c.fn = kn * delta;
+          cv.push_back(c);
+        }
+      std::vector<dem::BoundaryView> bv;
+      for (const auto& w : scene.walls) {
+        dem::BoundaryView b;
+        b.name = w.name;
+        for (const auto& q : w.points) {
+          b.x.push_back(q.x);
+          b.z.push_back(q.z);
+        }
+        bv.push_back(b);
+      }
+      SnapshotSpec ss;
+      ss.title = fmt::format("end of run (t = {:.3g} s), colour = speed, chains = K_n·δ — {}",
+                             ck.meta.time, scene.label());
+      std::string err;
+      if (plot_particles(p, cv, bv, ss, fig / "snapshot_final.png", &err))
+        out.figures.push_back(fig / "snapshot_final.png");
+      else
+        out.problems.push_back("snapshot_final: " + err);
+    } catch (const std::exception& e) {
+      out.problems.push_back(std::string("final.ckpt: ") + e.what());
+    }
+  }
+
+  if (!out.problems.empty()) sum["figure_problems"] = out.problems;
+  out.summary = run_dir / "summary.json";
+  std::ofstream(out.summary) << sum.dump(2) << "\n";
+  return out;
+}
+
+} // namespace demfem::compare
