@@ -571,14 +571,14 @@ template <class Law> void Engine::pair_forces(const Law& law) {
       const double dx = xi - x[j], dz = zi - z[j];
       const double rsum = ri + rad[j];
       const double d2 = dx * dx + dz * dz;
+      const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
       if (d2 >= rsum * rsum && h.flags == 0) continue; // not touching, no history
       const double dist = std::sqrt(d2);
       const double delta = rsum - dist; // eq. 2.3
       const double inv = dist > 0.0 ? 1.0 / dist : 0.0;
       const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4: cos α, sin α)
       const double tx = -nz, tz = nx;
-      const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta;
-      const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
+      const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta; // l_i + l_j = |x_i − x_j|
       ContactInput in;
       in.delta = delta;
       in.vn = -(dvx * nx + dvz * nz);                        // eq. 2.5, approach positive

@@ -23,10 +23,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <optional>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
@@ -62,6 +65,44 @@ std::pair<double, double> chord_normal(const std::vector<scene::Vec2>& v) {
   }
   const double l = std::hypot(dx, dz);
   return l > 0.0 ? std::pair{dz / l, -dx / l} : std::pair{1.0, 0.0};
+}
+
+// Energy budget at the end of a run: printed (spdlog, info) and written to energy_budget.json.
+// Closure error = |ΔE_total| / (|gravity work| + |external work|), ΔE_total the change of
+// kinetic + potential + springs + dissipated − external work since the first probe.
+void log_energy_budget(const EnergyBudget& b, double e0, double t,
+                       const std::filesystem::path& json_path) {
+  const double injected = std::abs(b.gravity_work) + std::abs(b.external_work);
+  const double imbalance = b.total() - e0;
+  const double closure = injected > 0.0 ? std::abs(imbalance) / injected : 0.0;
+  const std::pair<const char*, double> rows[] = {
+      {"kinetic", b.kinetic},
+      {"rotational", b.rotational},
+      {"potential change", b.potential},
+      {"springs (normal)", b.spring_normal},
+      {"springs (shear)", b.spring_shear},
+      {"friction (dissipated)", b.friction},
+      {"damping (dissipated)", b.damping},
+      {"rebound (dissipated)", b.rebound},
+      {"external work", b.external_work},
+      {"gravity work", b.gravity_work},
+      {"imbalance", imbalance},
+  };
+  spdlog::info("DEM energy budget at t = {:.6g} s [J]:", t);
+  for (const auto& [name, v] : rows) spdlog::info("  {:<24} {:>14.6e}", name, v);
+  spdlog::info("  {:<24} {:>14.3e}  (|imbalance| / (|gravity work| + |external work|))",
+               "closure error", closure);
+  std::string js = "{\n";
+  js += fmt::format("  \"time\": {:.17g},\n", t);
+  const char* keys[] = {"kinetic", "rotational", "potential_change", "spring_normal",
+                        "spring_shear", "friction", "damping", "rebound", "external_work",
+                        "gravity_work", "imbalance"};
+  for (std::size_t k = 0; k < std::size(keys); ++k)
+    js += fmt::format("  \"{}\": {:.17g},\n", keys[k], rows[k].second);
+  js += fmt::format("  \"closure_error\": {:.17g}\n}}\n", closure);
+  std::ofstream f(json_path);
+  f << js;
+  if (!f) spdlog::warn("could not write {}", json_path.string());
 }
 
 } // namespace
@@ -404,6 +445,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   }
   energy_csv.flush();
   report("dem");
+  log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a checkpoint (restart of a run is not wired yet: see the engine report).
   try {
     io::CheckpointMeta meta;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "demfem/dem/engine.hpp"
@@ -423,8 +424,10 @@ TEST(DemConvergence, CollisionErrorFallsWithTimeStep) {
 // Energy budget of a frictional, rebounding settle (particles dropped into a box, impacts above
 // V_0): kinetic + potential + springs + friction + rebound − external work stays constant
 // within 1 % of the work done by gravity, at a resolved step Δt = auto/10. At the default Δt
-// (auto) the closure error is printed, not asserted: it is dominated by the contact-onset
-// discretisation (a contact switches on inside a step), measured ≈ 5 % for this drop.
+// (auto) the closure error is printed, not asserted: measured 5.0 % with f_n = K_n δ at every
+// step, 4.5 % with the energy-consistent normal switch (contact_laws.hpp). The rest is not the
+// normal spring (a head-on impact is now exact); suspected: the shear spring's full-step slip
+// increment at touch and the rebound impulse's interplay with friction — open.
 namespace {
 double budget_error(double dt_factor, EnergyBudget& b) {
   auto c = base_config();
@@ -488,4 +491,60 @@ TEST(DemTimeStep, BlowUpIsDetected) {
   ASSERT_TRUE(e.failed());
   EXPECT_NE(e.failure().find("overlap"), std::string::npos) << e.failure();
   EXPECT_EQ(e.stats().steps, 1);
+}
+
+// Dilute elastic frictionless gas (64 equal disks, area fraction ≈ 0.2, in a frictionless box,
+// no rebound rule, no gravity) at the DEFAULT Δt (ω Δt ≈ 0.57 for a pair): every contact switches
+// on and off inside a step, tens of thousands of times in 1e5 steps. Energy = kinetic + spring,
+// drift = change between the averages over the first and the last 2000 steps.
+// Measured: with f_n = K_n δ at every step the gas heated (× 6.8) and blew up at step 91407;
+// with the energy-consistent switch (contact_laws.hpp, detail::linear_spring_force) a head-on
+// impact is exact to round-off, but oblique impacts still lose ~1e-4 of their energy each (the
+// switch uses the linear normal drift δ − v_n Δt, not the curved one) and the gas ends at 0.72 of
+// its energy. Target (not met yet, hence disabled): |drift| < 2 %.
+namespace {
+double gas_drift(long steps, bool& failed, std::string& why) {
+  auto c = base_config();
+  c.materials = {Material{0.0, 0.0}};
+  c.rebound = 1.0;
+  Engine e(c);
+  const double r = 0.05, L = 1.6;
+  e.add_wall({{0, 0}, {L, 0}, {L, L}, {0, L}, {0, 0}}, "box");
+  std::mt19937_64 g(17);
+  for (int k = 0; k < 64; ++k)
+    e.add_particle(0.1 + 0.2 * (k % 8), 0.1 + 0.2 * (k / 8), r, 2.0 * (uniform(g) - 0.5),
+                   2.0 * (uniform(g) - 0.5));
+  e.set_dt(e.auto_dt());
+  const long win = 2000;
+  double first = 0, last = 0;
+  for (long s = 0; s < steps && !e.failed(); ++s) {
+    e.step();
+    const auto b = e.energy();
+    const double tot = b.kinetic + b.rotational + b.spring_normal + b.spring_shear;
+    if (s < win) first += tot;
+    if (s >= steps - win) last += tot;
+  }
+  failed = e.failed();
+  why = e.failure();
+  const double drift = (last - first) / first;
+  std::printf("gas: dt %.3g s, %ld steps, energy ratio last/first %.4f\n", e.dt(), steps,
+              last / first);
+  return drift;
+}
+} // namespace
+
+TEST(DemConservation, DISABLED_DiluteElasticGasEnergyDriftBelowTwoPercentAtDefaultDt) {
+  bool failed = false;
+  std::string why;
+  const double drift = gas_drift(100000, failed, why);
+  ASSERT_FALSE(failed) << why;
+  EXPECT_LT(std::abs(drift), 0.02);
+}
+
+// Regression guard for the heating described above: the gas must not blow up in 1e5 steps.
+TEST(DemConservation, DiluteElasticGasDoesNotBlowUpAtDefaultDt) {
+  bool failed = false;
+  std::string why;
+  (void)gas_drift(100000, failed, why);
+  EXPECT_FALSE(failed) << why;
 }

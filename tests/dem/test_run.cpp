@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "demfem/dem/engine.hpp"
@@ -49,6 +50,12 @@ TEST(DemRun, HeadOnCollisionScene) {
   const double m_star = 0.5 * 2650 * 3.14159265358979 * 0.05 * 0.05;
   const double expected = 0.5 * m_star * 1.6 * 1.6 * (1 - 0.01);
   EXPECT_NEAR(v[8], expected, 0.02 * expected);
+  // The end-of-run energy budget is written next to the CSV, with its rebound entry and closure.
+  std::ifstream js(o.out_dir / "dem" / "energy_budget.json");
+  ASSERT_TRUE(js.good());
+  const std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"rebound\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"closure_error\""), std::string::npos) << text;
 }
 
 // Settled box scene: the footing ends carried by the soil (force_z = its weight within 1 %).
