@@ -402,7 +402,15 @@ struct Model::Impl {
         const mc::Vec3 e = {{eps[q][0][0], eps[q][1][1], 2.0 * eps[q][0][1]}};
         mc::ElasticStrain tr = c0.ee;
         for (int k = 0; k < 3; ++k) tr.in_plane[k] += e[k] - c0.eps[k];
-        const mc::Result r = mc::integrate(P, tr);
+        mc::Result r = mc::integrate(P, tr);
+        if (r.region == mc::Return::Apex || r.region == mc::Return::TensionApex) {
+          // the consistent apex tangent is zero (perfect plasticity); a whole element at the apex
+          // would make K singular, so 1e-4 of the elastic tangent is kept there (affects the
+          // Newton rate only, never the converged stresses)
+          const mc::Mat3 De = mc::elastic_tangent(P);
+          for (int a = 0; a < 3; ++a)
+            for (int bb = 0; bb < 3; ++bb) r.tangent[a][bb] = 1e-4 * De[a][bb];
+        }
         s.ee = r.elastic;
         s.eps = e;
         s.stress = r.stress;
@@ -539,6 +547,7 @@ struct Model::Impl {
     return tmp.l2_norm();
   }
 
+  static constexpr double stagnation_tolerance = 1e-5;
   // Newton iteration to equilibrium at (lambda, gfactor) [and time t when dynamic].
   StepStats newton(bool dynamic) {
     StepStats st;
@@ -558,13 +567,16 @@ struct Model::Impl {
     inh.close();
     const bool sym = symmetric_tangent();
     double ref = 0.0;
+    std::ostringstream trace;
     for (int it = 0; it <= pb.newton_max_iterations; ++it) {
       const AffineConstraints<double>& cons = it == 0 ? inh : hom;
       assemble(true, cons, dynamic);
       if (dynamic) add_dynamic(true);
-      const double rn = free_norm(res);
+      // residual of the condensed system (periodic constraints fold rows): −rhs on free dofs
+      const double rn = it == 0 ? free_norm(res) : rhs.l2_norm();
       ref = std::max({ref, f_internal.l2_norm(), res.l2_norm()});
       st.residual = ref > 0 ? rn / ref : rn;
+      trace << "  it " << it << " |R|/ref=" << st.residual << "\n";
       if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
         st.converged = true;
         st.newton_iterations = it;
@@ -583,7 +595,7 @@ struct Model::Impl {
         if (it == 0) break; // the predictor carries the prescribed jump: take it whole
         assemble(false, hom, dynamic);
         if (dynamic) add_dynamic(false);
-        const double rl = free_norm(res);
+        const double rl = rhs.l2_norm();
         if (ls == 0 || rl < best) {
           best = rl;
           best_alpha = alpha;
@@ -591,11 +603,28 @@ struct Model::Impl {
         if (rl < rn) break;
         alpha *= 0.5;
       }
+      if (it > 0 && best >= rn && rn > 1e-3 * pb.newton_tolerance * ref) {
+        // no descent along the Newton direction. Non-smooth returns (points flipping between
+        // the apex and the cone) can stall Newton just above the tolerance: accept a stalled
+        // state below the stagnation tolerance (logged), else give up and let the caller cut.
+        u = u0;
+        if (rn <= stagnation_tolerance * ref) {
+          assemble(false, hom, dynamic);
+          if (dynamic) add_dynamic(false);
+          log << "accepted stalled Newton at |R|/ref=" << rn / ref << "\n";
+          st.converged = true;
+          st.newton_iterations = it;
+          return st;
+        }
+        break;
+      }
       if (it > 0 && alpha != best_alpha) {
         u = u0;
         u.add(best_alpha, du);
       }
     }
+    log << "newton failed: λ=" << lambda << " g=" << gfactor << " t=" << t
+        << " residual=" << st.residual << "\n" << trace.str();
     st.converged = false;
     st.newton_iterations = pb.newton_max_iterations;
     return st;
@@ -620,7 +649,7 @@ struct Model::Impl {
     lambda = lam0;
     gfactor = gf0;
     trial = committed;
-    if (depth >= 6) return st;
+    if (depth >= 8) return st;
     log << "step cut at λ=" << lam << "\n";
     StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1);
     if (!a.converged) return a;

@@ -40,7 +40,7 @@ TEST(ContinuumDynamic, ShearColumnFirstFrequency) {
   int newton = 0;
   for (int k = 1; k <= 700; ++k) {
     const StepStats st = m.dynamic_step(dt);
-    ASSERT_TRUE(st.converged);
+    ASSERT_TRUE(st.converged) << m.log();
     newton += st.newton_iterations;
     const double cur = m.displacement({0.5, H}).x;
     if (prev > 0 && cur <= 0) crossings.push_back(t_prev + dt * prev / (prev - cur));
