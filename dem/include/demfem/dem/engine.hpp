@@ -41,7 +41,7 @@ struct EngineConfig {
   double density = 2650.0, thickness = 1.0;
   double gravity = 9.81;                   // along −z [m/s²]
   double max_overlap = 0.5;                // blow-up: δ > max_overlap · r
-  double dt_safety = 0.2;
+  double dt_safety = 0.05;
   std::vector<Material> materials{Material{}}; // index 0: the soil
   // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
   bool shaking = false;
