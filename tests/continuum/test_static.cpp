@@ -226,3 +226,36 @@ TEST(ContinuumStatic, RankineActiveThrust) {
   EXPECT_NEAR(thrust, exact, 0.05 * exact);
   EXPECT_NEAR(half, thrust, 0.01 * thrust) << "thrust has not reached a plateau";
 }
+
+// Rigid smooth strip footing rocking on an elastic half-plane: K_r = M/θ = πGB²/(8(1−ν)) per
+// metre (Gazetas 1991, strip of width B).
+TEST(ContinuumStatic, StripFootingRockingStiffness) {
+  Problem pb;
+  const double B = 2.0, L = 100.0, E = 2.0e7, nu = 0.3, theta = 1.0e-4;
+  std::vector<double> half = graded(B, 0.125, L, 1.35);
+  pb.mesh.x0 = -L;
+  pb.mesh.z0 = -L;
+  pb.mesh.dx.assign(half.rbegin(), half.rend());
+  pb.mesh.dx.insert(pb.mesh.dx.end(), half.begin(), half.end());
+  pb.mesh.dz.assign(half.rbegin(), half.rend());
+  pb.soil = elastic(E, nu);
+  pb.gravity = 0.0;
+  Patch footing;
+  footing.name = "footing";
+  footing.a = {-0.5 * B, 0.0};
+  footing.b = {0.5 * B, 0.0};
+  footing.constrain_x = false; // smooth contact
+  footing.rotation = theta;
+  footing.pivot = {0.0, 0.0};
+  pb.patches.push_back(footing);
+  Model m(pb);
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(m.static_step(1.0).converged);
+  // the footing does positive work on the soil: the moment it applies is +Kθ
+  const double K = m.reaction(0).moment / theta;
+  const double G = E / (2 * (1 + nu));
+  const double exact = kPi * G * B * B / (8 * (1 - nu));
+  std::printf("rocking: dofs=%zu K=%.5e N·m/rad/m (exact %.5e) rel.err=%.3e wall=%.2fs\n",
+              m.n_dofs(), K, exact, (K - exact) / exact, seconds_since(t0));
+  EXPECT_NEAR(K, exact, 0.05 * exact);
+}
