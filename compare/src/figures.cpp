@@ -191,9 +191,16 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       const std::string name = strip_unit(c);
       const auto y = wl.column(name);
       const double dtp = t.size() > 1 ? t[1] - t[0] : 0.01;
-      const auto avg = running_mean(y, static_cast<std::size_t>(std::max(1.0, 1.0 / dtp))); // 1 s window
+      // Mean (DC) part: a window of whole shaking periods (≈ 1 s) cancels the oscillating part.
+      double window_s = 1.0;
+      if (scene.load.shaking && scene.load.shaking->acceleration.frequency > 0.0) {
+        const double f = scene.load.shaking->acceleration.frequency;
+        window_s = std::max(1.0, std::round(f)) / f;
+      }
+      const auto avg = running_mean(y, static_cast<std::size_t>(std::max(1.0, std::round(window_s / dtp))));
       draw(spec_of(fmt::format("{} — {}", name, scene.label()), "time [s]", "force [N]",
-            {ser("thrust", t, y), ser("running mean (1 s)", t, avg, "lines", "lw 3")}),
+            {ser("thrust", t, y),
+             ser(fmt::format("running mean ({:.3g} s)", window_s), t, avg, "lines", "lw 3")}),
            fig / (name + ".png"), out);
       json j;
       const double stat = mean_between(t, y, 0.0, 0.1); // before the shaking has built up
