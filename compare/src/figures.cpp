@@ -31,7 +31,9 @@ double loop_area(const std::vector<double>& x, const std::vector<double>& y) {
   return 0.5 * std::abs(a);
 }
 
-double peak_snapshot_speed(const fs::path& vtk_dir) {
+// Largest particle speed over the snapshots, counting only particles whose centre is at or above
+// `zmin` (e.g. the lowest ground point: blocks falling out through an opened wall are not debris).
+double peak_snapshot_speed(const fs::path& vtk_dir, double zmin = -1e300) {
   double vmax = 0.0;
   std::error_code ec;
   if (!fs::is_directory(vtk_dir, ec)) return 0.0;
@@ -45,7 +47,8 @@ double peak_snapshot_speed(const fs::path& vtk_dir) {
     if (!pd || !pd->GetPointData()) continue;
     vtkDataArray* s = pd->GetPointData()->GetArray("speed");
     if (!s) continue;
-    for (vtkIdType i = 0; i < s->GetNumberOfTuples(); ++i) vmax = std::max(vmax, s->GetTuple1(i));
+    for (vtkIdType i = 0; i < s->GetNumberOfTuples(); ++i)
+      if (pd->GetPoint(i)[1] >= zmin) vmax = std::max(vmax, s->GetTuple1(i)); // VTK y = scene z
   }
   return vmax;
 }
@@ -281,6 +284,14 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   if (vpk > 0.0) {
     sum["snapshot_peak_speed_m_s"] = vpk;
     sum["snapshot_peak_speed_km_h"] = vpk * 3.6;
+  }
+  if (!scene.walls.empty()) {
+    double zg = 1e300; // lowest ground point
+    for (const auto& w : scene.walls)
+      for (const auto& q : w.points) zg = std::min(zg, q.z);
+    const double von = peak_snapshot_speed(dem / "vtk", zg);
+    sum["peak_speed_above_lowest_ground_m_s"] = von;
+    sum["peak_speed_above_lowest_ground_km_h"] = von * 3.6;
   }
   std::error_code ec;
   if (fs::exists(dem / "final.ckpt", ec)) {
