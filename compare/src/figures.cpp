@@ -33,7 +33,7 @@ double loop_area(const std::vector<double>& x, const std::vector<double>& y) {
 
 // Largest particle speed over the snapshots, counting only particles whose centre is at or above
 // `zmin` (e.g. the lowest ground point: blocks falling out through an opened wall are not debris).
-double peak_snapshot_speed(const fs::path& vtk_dir, double zmin = -1e300) {
+double peak_snapshot_speed(const fs::path& vtk_dir, double zmin) {
   double vmax = 0.0;
   std::error_code ec;
   if (!fs::is_directory(vtk_dir, ec)) return 0.0;

@@ -26,6 +26,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const std::filesystem::p
 [[nodiscard]] double loop_area(const std::vector<double>& x, const std::vector<double>& y);
 
 // Largest |v| over every particles_*.vtp snapshot under dir (0 when none can be read).
-[[nodiscard]] double peak_snapshot_speed(const std::filesystem::path& vtk_dir);
+// Only particles whose centre is at or above zmin count (blocks falling out through an opened wall
+// are not debris on the section).
+[[nodiscard]] double peak_snapshot_speed(const std::filesystem::path& vtk_dir, double zmin = -1e300);
 
 } // namespace demfem::compare
