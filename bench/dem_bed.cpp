@@ -1,6 +1,7 @@
 // DEM engine throughput: a bed of N disks (radius 0.04–0.075 m, paper §6 box) settling in a box
-// under gravity, cundall-rebound law. Prints particle-steps per second (one thread) and bytes of
-// engine state per particle. Usage: bench_dem_bed [N=10000] [steps=2000] [skin_factor=0.3]
+// under gravity, cundall-rebound law. Prints particle-steps per second and bytes of engine state
+// per particle (container capacities). Usage:
+//   bench_dem_bed [N=10000] [steps=2000] [skin_factor=0.3] [threads=1]
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +19,7 @@ int main(int argc, char** argv) {
   c.ks = 3.0e6;
   c.damping_c = 2.0;
   if (argc > 3) c.skin_factor = std::atof(argv[3]);
+  c.threads = argc > 4 ? std::atoi(argv[4]) : 1;
   Engine e(c);
   const int cols = static_cast<int>(std::sqrt(n * 2.0));
   const double a = 0.151, width = cols * a + 0.01;
@@ -33,9 +35,17 @@ int main(int argc, char** argv) {
   e.run_steps(steps);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const auto& st = e.stats();
-  std::printf("N = %d, %ld steps in %.3f s: %.3g particle-steps/s; neighbour entries/particle "
-              "%.2f, rebuilds %lld, reorders %lld%s\n",
-              n, steps, s, n * static_cast<double>(steps) / s,
+  std::printf("N = %d, %d thread(s), %ld steps in %.3f s: %.3g particle-steps/s; neighbour "
+              "entries/particle %.2f, rebuilds %lld, reorders %lld%s\n",
+              n, e.threads_in_use(), steps, s, n * static_cast<double>(steps) / s,
               static_cast<double>(st.pair_entries) / n, st.neighbour_rebuilds, st.reorders,
               e.failed() ? (" FAILED: " + e.failure()).c_str() : "");
+  const auto m = e.memory_use();
+  const double dn = n;
+  std::printf("bytes/particle: %.1f total = particles %.1f + contact history %.1f + neighbour "
+              "lists (incl. Verlet reference) %.1f + grid %.1f + other (thread buffers, walls) %.1f\n",
+              static_cast<double>(m.total()) / dn, static_cast<double>(m.particles) / dn,
+              static_cast<double>(m.contact_history) / dn,
+              static_cast<double>(m.neighbour_lists) / dn, static_cast<double>(m.grid) / dn,
+              static_cast<double>(m.other) / dn);
 }

@@ -7,8 +7,12 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "demfem/scene/load.hpp"
+#include "state_bytes.hpp"
 
 namespace demfem::dem {
 
@@ -292,9 +296,22 @@ void Engine::check_rebuild() {
   const double lim2 = 0.25 * skin_ * skin_;
   double m2 = 0.0;
   const std::size_t n = p_.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    const double dx = p_.x[i] - x_ref_[i], dz = p_.z[i] - z_ref_[i];
-    m2 = std::max(m2, dx * dx + dz * dz);
+  const double* x = p_.x.data();
+  const double* z = p_.z.data();
+  const double* xr = x_ref_.data();
+  const double* zr = z_ref_.data();
+  const int T = threads_in_use();
+  if (T > 1) {
+#pragma omp parallel for num_threads(T) schedule(static) reduction(max : m2)
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+      m2 = std::max(m2, dx * dx + dz * dz);
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+      m2 = std::max(m2, dx * dx + dz * dz);
+    }
   }
   double b2 = 0.0;
   for (std::size_t k = 0; k < bvx_.size(); ++k) {
@@ -435,7 +452,12 @@ void Engine::rebuild() {
     auto ncell = [&](double ext) { return static_cast<std::size_t>(ext / h) + 1; };
     while (ncell(xmax - xmin) * ncell(zmax - zmin) > 4 * n + 64) h *= 2.0; // sparse clouds
     const std::size_t nx = ncell(xmax - xmin), nz = ncell(zmax - zmin);
-    std::vector<std::uint32_t> cell_of(n), cell_start(nx * nz + 1, 0), cell_items(n);
+    auto& cell_of = cell_of_;
+    auto& cell_start = cell_start_;
+    auto& cell_items = cell_items_;
+    cell_of.assign(n, 0u);
+    cell_start.assign(nx * nz + 1, 0u);
+    cell_items.assign(n, 0u);
     for (std::size_t i = 0; i < n; ++i) {
       if (p_.flags[i] & kFlagRemoved) {
         cell_of[i] = ~0u;
@@ -543,8 +565,14 @@ void Engine::rebuild() {
 
 // ---- forces -------------------------------------------------------------------------------------
 
-template <class Law> void Engine::pair_forces(const Law& law) {
-  const std::size_t n = p_.size();
+// Particle–particle forces of the owners i0 ≤ i < i1 (pairs i < j), accumulated into fx, fz, tq
+// (the particle arrays, or one thread's buffers). energies[0..4]: friction, damping, rebound,
+// normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
+// (i, j), left unchanged when none.
+template <class Law>
+void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* __restrict fx,
+                        double* __restrict fz, double* __restrict tq, double* energies,
+                        std::uint32_t* fail_pair) {
   const double dt = dt_;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
@@ -553,14 +581,12 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   const double* __restrict om = p_.omega.data();
   const double* __restrict rad = p_.radius.data();
   const double* __restrict mass = p_.mass.data();
-  double* __restrict fx = p_.fx.data();
-  double* __restrict fz = p_.fz.data();
-  double* __restrict tq = p_.torque.data();
   const auto& mats = config_.materials;
   const bool one_material = mats.size() == 1;
   double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
   const double max_ov = config_.max_overlap;
-  for (std::size_t i = 0; i < n; ++i) {
+  bool failed = fail_pair[0] != ~0u;
+  for (std::size_t i = i0; i < i1; ++i) {
     const std::uint32_t kb = nbr_start_[i], ke = nbr_start_[i + 1];
     if (kb == ke) continue;
     const double xi = x[i], zi = z[i], ri = rad[i];
@@ -602,9 +628,11 @@ template <class Law> void Engine::pair_forces(const Law& law) {
       e_reb += r.e_rebound;
       e_n += r.e_normal;
       e_s += r.e_shear;
-      if (delta > max_ov * std::min(ri, rad[j]) && failure_.empty())
-        failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
-                               delta, p_.id[i], p_.id[j]);
+      if (delta > max_ov * std::min(ri, rad[j]) && !failed) {
+        failed = true;
+        fail_pair[0] = static_cast<std::uint32_t>(i);
+        fail_pair[1] = j;
+      }
       const double fnt = r.fn + r.impulse;
       const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz; // eq. 2.15
       fxi += Fx;
@@ -618,11 +646,98 @@ template <class Law> void Engine::pair_forces(const Law& law) {
     fz[i] += fzi;
     tq[i] += ti;
   }
-  e_friction_ += e_fric;
-  e_damping_ += e_damp;
-  e_rebound_ += e_reb;
-  e_normal_ = e_n;
-  e_shear_ = e_s;
+  energies[0] += e_fric;
+  energies[1] += e_damp;
+  energies[2] += e_reb;
+  energies[3] += e_n;
+  energies[4] += e_s;
+}
+
+int Engine::threads_in_use() const {
+  if (p_.size() < config_.parallel_min_particles) return 1;
+  int t = config_.threads;
+#ifdef _OPENMP
+  if (t <= 0) t = omp_get_max_threads();
+#else
+  t = 1;
+#endif
+  return std::max(t, 1);
+}
+
+template <class Law> void Engine::pair_forces(const Law& law) {
+  const std::size_t n = p_.size();
+  const int T = threads_in_use();
+  double en[5] = {0, 0, 0, 0, 0};
+  std::uint32_t fail[2] = {~0u, ~0u};
+  if (T <= 1) {
+    pair_range(law, 0, n, p_.fx.data(), p_.fz.data(), p_.torque.data(), en, fail);
+  } else {
+    // Deterministic for a fixed thread count: thread t takes the owners in split_[t]…split_[t+1]
+    // (equal shares of pair entries) and accumulates into its own buffers; the buffers are then
+    // summed per particle in thread order.
+    const auto tcount = static_cast<std::size_t>(T);
+    split_.assign(tcount + 1, n);
+    split_[0] = 0;
+    const std::uint32_t total = nbr_start_[n];
+    for (std::size_t t = 1; t < tcount; ++t) {
+      const auto target = static_cast<std::uint32_t>(static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
+      split_[t] = static_cast<std::size_t>(
+          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n), target) -
+          nbr_start_.begin());
+      split_[t] = std::max(split_[t], split_[t - 1]);
+    }
+    if (tbuf_.size() < 3 * n * tcount) tbuf_.resize(3 * n * tcount);
+    std::vector<double> ten(5 * tcount, 0.0);
+    std::vector<std::uint32_t> tfail(2 * tcount, ~0u);
+    double* buf = tbuf_.data();
+    double* fxo = p_.fx.data();
+    double* fzo = p_.fz.data();
+    double* tqo = p_.torque.data();
+#pragma omp parallel num_threads(T)
+    {
+#ifdef _OPENMP
+      const auto t = static_cast<std::size_t>(omp_get_thread_num());
+#else
+      const std::size_t t = 0;
+#endif
+      double* bx = buf + 3 * n * t;
+      double* bz = bx + n;
+      double* bt = bz + n;
+      std::fill(bx, bx + 3 * n, 0.0);
+      pair_range(law, split_[t], split_[t + 1], bx, bz, bt, &ten[5 * t], &tfail[2 * t]);
+#pragma omp barrier
+#pragma omp for schedule(static)
+      for (std::size_t i = 0; i < n; ++i) {
+        double sx = 0.0, sz = 0.0, st = 0.0;
+        for (std::size_t u = 0; u < tcount; ++u) {
+          sx += buf[3 * n * u + i];
+          sz += buf[3 * n * u + n + i];
+          st += buf[3 * n * u + 2 * n + i];
+        }
+        fxo[i] += sx;
+        fzo[i] += sz;
+        tqo[i] += st;
+      }
+    }
+    for (std::size_t t = 0; t < tcount; ++t) {
+      for (int q = 0; q < 5; ++q) en[q] += ten[5 * t + static_cast<std::size_t>(q)];
+      if (fail[0] == ~0u && tfail[2 * t] != ~0u) {
+        fail[0] = tfail[2 * t];
+        fail[1] = tfail[2 * t + 1];
+      }
+    }
+  }
+  if (fail[0] != ~0u && failure_.empty()) {
+    const std::uint32_t i = fail[0], j = fail[1];
+    const double delta = p_.radius[i] + p_.radius[j] - std::hypot(p_.x[i] - p_.x[j], p_.z[i] - p_.z[j]);
+    failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
+                           delta, p_.id[i], p_.id[j]);
+  }
+  e_friction_ += en[0];
+  e_damping_ += en[1];
+  e_rebound_ += en[2];
+  e_normal_ = en[3];
+  e_shear_ = en[4];
 }
 
 template <class Law> void Engine::boundary_forces(const Law& law) {
@@ -783,20 +898,16 @@ void Engine::compute_forces() {
 
 // ---- integration --------------------------------------------------------------------------------
 
-void Engine::integrate() {
-  const std::size_t n = p_.size();
+// Integrates particles i0 ≤ i < i1. sums[0]: external work, sums[1]: damping dissipation;
+// *bad: the first non-finite particle index (unchanged when none).
+void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
+                             double* sums, std::size_t* bad) {
   const double dt = dt_;
   const double g = config_.gravity;
   const double C = config_.damping_c, D = config_.damping_d;
-  double ax_body = 0.0, az_body = 0.0;
-  if (config_.shaking) {
-    const double a = config_.shaking_acceleration(time_); // body force m·A·sin(2πft) (paper §6)
-    (config_.shaking_direction == 'z' ? az_body : ax_body) = a;
-  }
   double w_ext = 0.0, e_damp = 0.0;
-  bool bad = false;
-  std::size_t bad_i = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  bool is_bad = *bad != ~std::size_t{0};
+  for (std::size_t i = i0; i < i1; ++i) {
     if (p_.flags[i] & kFlagRemoved) continue;
     const double m = p_.mass[i], im = p_.inv_mass[i], ii = p_.inv_inertia[i];
     // eq. 2.1: m ü + C u̇ + F = 0 with C per unit mass; eq. 2.2 likewise with D per inertia.
@@ -813,15 +924,53 @@ void Engine::integrate() {
     w_ext += m * (ax_body * p_.vx[i] + az_body * p_.vz[i]) * dt;
     if (C > 0.0) e_damp += C * m * (0.5 * (vx0 + p_.vx[i]) * p_.vx[i] + 0.5 * (vz0 + p_.vz[i]) * p_.vz[i]) * dt;
     if (D > 0.0) e_damp += D / ii * 0.5 * (om0 + p_.omega[i]) * p_.omega[i] * dt;
-    if (!std::isfinite(p_.x[i] + p_.z[i] + p_.omega[i]) && !bad) {
-      bad = true;
-      bad_i = i;
+    if (!std::isfinite(p_.x[i] + p_.z[i] + p_.omega[i]) && !is_bad) {
+      is_bad = true;
+      *bad = i;
     }
   }
-  e_external_ += w_ext;
-  e_damping_ += e_damp;
-  if (bad && failure_.empty())
-    failure_ = fmt::format("non-finite position or velocity of particle {}", p_.id[bad_i]);
+  sums[0] += w_ext;
+  sums[1] += e_damp;
+}
+
+void Engine::integrate() {
+  const std::size_t n = p_.size();
+  double ax_body = 0.0, az_body = 0.0;
+  if (config_.shaking) {
+    const double a = config_.shaking_acceleration(time_); // body force m·A·sin(2πft) (paper §6)
+    (config_.shaking_direction == 'z' ? az_body : ax_body) = a;
+  }
+  const std::size_t none = ~std::size_t{0};
+  double sums[2] = {0.0, 0.0};
+  std::size_t bad = none;
+  const int T = threads_in_use();
+  if (T <= 1) {
+    integrate_range(0, n, ax_body, az_body, sums, &bad);
+  } else {
+    // Static contiguous chunks; partial sums combined in thread order (deterministic per count).
+    const auto tcount = static_cast<std::size_t>(T);
+    std::vector<double> ts(2 * tcount, 0.0);
+    std::vector<std::size_t> tb(tcount, none);
+#pragma omp parallel num_threads(T)
+    {
+#ifdef _OPENMP
+      const auto t = static_cast<std::size_t>(omp_get_thread_num());
+#else
+      const std::size_t t = 0;
+#endif
+      const std::size_t i0 = n * t / tcount, i1 = n * (t + 1) / tcount;
+      integrate_range(i0, i1, ax_body, az_body, &ts[2 * t], &tb[t]);
+    }
+    for (std::size_t t = 0; t < tcount; ++t) {
+      sums[0] += ts[2 * t];
+      sums[1] += ts[2 * t + 1];
+      if (bad == none) bad = tb[t];
+    }
+  }
+  e_external_ += sums[0];
+  e_damping_ += sums[1];
+  if (bad != none && failure_.empty())
+    failure_ = fmt::format("non-finite position or velocity of particle {}", p_.id[bad]);
 }
 
 void Engine::update_structures() {
@@ -1028,6 +1177,253 @@ void Engine::boundary_views(std::vector<BoundaryView>& out) const {
     }
     out.push_back(std::move(v));
   }
+}
+
+// ---- checkpoint / resume -----------------------------------------------------------------------
+
+namespace {
+constexpr std::uint32_t kStateMagic = 0x44454d53; // "DEMS"
+constexpr std::uint32_t kStateVersion = 1;
+constexpr std::uint32_t kHistoryMagic = 0x44454d48; // "DEMH"
+
+void write_hist(detail::ByteWriter& w, const std::vector<ContactHistory>& h) {
+  w.value(static_cast<std::uint64_t>(h.size()));
+  for (const auto& c : h) { // field by field: no padding bytes in the file
+    w.value(c.ft);
+    w.value(c.fn);
+    w.value(c.flags);
+  }
+}
+void read_hist(detail::ByteReader& r, std::vector<ContactHistory>& h) {
+  const auto n = r.value<std::uint64_t>();
+  h.clear();
+  for (std::uint64_t k = 0; k < n; ++k) {
+    ContactHistory c;
+    r.value(c.ft);
+    r.value(c.fn);
+    r.value(c.flags);
+    h.push_back(c);
+  }
+}
+} // namespace
+
+std::vector<std::byte> Engine::save_state() const {
+  detail::ByteWriter w;
+  w.value(kStateMagic);
+  w.value(kStateVersion);
+  w.value(static_cast<std::uint64_t>(p_.size()));
+  w.value(static_cast<std::uint64_t>(boundaries_.size()));
+  w.value(static_cast<std::uint64_t>(structures_.size()));
+  w.value(static_cast<std::uint64_t>(features_.size()));
+  w.value(dt_);
+  w.value(time_);
+  w.value(stats_.steps);
+  w.value(stats_.neighbour_rebuilds);
+  w.value(stats_.reorders);
+  w.value(stats_.structure_updates);
+  w.value(static_cast<std::uint64_t>(stats_.pair_entries));
+  w.value(static_cast<std::uint64_t>(stats_.boundary_entries));
+  w.value(static_cast<std::uint64_t>(config_.materials.size()));
+  for (const auto& m : config_.materials) {
+    w.value(m.mu_s);
+    w.value(m.mu_d);
+  }
+  for (const auto& b : boundaries_) {
+    w.value(static_cast<std::uint8_t>(b.active ? 1 : 0));
+    w.value(b.reaction_x);
+    w.value(b.reaction_z);
+  }
+  w.vec(bvx_);
+  w.vec(bvz_);
+  w.vec(bvx_ref_);
+  w.vec(bvz_ref_);
+  for (const auto& st : structures_)
+    for (double v : {st.ux, st.uz, st.rot, st.vx, st.vz, st.omega, st.soil_fx, st.soil_fz,
+                     st.soil_moment, st.applied_fx, st.applied_fz, st.applied_moment})
+      w.value(v);
+  w.vec(nbr_start_);
+  w.vec(nbr_j_);
+  write_hist(w, nbr_hist_);
+  w.vec(bnd_i_);
+  w.vec(bnd_f_);
+  write_hist(w, bnd_hist_);
+  w.vec(x_ref_);
+  w.vec(z_ref_);
+  for (double v : {skin_, r_min_, r_max_, m_min_}) w.value(v);
+  w.value(static_cast<std::uint8_t>(need_rebuild_ ? 1 : 0));
+  w.value(rebuilds_since_reorder_);
+  w.value(next_id_);
+  for (double v : {e_friction_, e_damping_, e_rebound_, e_external_, e_normal_, e_shear_, pe_ref_})
+    w.value(v);
+  w.value(static_cast<std::uint8_t>(pe_ref_set_ ? 1 : 0));
+  return std::move(w.buffer());
+}
+
+void Engine::restore_state(Particles particles, std::span<const std::byte> state) {
+  detail::ByteReader r(state);
+  if (r.value<std::uint32_t>() != kStateMagic) detail::ByteReader::fail("not an engine state");
+  if (const auto v = r.value<std::uint32_t>(); v != kStateVersion)
+    detail::ByteReader::fail(fmt::format("unsupported version {}", v));
+  const auto n = r.value<std::uint64_t>();
+  if (n != particles.size())
+    detail::ByteReader::fail(fmt::format("{} particles in the state, {} in the arrays", n, particles.size()));
+  if (r.value<std::uint64_t>() != boundaries_.size() || r.value<std::uint64_t>() != structures_.size() ||
+      r.value<std::uint64_t>() != features_.size())
+    detail::ByteReader::fail("walls or structures differ from the scene's");
+  p_ = std::move(particles);
+  r.value(dt_);
+  r.value(time_);
+  r.value(stats_.steps);
+  r.value(stats_.neighbour_rebuilds);
+  r.value(stats_.reorders);
+  r.value(stats_.structure_updates);
+  stats_.pair_entries = r.value<std::uint64_t>();
+  stats_.boundary_entries = r.value<std::uint64_t>();
+  config_.materials.resize(r.value<std::uint64_t>());
+  for (auto& m : config_.materials) {
+    r.value(m.mu_s);
+    r.value(m.mu_d);
+  }
+  for (auto& b : boundaries_) {
+    b.active = r.value<std::uint8_t>() != 0;
+    r.value(b.reaction_x);
+    r.value(b.reaction_z);
+  }
+  r.vec(bvx_);
+  r.vec(bvz_);
+  r.vec(bvx_ref_);
+  r.vec(bvz_ref_);
+  if (bvx_.size() != bvx0_.size()) detail::ByteReader::fail("boundary vertex count differs");
+  for (auto& st : structures_)
+    for (double* v : {&st.ux, &st.uz, &st.rot, &st.vx, &st.vz, &st.omega, &st.soil_fx, &st.soil_fz,
+                      &st.soil_moment, &st.applied_fx, &st.applied_fz, &st.applied_moment})
+      r.value(*v);
+  r.vec(nbr_start_);
+  r.vec(nbr_j_);
+  read_hist(r, nbr_hist_);
+  r.vec(bnd_i_);
+  r.vec(bnd_f_);
+  read_hist(r, bnd_hist_);
+  r.vec(x_ref_);
+  r.vec(z_ref_);
+  for (double* v : {&skin_, &r_min_, &r_max_, &m_min_}) r.value(*v);
+  need_rebuild_ = r.value<std::uint8_t>() != 0;
+  r.value(rebuilds_since_reorder_);
+  r.value(next_id_);
+  for (double* v : {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_, &pe_ref_})
+    r.value(*v);
+  pe_ref_set_ = r.value<std::uint8_t>() != 0;
+  if (!r.at_end()) detail::ByteReader::fail("trailing bytes");
+  if (nbr_j_.size() != nbr_hist_.size() || bnd_i_.size() != bnd_f_.size() ||
+      bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1))
+    detail::ByteReader::fail("inconsistent neighbour lists");
+  failure_.clear();
+}
+
+std::vector<std::byte> Engine::save_contact_history() const {
+  // Active entries only, keyed by stable particle ids: (id_i, id_j, history), then
+  // (id_i, feature, history).
+  detail::ByteWriter w;
+  w.value(kHistoryMagic);
+  std::vector<std::uint32_t> a, b;
+  std::vector<ContactHistory> h;
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
+      if (nbr_hist_[k].flags != 0) {
+        a.push_back(p_.id[i]);
+        b.push_back(p_.id[nbr_j_[k]]);
+        h.push_back(nbr_hist_[k]);
+      }
+  w.vec(a);
+  w.vec(b);
+  write_hist(w, h);
+  a.clear();
+  b.clear();
+  h.clear();
+  for (std::size_t k = 0; k < bnd_i_.size(); ++k)
+    if (bnd_hist_[k].flags != 0) {
+      a.push_back(p_.id[bnd_i_[k]]);
+      b.push_back(bnd_f_[k]);
+      h.push_back(bnd_hist_[k]);
+    }
+  w.vec(a);
+  w.vec(b);
+  write_hist(w, h);
+  return std::move(w.buffer());
+}
+
+void Engine::load_contact_history(std::span<const std::byte> blob) {
+  detail::ByteReader r(blob);
+  if (r.value<std::uint32_t>() != kHistoryMagic) detail::ByteReader::fail("not a contact history");
+  std::vector<std::uint32_t> a, b, c, d;
+  std::vector<ContactHistory> h, hb;
+  r.vec(a);
+  r.vec(b);
+  read_hist(r, h);
+  r.vec(c);
+  r.vec(d);
+  read_hist(r, hb);
+  if (a.size() != b.size() || a.size() != h.size() || c.size() != d.size() || c.size() != hb.size())
+    detail::ByteReader::fail("inconsistent contact history");
+  const std::size_t n = p_.size();
+  std::uint32_t max_id = 0;
+  for (std::size_t i = 0; i < n; ++i) max_id = std::max(max_id, p_.id[i]);
+  std::vector<std::uint32_t> index(static_cast<std::size_t>(max_id) + 1, ~0u);
+  for (std::size_t i = 0; i < n; ++i) index[p_.id[i]] = static_cast<std::uint32_t>(i);
+  auto idx = [&](std::uint32_t id) { return id <= max_id ? index[id] : ~0u; };
+  // Same layout reorder() leaves: a CSR list of the history entries, merged by rebuild().
+  std::vector<std::uint32_t> pi, pj;
+  std::vector<ContactHistory> ph;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    std::uint32_t u = idx(a[k]), v = idx(b[k]);
+    if (u == ~0u || v == ~0u || u == v) continue;
+    if (u > v) std::swap(u, v); // swapping the owner flips n and t: f_t is unchanged
+    pi.push_back(u);
+    pj.push_back(v);
+    ph.push_back(h[k]);
+  }
+  std::vector<std::uint32_t> ord(pi.size());
+  std::iota(ord.begin(), ord.end(), 0u);
+  std::sort(ord.begin(), ord.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return pi[x] != pi[y] ? pi[x] < pi[y] : pj[x] < pj[y];
+  });
+  nbr_start_.assign(n + 1, 0);
+  nbr_j_.resize(ord.size());
+  nbr_hist_.resize(ord.size());
+  for (std::size_t k = 0; k < ord.size(); ++k) {
+    ++nbr_start_[pi[ord[k]] + 1];
+    nbr_j_[k] = pj[ord[k]];
+    nbr_hist_[k] = ph[ord[k]];
+  }
+  for (std::size_t i = 0; i < n; ++i) nbr_start_[i + 1] += nbr_start_[i];
+  bnd_i_.clear();
+  bnd_f_.clear();
+  bnd_hist_.clear();
+  std::vector<std::uint32_t> o;
+  for (std::size_t k = 0; k < c.size(); ++k)
+    if (idx(c[k]) != ~0u && d[k] < features_.size()) o.push_back(static_cast<std::uint32_t>(k));
+  std::sort(o.begin(), o.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return idx(c[x]) != idx(c[y]) ? idx(c[x]) < idx(c[y]) : d[x] < d[y];
+  });
+  for (auto k : o) {
+    bnd_i_.push_back(idx(c[k]));
+    bnd_f_.push_back(d[k]);
+    bnd_hist_.push_back(hb[k]);
+  }
+  need_rebuild_ = true;
+}
+
+Engine::MemoryUse Engine::memory_use() const {
+  MemoryUse m;
+  auto cap = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
+  m.particles = cap(p_.x) + cap(p_.z) + cap(p_.phi) + cap(p_.vx) + cap(p_.vz) + cap(p_.omega) +
+                cap(p_.fx) + cap(p_.fz) + cap(p_.torque) + cap(p_.radius) + cap(p_.mass) +
+                cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) + cap(p_.flags);
+  m.contact_history = cap(nbr_hist_) + cap(bnd_hist_);
+  m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(bnd_i_) + cap(bnd_f_) + cap(x_ref_) + cap(z_ref_);
+  m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);
+  m.other = cap(tbuf_) + cap(split_) + cap(bvx_) * 6 + cap(features_);
+  return m;
 }
 
 } // namespace demfem::dem

@@ -39,6 +39,7 @@
 #endif
 #include "demfem/scene/csv.hpp"
 #include "demfem/scene/load.hpp"
+#include "state_bytes.hpp"
 
 namespace demfem::dem {
 
@@ -105,6 +106,58 @@ void log_energy_budget(const EnergyBudget& b, double e0, double t,
   if (!f) spdlog::warn("could not write {}", json_path.string());
 }
 
+// Run-loop state stored next to the engine state in a checkpoint's extra blob.
+constexpr std::uint32_t kRunMagic = 0x44454d52; // "DEMR"
+constexpr std::uint32_t kRunVersion = 1;
+
+struct LoopState {
+  std::uint64_t next_event = 0;
+  double next_probe = 0.0, next_snap = 0.0, next_ckpt = 0.0;
+  std::int64_t snap = 0;
+  double e0 = 0.0, energy_scale = 0.0;
+  bool e0_set = false;
+  std::vector<std::uint32_t> loci_ids;
+};
+
+std::vector<std::byte> pack_state(const Engine& e, const LoopState& s) {
+  detail::ByteWriter w;
+  w.value(kRunMagic);
+  w.value(kRunVersion);
+  const auto es = e.save_state();
+  w.bytes(es);
+  w.value(s.next_event);
+  w.value(s.next_probe);
+  w.value(s.next_snap);
+  w.value(s.next_ckpt);
+  w.value(s.snap);
+  w.value(s.e0);
+  w.value(s.energy_scale);
+  w.value(static_cast<std::uint8_t>(s.e0_set ? 1 : 0));
+  w.vec(s.loci_ids);
+  return std::move(w.buffer());
+}
+
+// Restores the engine (particles + engine state) and returns the loop state.
+LoopState unpack_state(Engine& e, Particles particles, std::span<const std::byte> extra) {
+  detail::ByteReader r(extra);
+  if (r.value<std::uint32_t>() != kRunMagic) detail::ByteReader::fail("not a DEM run checkpoint");
+  if (const auto v = r.value<std::uint32_t>(); v != kRunVersion)
+    detail::ByteReader::fail(fmt::format("unsupported run-state version {}", v));
+  e.restore_state(std::move(particles), r.bytes());
+  LoopState s;
+  r.value(s.next_event);
+  r.value(s.next_probe);
+  r.value(s.next_snap);
+  r.value(s.next_ckpt);
+  r.value(s.snap);
+  r.value(s.e0);
+  r.value(s.energy_scale);
+  s.e0_set = r.value<std::uint8_t>() != 0;
+  r.vec(s.loci_ids);
+  if (!r.at_end()) detail::ByteReader::fail("trailing bytes in the run state");
+  return s;
+}
+
 } // namespace
 
 RunSummary run(const scene::Scene& scene, const RunOptions& options) {
@@ -122,22 +175,39 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
 
   // ---- build ------------------------------------------------------------------------------
   Engine e(make_config(scene));
+  e.set_threads(options.threads);
+  const auto ckpt_path = out / "checkpoint.ckpt";
+  std::optional<io::Checkpoint> resume_from;
+  if (options.resume) {
+    try {
+      resume_from = io::read_checkpoint(ckpt_path);
+    } catch (const io::IoError& err) {
+      summary.message = fmt::format("cannot resume: {}", err.what());
+      return summary;
+    }
+    if (resume_from->meta.label != scene.label()) {
+      summary.message = fmt::format("cannot resume: {} is a checkpoint of '{}', not of '{}'",
+                                    ckpt_path.string(), resume_from->meta.label, scene.label());
+      return summary;
+    }
+  }
 #ifdef DEMFEM_DEM_HAS_PACK
-  {
+  if (!resume_from) { // a resumed run takes its particles from the checkpoint
     const PackResult pr = pack_or_load(scene, options.out_dir, options.progress);
     const auto& p = pr.particles;
     for (std::size_t i = 0; i < p.size(); ++i)
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
   }
 #else
-  if (scene.soil.dem->particles.empty()) {
+  if (!resume_from && scene.soil.dem->particles.empty()) {
     scene::Diagnostic d;
     d.file = scene.source_file;
     d.key = "soil.dem.particles";
     d.message = "this build has no packing generator; list the particles explicitly";
     throw scene::SceneError({d});
   }
-  for (const auto& q : scene.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+  if (!resume_from)
+    for (const auto& q : scene.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
 #endif
   for (const auto& w : scene.walls) e.add_wall(w);
   for (const auto& s : scene.structures) e.add_structure(s);
@@ -149,6 +219,19 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     for (auto& d : diags) d.file = scene.source_file;
     throw scene::SceneError(diags);
   }
+  LoopState ls;
+  if (resume_from) {
+    try {
+      ls = unpack_state(e, std::move(resume_from->particles), resume_from->extra);
+    } catch (const std::runtime_error& err) {
+      summary.message = fmt::format("cannot resume from {}: {}", ckpt_path.string(), err.what());
+      return summary;
+    }
+  }
+  const bool resuming = resume_from.has_value();
+  // A resumed run keeps the rows and snapshots written before the checkpoint's time and
+  // rewrites those at and after it (the checkpoint holds the state before that time's output).
+  const double keep_until = e.time() - 0.5 * e.dt();
   summary.particles = e.particles().size();
 
   // ---- events: friction changes and wall openings, in time order ----------------------------
@@ -163,13 +246,14 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (w.opens_at) events.push_back({*w.opens_at, nullptr, w.name});
   std::stable_sort(events.begin(), events.end(),
                    [](const Ev& a, const Ev& b) { return a.time < b.time; });
-  std::size_t next_event = 0;
+  std::size_t next_event = static_cast<std::size_t>(ls.next_event);
 
   // ---- probes -----------------------------------------------------------------------------
   const double probe_dt = scene.output.probe_interval > 0.0 ? scene.output.probe_interval : 0.01;
   scene::TimeSeriesOptions csv_opt;
   csv_opt.comments = {fmt::format("demfem dem run of {}", scene.label())};
   csv_opt.flush_every_rows = 50;
+  if (resuming) csv_opt.resume_after = keep_until;
   scene::TimeSeriesWriter energy_csv(
       out / "energy.csv",
       {"time [s]", "kinetic [J]", "rotational [J]", "potential [J]", "spring_normal [J]",
@@ -200,7 +284,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (s.kind == scene::StructureKind::Wall ||
         std::find(s.record.begin(), s.record.end(), "thrust") != s.record.end())
       add_thrust(s.name);
-  std::vector<std::uint32_t> loci_ids;
+  std::vector<std::uint32_t>& loci_ids = ls.loci_ids;
+  const bool loci_restored = resuming;
+  std::size_t loci_count = 0;
   int surface_bins = 0;
   for (std::size_t k = 0; k < scene.probes.size(); ++k) {
     const auto& pr = scene.probes[k];
@@ -224,6 +310,15 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     case scene::ProbeKind::Loci: {
       const auto& p = e.particles();
       std::vector<std::string> cols{"time [s]"};
+      if (loci_restored) { // the particles chosen at the start of the run
+        for (std::size_t q = 0; q < pr.points.size() && loci_count < loci_ids.size(); ++q) {
+          const auto id = loci_ids[loci_count++];
+          cols.push_back(fmt::format("p{}.x [m]", id));
+          cols.push_back(fmt::format("p{}.z [m]", id));
+        }
+        loci_csv.emplace(out / "loci.csv", cols, csv_opt);
+        break;
+      }
       for (const auto& q : pr.points) {
         std::size_t best = 0;
         double bd = 1e300;
@@ -269,8 +364,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
 
   std::vector<ContactView> contacts;
   std::vector<scene::Vec2> verts;
-  double e0 = 0.0, energy_scale = 0.0;
-  bool e0_set = false;
+  double& e0 = ls.e0;
+  double& energy_scale = ls.energy_scale;
+  bool& e0_set = ls.e0_set;
   auto write_probes = [&] {
     const double t = e.time();
     const auto b = e.energy();
@@ -364,15 +460,22 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
 
   // ---- snapshots (VTK, through the I/O layer) ------------------------------------------------
   std::optional<io::PvdCollection> pvd_particles, pvd_chains, pvd_bounds;
-  long long snap = 0;
+  std::int64_t& snap = ls.snap;
   std::vector<BoundaryView> bviews;
   auto write_snapshot = [&] {
     if (!scene.output.vtk) return;
     if (!pvd_particles) {
       std::filesystem::create_directories(out / "vtk");
-      pvd_particles.emplace(out / "particles.pvd");
-      pvd_bounds.emplace(out / "boundaries.pvd");
-      if (scene.output.force_chains) pvd_chains.emplace(out / "force_chains.pvd");
+      if (resuming) {
+        pvd_particles.emplace(io::PvdCollection::resume(out / "particles.pvd", keep_until));
+        pvd_bounds.emplace(io::PvdCollection::resume(out / "boundaries.pvd", keep_until));
+        if (scene.output.force_chains)
+          pvd_chains.emplace(io::PvdCollection::resume(out / "force_chains.pvd", keep_until));
+      } else {
+        pvd_particles.emplace(out / "particles.pvd");
+        pvd_bounds.emplace(out / "boundaries.pvd");
+        if (scene.output.force_chains) pvd_chains.emplace(out / "force_chains.pvd");
+      }
     }
     const auto pf = out / "vtk" / io::numbered_file_name("particles", snap, "vtp");
     io::write_particles_vtp(pf, e.particles());
@@ -393,8 +496,27 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   // ---- time loop ----------------------------------------------------------------------------
   const double t_end = scene.info.duration;
   const double dt = e.dt();
-  double next_probe = 0.0, next_snap = 0.0;
+  double& next_probe = ls.next_probe;
+  double& next_snap = ls.next_snap;
   const double snap_dt = scene.output.interval > 0.0 ? scene.output.interval : t_end;
+  const double ckpt_dt = scene.output.checkpoint_interval;
+  double& next_ckpt = ls.next_ckpt;
+  if (!resuming) next_ckpt = ckpt_dt;
+  // Checkpoint of the state at the top of the loop (before this time's events and output).
+  auto write_state = [&] {
+    energy_csv.flush();
+    for (auto* w : {&struct_csv, &wall_csv, &surface_csv, &loci_csv, &coord_csv})
+      if (*w) (*w)->flush();
+    for (auto& pw : pressure_csv) pw.second.flush();
+    ls.next_event = next_event;
+    io::CheckpointMeta meta;
+    meta.time = e.time();
+    meta.step = e.stats().steps;
+    meta.dt = e.dt();
+    meta.label = scene.label();
+    io::write_checkpoint(ckpt_path, e.particles(), meta, pack_state(e, ls));
+  };
+  bool interrupted = false;
   auto last_progress = Clock::now();
   const auto loop_start = Clock::now();
   std::string failure;
@@ -410,6 +532,15 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   };
   report("dem");
   while (e.time() < t_end - 0.5 * dt) {
+    if (options.interrupt && options.interrupt->load()) {
+      write_state();
+      interrupted = true;
+      break;
+    }
+    if (ckpt_dt > 0.0 && e.time() >= next_ckpt - 0.5 * dt) {
+      next_ckpt += ckpt_dt;
+      write_state();
+    }
     while (next_event < events.size() && events[next_event].time <= e.time() + 0.5 * dt) {
       const auto& ev = events[next_event++];
       if (!ev.event || ev.event->action == scene::EventAction::OpenWall) {
@@ -441,14 +572,23 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       report("dem");
     }
   }
+  if (interrupted) {
+    report("dem");
+    summary.steps = e.stats().steps;
+    summary.simulated_time = e.time();
+    summary.wall_seconds = seconds_since(t_start);
+    summary.message = fmt::format("interrupted at t = {:.6g} s; continue with --resume", e.time());
+    return summary;
+  }
   if (failure.empty()) {
+    write_state(); // end state: a resume with a longer duration continues from here
     failure = write_probes();
     write_snapshot();
   }
   energy_csv.flush();
   report("dem");
   log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
-  // Final state as a checkpoint (restart of a run is not wired yet: see the engine report).
+  // Final state as a particle checkpoint (readable without the engine).
   try {
     io::CheckpointMeta meta;
     meta.time = e.time();

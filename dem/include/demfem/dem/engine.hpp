@@ -13,7 +13,9 @@
 // Everything here is plain computation: no I/O.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,6 +52,10 @@ struct EngineConfig {
   // Neighbour search
   double skin_factor = 0.3;   // Verlet skin = skin_factor · r_min
   int reorder_every = 25;     // space-filling-curve reordering every … neighbour rebuilds (0 = never)
+  // Threads (OpenMP) for the force loop and the integration: 0 = OpenMP default. Results are
+  // bit-identical between runs at the same count, and equal to round-off across counts.
+  int threads = 1;
+  std::size_t parallel_min_particles = 2048; // fewer particles: one thread (no fork overhead)
 };
 
 // Engine configuration from a scene's [soil.dem] and [load] sections.
@@ -149,6 +155,33 @@ public:
   // Particles whose centre is in `region` get a new material with the given friction.
   std::size_t set_friction(const scene::Polygon& region, double mu_s, double mu_d);
 
+  // ---- threads ----------------------------------------------------------------------------
+  void set_threads(int threads) { config_.threads = threads; }
+  [[nodiscard]] int threads_in_use() const; // for the current particle count
+
+  // ---- checkpoint / resume ----------------------------------------------------------------
+  // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
+  // Δt, counters, materials table, boundary states (opened walls, vertices), structure states,
+  // the Verlet lists with their per-pair and per-boundary contact history, Verlet reference
+  // positions, reorder counter, energy accumulators. Versioned binary blob.
+  [[nodiscard]] std::vector<std::byte> save_state() const;
+  // Restores a state saved by save_state() on an engine built the same way (same walls and
+  // structures added in the same order; particles are replaced by `particles`). Throws
+  // std::runtime_error when the blob does not match this engine.
+  void restore_state(Particles particles, std::span<const std::byte> state);
+  // Contact history only (particle–particle pairs by stable id, and particle–feature), e.g. for
+  // a packing checkpoint; load_contact_history() keeps the entries whose ids exist.
+  [[nodiscard]] std::vector<std::byte> save_contact_history() const;
+  void load_contact_history(std::span<const std::byte> blob);
+  // Memory held by the engine's containers (capacities) [bytes].
+  struct MemoryUse {
+    std::size_t particles = 0, contact_history = 0, neighbour_lists = 0, grid = 0, other = 0;
+    [[nodiscard]] std::size_t total() const {
+      return particles + contact_history + neighbour_lists + grid + other;
+    }
+  };
+  [[nodiscard]] MemoryUse memory_use() const;
+
   // ---- access -----------------------------------------------------------------------------
   [[nodiscard]] Particles& particles() { return p_; }
   [[nodiscard]] const Particles& particles() const { return p_; }
@@ -182,6 +215,11 @@ private:
   void update_boundary_vertices();
   void check_rebuild();
   void compute_mass(std::uint32_t i);
+  template <class Law>
+  void pair_range(const Law& law, std::size_t i0, std::size_t i1, double* fx, double* fz,
+                  double* tq, double* energies, std::uint32_t* fail_pair);
+  void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
+                       double* sums, std::size_t* bad);
 
   EngineConfig config_;
   Particles p_;
@@ -218,7 +256,11 @@ private:
   double e_normal_ = 0.0, e_shear_ = 0.0; // spring energies, last step
   double pe_ref_ = 0.0;
   bool pe_ref_set_ = false;
-  std::vector<double> fbx_, fbz_; // body force per particle this step (shaking) [N]
+  // Per-thread force buffers (fx, fz, torque per thread) and owner ranges of the pair loop.
+  std::vector<double> tbuf_;
+  std::vector<std::size_t> split_;
+  // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
+  std::vector<std::uint32_t> cell_of_, cell_start_, cell_items_;
 };
 
 } // namespace demfem::dem

@@ -1,6 +1,7 @@
 // Entry point of the DEM engine for the app: run one resolved scene into a run directory.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <string>
 
@@ -11,8 +12,11 @@ namespace demfem::dem {
 
 struct RunOptions {
   std::filesystem::path out_dir;   // run directory (created); DEM outputs go to out_dir/"dem"
-  bool resume = false;             // continue from the last checkpoint in out_dir
+  bool resume = false;             // continue from out_dir/dem/checkpoint.ckpt (bit for bit)
   int threads = 0;                 // 0 = OpenMP default
+  // When it becomes true the loop writes out_dir/dem/checkpoint.ckpt and returns ok = false
+  // with "interrupted at t = … s; continue with --resume". May be null.
+  std::atomic<bool>* interrupt = nullptr;
   scene::ProgressFn progress;      // may be empty
 };
 

@@ -1,0 +1,278 @@
+// Checkpoints and resume (a resumed run equals an uninterrupted one bit for bit at the same thread
+// count), the interrupt flag, and deterministic OpenMP force loops.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+
+#include "demfem/dem/engine.hpp"
+#include "demfem/dem/io.hpp"
+#include "demfem/dem/run.hpp"
+#include "demfem/scene/load.hpp"
+
+using namespace demfem;
+
+namespace {
+
+std::filesystem::path scratch(const std::string& name) {
+  auto p = std::filesystem::temp_directory_path() / ("demfem_test_resume_" + name);
+  std::filesystem::remove_all(p);
+  return p;
+}
+
+std::string slurp(const std::filesystem::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The settle-box scene (120 disks, friction, cundall-rebound, a free footing, recorded base
+// wall) with a set-friction event at 0.12 s, pressure-profile, loci and coordination probes.
+scene::Scene resume_scene(double duration) {
+  const auto file =
+      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  auto sc = file.base;
+  sc.info.duration = duration;
+  sc.output.interval = 0.1;
+  sc.output.probe_interval = 0.01;
+  sc.groups.push_back({"left_half", {{0, 0}, {0.5, 0}, {0.5, 1}, {0, 1}}});
+  scene::Event ev;
+  ev.time = 0.12;
+  ev.action = scene::EventAction::SetFriction;
+  ev.group = "left_half";
+  ev.mu_static = 0.1;
+  ev.mu_dynamic = 0.05;
+  sc.events.push_back(ev);
+  scene::Probe pp;
+  pp.kind = scene::ProbeKind::PressureProfile;
+  pp.target = "left";
+  pp.bins = 5;
+  sc.probes.push_back(pp);
+  scene::Probe lp;
+  lp.kind = scene::ProbeKind::Loci;
+  lp.points = {{0.3, 0.2}, {0.7, 0.4}};
+  sc.probes.push_back(lp);
+  return sc;
+}
+
+const char* kCsvFiles[] = {"energy.csv",       "structures.csv", "walls.csv",
+                           "pressure_left.csv", "surface.csv",    "loci.csv",
+                           "coordination.csv"};
+
+void expect_same_particles(const dem::Particles& a, const dem::Particles& b) {
+  ASSERT_EQ(a.size(), b.size());
+  auto same = [](const auto& u, const auto& v) {
+    return u.size() == v.size() &&
+           std::memcmp(u.data(), v.data(), u.size() * sizeof(u[0])) == 0;
+  };
+  EXPECT_TRUE(same(a.x, b.x));
+  EXPECT_TRUE(same(a.z, b.z));
+  EXPECT_TRUE(same(a.phi, b.phi));
+  EXPECT_TRUE(same(a.vx, b.vx));
+  EXPECT_TRUE(same(a.vz, b.vz));
+  EXPECT_TRUE(same(a.omega, b.omega));
+  EXPECT_TRUE(same(a.fx, b.fx));
+  EXPECT_TRUE(same(a.fz, b.fz));
+  EXPECT_TRUE(same(a.torque, b.torque));
+  EXPECT_TRUE(same(a.id, b.id));
+  EXPECT_TRUE(same(a.material, b.material));
+  EXPECT_TRUE(same(a.flags, b.flags));
+}
+
+void expect_same_outputs(const std::filesystem::path& a, const std::filesystem::path& b) {
+  for (const char* f : kCsvFiles) {
+    ASSERT_TRUE(std::filesystem::exists(a / "dem" / f)) << f;
+    const auto ta = slurp(a / "dem" / f), tb = slurp(b / "dem" / f);
+    EXPECT_GT(ta.size(), 100u) << f;
+    EXPECT_TRUE(ta == tb) << f << " differs";
+  }
+  for (const char* f : {"particles.pvd", "boundaries.pvd", "force_chains.pvd"})
+    EXPECT_EQ(slurp(a / "dem" / f), slurp(b / "dem" / f)) << f;
+  const auto ca = dem::io::read_checkpoint(a / "dem" / "final.ckpt");
+  const auto cb = dem::io::read_checkpoint(b / "dem" / "final.ckpt");
+  EXPECT_EQ(ca.meta.step, cb.meta.step);
+  EXPECT_EQ(ca.meta.time, cb.meta.time);
+  expect_same_particles(ca.particles, cb.particles);
+}
+
+} // namespace
+
+// (a) 0.3 s straight vs 0.15 s + end checkpoint + resume to 0.3 s: every particle array and every
+// probe CSV identical. The split point (step 826) falls between two probe rows, after the friction
+// event's region is set up and before it fires.
+TEST(DemResume, ResumedRunEqualsUninterruptedBitForBit) {
+  dem::RunOptions a;
+  a.out_dir = scratch("straight");
+  a.threads = 1;
+  const auto sa = dem::run(resume_scene(0.3), a);
+  ASSERT_TRUE(sa.ok) << sa.message;
+
+  dem::RunOptions b = a;
+  b.out_dir = scratch("split");
+  const auto s1 = dem::run(resume_scene(0.1537), b);
+  ASSERT_TRUE(s1.ok) << s1.message;
+  ASSERT_TRUE(std::filesystem::exists(b.out_dir / "dem" / "checkpoint.ckpt"));
+  b.resume = true;
+  const auto s2 = dem::run(resume_scene(0.3), b);
+  ASSERT_TRUE(s2.ok) << s2.message;
+  EXPECT_EQ(s2.steps, sa.steps);
+  expect_same_outputs(a.out_dir, b.out_dir);
+  // The event fired in the second half: its material is in the final state.
+  const auto c = dem::io::read_checkpoint(b.out_dir / "dem" / "final.ckpt");
+  bool any_new_material = false;
+  for (auto m : c.particles.material) any_new_material |= m != 0;
+  EXPECT_TRUE(any_new_material);
+}
+
+// Periodic checkpoints do not perturb the run, and a resume from the last periodic one
+// reproduces the rest.
+TEST(DemResume, PeriodicCheckpointsAndResumeFromThem) {
+  dem::RunOptions a;
+  a.out_dir = scratch("straight2");
+  a.threads = 1;
+  ASSERT_TRUE(dem::run(resume_scene(0.2), a).ok);
+  auto sc = resume_scene(0.2);
+  sc.output.checkpoint_interval = 0.05;
+  dem::RunOptions b = a;
+  b.out_dir = scratch("periodic");
+  const auto s1 = dem::run(sc, b);
+  ASSERT_TRUE(s1.ok) << s1.message;
+  expect_same_outputs(a.out_dir, b.out_dir);
+  // Resuming a finished run (checkpoint at its end) rewrites the final outputs identically.
+  b.resume = true;
+  const auto s2 = dem::run(sc, b);
+  ASSERT_TRUE(s2.ok) << s2.message;
+  expect_same_outputs(a.out_dir, b.out_dir);
+}
+
+// (b) The interrupt flag: the loop writes a checkpoint and returns ok = false with the message;
+// a resume completes the run, identical to an uninterrupted one.
+TEST(DemResume, InterruptFlagWritesResumableCheckpoint) {
+  dem::RunOptions a;
+  a.out_dir = scratch("straight3");
+  a.threads = 1;
+  ASSERT_TRUE(dem::run(resume_scene(0.2), a).ok);
+
+  dem::RunOptions b = a;
+  b.out_dir = scratch("interrupted");
+  std::atomic<bool> stop{false};
+  b.interrupt = &stop;
+  // Set from the progress callback (its first report comes before the first step).
+  b.progress = [&](const scene::Progress&) { stop = true; };
+  const auto s1 = dem::run(resume_scene(0.2), b);
+  EXPECT_FALSE(s1.ok);
+  EXPECT_NE(s1.message.find("interrupted at t = "), std::string::npos) << s1.message;
+  EXPECT_NE(s1.message.find("continue with --resume"), std::string::npos) << s1.message;
+  ASSERT_TRUE(std::filesystem::exists(b.out_dir / "dem" / "checkpoint.ckpt"));
+  EXPECT_FALSE(std::filesystem::exists(b.out_dir / "dem" / "final.ckpt"));
+  stop = false;
+  b.resume = true;
+  b.progress = {};
+  const auto s2 = dem::run(resume_scene(0.2), b);
+  ASSERT_TRUE(s2.ok) << s2.message;
+  expect_same_outputs(a.out_dir, b.out_dir);
+}
+
+// A resume refuses a checkpoint of another scene and a missing checkpoint.
+TEST(DemResume, RefusesMissingOrForeignCheckpoint) {
+  dem::RunOptions b;
+  b.out_dir = scratch("foreign");
+  b.resume = true;
+  auto s = dem::run(resume_scene(0.05), b);
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("cannot resume"), std::string::npos) << s.message;
+  b.resume = false;
+  ASSERT_TRUE(dem::run(resume_scene(0.05), b).ok);
+  auto other = resume_scene(0.05);
+  other.info.name = "another-scene";
+  b.resume = true;
+  s = dem::run(other, b);
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("another-scene"), std::string::npos) << s.message;
+}
+
+// Engine level: save_state/restore_state on a freshly built engine continues bit for bit, through
+// a reorder (reorder_every = 2) and an opened wall.
+TEST(DemResume, EngineStateRoundTrip) {
+  auto build = [] {
+    dem::EngineConfig c;
+    c.kn = 1e6;
+    c.ks = 3e5;
+    c.reorder_every = 2;
+    c.shaking = true;
+    c.shaking_acceleration = scene::TimeFunction::sine(2.0, 3.0);
+    auto e = std::make_unique<dem::Engine>(c);
+    e->add_wall({{0, 2}, {0, 0}, {1, 0}, {1, 2}}, "box");
+    e->add_wall({{0.3, 0.995}, {0.7, 0.995}}, "shelf");
+    return e;
+  };
+  auto e1 = build();
+  std::mt19937_64 g(7);
+  for (int k = 0; k < 200; ++k)
+    e1->add_particle(0.05 + 0.09 * (k % 10), 0.05 + 0.09 * (k / 10),
+                     0.03 + 0.01 * static_cast<double>(g() >> 11) * 0x1.0p-53);
+  e1->set_dt(e1->auto_dt());
+  e1->run_steps(1500);
+  e1->open_wall("shelf");
+  e1->set_friction({{0, 0}, {0.5, 0}, {0.5, 2}, {0, 2}}, 0.2, 0.1);
+  e1->run_steps(500);
+  auto e2 = build();
+  e2->restore_state(e1->particles(), e1->save_state());
+  EXPECT_GT(e1->stats().reorders, 0);
+  e1->run_steps(1000);
+  e2->run_steps(1000);
+  ASSERT_FALSE(e1->failed()) << e1->failure();
+  expect_same_particles(e1->particles(), e2->particles());
+  EXPECT_EQ(e1->energy().total(), e2->energy().total());
+  EXPECT_EQ(e1->stats().neighbour_rebuilds, e2->stats().neighbour_rebuilds);
+}
+
+// OpenMP: 2 threads give bit-identical results across runs and agree with 1 thread to round-off.
+TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
+  auto run = [](int threads) {
+    dem::EngineConfig c;
+    c.kn = 1e7;
+    c.ks = 3e6;
+    c.damping_c = 2.0;
+    c.threads = threads;
+    c.parallel_min_particles = 0;
+    dem::Engine e(c);
+    // 2000 disks on a lattice with random velocities (±1 m/s): collisions everywhere at once.
+    const int n = 2000, cols = 50;
+    e.add_wall({{0, 10}, {0, 0}, {cols * 0.151 + 0.01, 0}, {cols * 0.151 + 0.01, 10}}, "box");
+    std::mt19937_64 g(1);
+    auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
+    for (int k = 0; k < n; ++k) {
+      const double r = 0.04 + 0.035 * u();
+      e.add_particle(0.08 + 0.151 * (k % cols), 0.08 + 0.151 * (k / cols), r, 2 * u() - 1,
+                     2 * u() - 1);
+    }
+    e.set_dt(e.auto_dt());
+    e.run_steps(600);
+    EXPECT_FALSE(e.failed()) << e.failure();
+    std::vector<dem::ContactView> cv;
+    e.contacts(cv);
+    EXPECT_GT(cv.size(), 30u);        // the pair loop is exercised: contacts now,
+    EXPECT_GT(e.energy().rebound, 1.0); // and many collisions before
+    EXPECT_EQ(e.threads_in_use(), threads);
+    return std::pair{e.particles(), e.energy().friction};
+  };
+  const auto [p2a, f2a] = run(2);
+  const auto [p2b, f2b] = run(2);
+  expect_same_particles(p2a, p2b);
+  EXPECT_EQ(f2a, f2b);
+  const auto [p1, f1] = run(1);
+  ASSERT_EQ(p1.size(), p2a.size());
+  double dmax = 0.0;
+  for (std::size_t i = 0; i < p1.size(); ++i) {
+    ASSERT_EQ(p1.id[i], p2a.id[i]);
+    dmax = std::max({dmax, std::abs(p1.x[i] - p2a.x[i]), std::abs(p1.z[i] - p2a.z[i])});
+  }
+  EXPECT_LT(dmax, 1e-9); // round-off of a different summation order, not a different model
+  EXPECT_NEAR(f1, f2a, 1e-9 * std::max(1.0, std::abs(f1)));
+}
