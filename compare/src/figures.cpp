@@ -206,12 +206,24 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
              ser(fmt::format("running mean ({:.3g} s)", window_s), t, avg, "lines", "lw 3")}),
            fig / (name + ".png"), out);
       json j;
-      const double stat = mean_between(t, y, 0.0, 0.1); // before the shaking has built up
+      // Static value: the mean before the shaking starts (or over the first 0.1 s if it starts at 0).
+      const double ts = scene.load.shaking ? scene.load.shaking->acceleration.start : 0.0;
+      const double stat = ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts) : mean_between(t, y, 0.0, 0.1);
       const double tend = t.empty() ? 0.0 : t.back();
+      const double late = mean_between(t, y, std::max(ts, tend - 3.0), tend);
       j["static_N"] = stat;
-      j["mean_early_N"] = mean_between(t, y, 1.0, 3.0);
-      j["mean_late_N"] = mean_between(t, y, std::max(0.0, tend - 3.0), tend);
-      if (std::isfinite(stat) && stat != 0.0) j["late_over_static"] = j["mean_late_N"].get<double>() / stat;
+      j["shaking_starts_s"] = ts;
+      j["mean_early_N"] = mean_between(t, y, ts, ts + 2.0);
+      j["mean_late_N"] = late;
+      if (std::isfinite(stat) && stat != 0.0) j["late_over_static"] = late / stat;
+      // When the mean stops rising: first time the running mean reaches 90 % of its final rise.
+      if (std::isfinite(stat) && late > stat) {
+        for (std::size_t i = 0; i < t.size() && i < avg.size(); ++i)
+          if (t[i] >= ts && avg[i] >= stat + 0.9 * (late - stat)) {
+            j["mean_reaches_90pct_of_rise_after_shaking_start_s"] = t[i] - ts;
+            break;
+          }
+      }
       jw[name] = j;
     }
     sum["walls"] = jw;
