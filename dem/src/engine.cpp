@@ -1320,7 +1320,7 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   failure_.clear();
 }
 
-std::vector<std::byte> Engine::save_contact_history() const {
+std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const {
   // Active entries only, keyed by stable particle ids: (id_i, id_j, history), then
   // (id_i, feature, history).
   detail::ByteWriter w;
@@ -1340,7 +1340,7 @@ std::vector<std::byte> Engine::save_contact_history() const {
   a.clear();
   b.clear();
   h.clear();
-  for (std::size_t k = 0; k < bnd_i_.size(); ++k)
+  for (std::size_t k = 0; with_boundaries && k < bnd_i_.size(); ++k)
     if (bnd_hist_[k].flags != 0) {
       a.push_back(p_.id[bnd_i_[k]]);
       b.push_back(bnd_f_[k]);

@@ -396,6 +396,7 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir, const scene:
   res.deposition_time = e.time();
   res.steps = e.stats().steps;
   res.particles = e.particles();
+  res.contact_history = e.save_contact_history(false);
   sort_by_id(res.particles);
   auto& P = res.particles;
   std::fill(P.vx.begin(), P.vx.end(), 0.0);
@@ -416,10 +417,13 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir, const scene:
   meta.step = 0;
   meta.dt = e.dt();
   meta.label = "packing " + res.key + " " + scene.info.name;
-  const std::string extra = stats_text(res);
-  io::write_checkpoint(res.path, P, meta,
-                       std::span<const std::byte>(reinterpret_cast<const std::byte*>(extra.data()),
-                                                  extra.size()));
+  // extra: the statistics as text, a NUL byte, the contact history.
+  const std::string text = stats_text(res);
+  std::vector<std::byte> extra(reinterpret_cast<const std::byte*>(text.data()),
+                               reinterpret_cast<const std::byte*>(text.data()) + text.size());
+  extra.push_back(std::byte{0});
+  extra.insert(extra.end(), res.contact_history.begin(), res.contact_history.end());
+  io::write_checkpoint(res.path, P, meta, extra);
   try { // a picture of the packing beside the checkpoint, for ParaView
     fs::path vtp = res.path;
     vtp.replace_extension(".vtp");
@@ -454,7 +458,10 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
         r.path = path;
         r.key = packing_key(scene);
         r.from_cache = true;
-        parse_stats(std::string(reinterpret_cast<const char*>(ck.extra.data()), ck.extra.size()), r);
+        const auto nul = std::find(ck.extra.begin(), ck.extra.end(), std::byte{0});
+        parse_stats(std::string(reinterpret_cast<const char*>(ck.extra.data()),
+                                static_cast<std::size_t>(nul - ck.extra.begin())), r);
+        if (nul != ck.extra.end()) r.contact_history.assign(nul + 1, ck.extra.end());
         r.surface_max = top_of(r.particles);
         return r;
       }

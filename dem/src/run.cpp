@@ -197,6 +197,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     const auto& p = pr.particles;
     for (std::size_t i = 0; i < p.size(); ++i)
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
+    // The packing's shear springs (ids 0…count−1 match: the particles are added in id order).
+    if (!pr.contact_history.empty()) e.load_contact_history(pr.contact_history);
   }
 #else
   if (!resume_from && scene.soil.dem->particles.empty()) {

@@ -13,6 +13,7 @@
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
+#include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -275,4 +276,39 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
   }
   EXPECT_LT(dmax, 1e-9); // round-off of a different summation order, not a different model
   EXPECT_NEAR(f1, f2a, 1e-9 * std::max(1.0, std::abs(f1)));
+}
+
+// A packing stores its particle–particle contact history; the cache returns the same blob and a
+// run that starts from the packing starts with its shear springs.
+TEST(DemResume, PackingKeepsContactHistory) {
+  auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/retaining_wall.toml");
+  auto s = f.base;
+  s.soil.dem->packing.cache.clear();
+  s.soil.dem->count = 200;
+  const auto dir = scratch("pack");
+  const auto a = dem::pack_or_load(s, dir);
+  ASSERT_FALSE(a.from_cache);
+  ASSERT_FALSE(a.contact_history.empty());
+  const auto b = dem::pack_or_load(s, dir);
+  ASSERT_TRUE(b.from_cache);
+  EXPECT_EQ(a.contact_history, b.contact_history);
+  EXPECT_EQ(a.particles.x, b.particles.x);
+  // Shear force carried into the first step with and without the history.
+  auto first_step_shear = [&](bool with_history) {
+    dem::Engine e(dem::make_config(s));
+    for (std::size_t i = 0; i < b.particles.size(); ++i)
+      e.add_particle(b.particles.x[i], b.particles.z[i], b.particles.radius[i]);
+    if (with_history) e.load_contact_history(b.contact_history);
+    for (const auto& w : s.walls) e.add_wall(w);
+    e.set_dt(e.auto_dt());
+    e.step();
+    std::vector<dem::ContactView> cv;
+    e.contacts(cv);
+    double sum = 0.0;
+    for (const auto& c : cv)
+      if (c.j >= 0) sum += std::abs(c.fs);
+    return sum;
+  };
+  const double with = first_step_shear(true), without = first_step_shear(false);
+  EXPECT_GT(with, 10.0 * without) << with << " vs " << without;
 }

@@ -171,7 +171,7 @@ public:
   void restore_state(Particles particles, std::span<const std::byte> state);
   // Contact history only (particle–particle pairs by stable id, and particle–feature), e.g. for
   // a packing checkpoint; load_contact_history() keeps the entries whose ids exist.
-  [[nodiscard]] std::vector<std::byte> save_contact_history() const;
+  [[nodiscard]] std::vector<std::byte> save_contact_history(bool with_boundaries = true) const;
   void load_contact_history(std::span<const std::byte> blob);
   // Memory held by the engine's containers (capacities) [bytes].
   struct MemoryUse {

@@ -20,6 +20,7 @@
 // packing.max_time.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <random>
@@ -72,6 +73,10 @@ struct PackResult {
   int layers = 1;                  // copies of the fill used for placement
   bool converged = false;          // ke_ratio reached before max_time
   double surface_max = 0.0;        // highest particle top after deposition [m]
+  // Particle–particle contact history at the end of deposition (shear springs, sliding and bond
+  // flags; Engine::save_contact_history without boundaries, whose features differ between the
+  // deposition and the run). Empty for explicit particles and packings cached without it.
+  std::vector<std::byte> contact_history;
 };
 
 // Places the particles without overlap (no deposition). Throws scene::SceneError (key
