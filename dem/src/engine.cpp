@@ -1,6 +1,7 @@
 #include "demfem/dem/engine.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -1046,8 +1047,13 @@ void Engine::step() {
     for (const auto& st : structures_)
       if (st.spec.dead_weight) pe_ref_ += st.mass * g * (st.pz0 + st.uz + st.cz_local);
   }
+  const auto t0 = std::chrono::steady_clock::now();
   check_rebuild();
+  const auto t1 = std::chrono::steady_clock::now();
   compute_forces();
+  const auto t2 = std::chrono::steady_clock::now();
+  stats_.rebuild_seconds += std::chrono::duration<double>(t1 - t0).count();
+  stats_.force_seconds += std::chrono::duration<double>(t2 - t1).count();
   integrate();
   update_structures();
   time_ += dt_;

@@ -104,6 +104,9 @@ struct EngineStats {
   long long structure_updates = 0; // stays 0 for scenes without structures (issue item 8)
   std::size_t pair_entries = 0;    // particle pairs within cut-off + skin
   std::size_t boundary_entries = 0;
+  // Wall-clock seconds spent in the neighbour rebuild (incl. reorder) and the force loops
+  // (profiling; not part of the state).
+  double rebuild_seconds = 0.0, force_seconds = 0.0;
 };
 
 // Boundary = a wall polyline or a structure outline, made of segment and vertex features.
