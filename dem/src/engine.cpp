@@ -409,6 +409,8 @@ void Engine::reorder() {
 
 void Engine::rebuild() {
   const std::size_t n = p_.size();
+  const int T = threads_in_use();
+  const auto tcount = static_cast<std::size_t>(T);
   skin_ = config_.skin_factor * r_min_;
   if (config_.reorder_every > 0 && rebuilds_since_reorder_ >= config_.reorder_every) {
     reorder();
@@ -475,32 +477,62 @@ void Engine::rebuild() {
       for (std::size_t i = 0; i < n; ++i)
         if (cell_of[i] != ~0u) cell_items[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
     }
-    new_j.reserve(n * 4);
-    std::vector<std::uint32_t> local;
-    for (std::size_t i = 0; i < n; ++i) {
-      new_start[i] = static_cast<std::uint32_t>(new_j.size());
-      if (cell_of[i] == ~0u) continue;
-      const std::size_t cx = cell_of[i] % nx, cz = cell_of[i] / nx;
-      local.clear();
-      for (std::size_t zz = cz > 0 ? cz - 1 : 0; zz <= std::min(cz + 1, nz - 1); ++zz)
-        for (std::size_t xx = cx > 0 ? cx - 1 : 0; xx <= std::min(cx + 1, nx - 1); ++xx) {
-          const std::size_t c = zz * nx + xx;
-          for (std::uint32_t k = cell_start[c]; k < cell_start[c + 1]; ++k) {
-            const std::uint32_t j = cell_items[k];
-            if (j <= i) continue;
-            const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
-            const double cut = p_.radius[i] + p_.radius[j] + skin_;
-            if (dx * dx + dz * dz < cut * cut) local.push_back(j);
+    // Candidate pairs (i < j within cut-off + skin) of the owners i0 ≤ i < i1, appended to `out`
+    // in (owner, partner) order; new_start[i] is set relative to out's start.
+    auto search = [&](std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& out) {
+      out.clear();
+      out.reserve((i1 - i0) * 4);
+      std::vector<std::uint32_t> local;
+      for (std::size_t i = i0; i < i1; ++i) {
+        new_start[i] = static_cast<std::uint32_t>(out.size());
+        if (cell_of[i] == ~0u) continue;
+        const std::size_t cx = cell_of[i] % nx, cz = cell_of[i] / nx;
+        local.clear();
+        for (std::size_t zz = cz > 0 ? cz - 1 : 0; zz <= std::min(cz + 1, nz - 1); ++zz)
+          for (std::size_t xx = cx > 0 ? cx - 1 : 0; xx <= std::min(cx + 1, nx - 1); ++xx) {
+            const std::size_t c = zz * nx + xx;
+            for (std::uint32_t k = cell_start[c]; k < cell_start[c + 1]; ++k) {
+              const std::uint32_t j = cell_items[k];
+              if (j <= i) continue;
+              const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
+              const double cut = p_.radius[i] + p_.radius[j] + skin_;
+              if (dx * dx + dz * dz < cut * cut) local.push_back(j);
+            }
           }
-        }
-      std::sort(local.begin(), local.end());
-      new_j.insert(new_j.end(), local.begin(), local.end());
+        std::sort(local.begin(), local.end());
+        out.insert(out.end(), local.begin(), local.end());
+      }
+    };
+    if (T <= 1) {
+      search(0, n, new_j);
+    } else { // contiguous owner chunks, concatenated in order: the same list for any thread count
+      std::vector<std::vector<std::uint32_t>> tj(tcount);
+#pragma omp parallel num_threads(T)
+      {
+#ifdef _OPENMP
+        const auto t = static_cast<std::size_t>(omp_get_thread_num());
+#else
+        const std::size_t t = 0;
+#endif
+        search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
+      }
+      std::size_t total = 0;
+      for (const auto& v : tj) total += v.size();
+      new_j.resize(total);
+      std::size_t base = 0;
+      for (std::size_t t = 0; t < tcount; ++t) {
+        for (std::size_t i = n * t / tcount; i < n * (t + 1) / tcount; ++i)
+          new_start[i] += static_cast<std::uint32_t>(base);
+        std::copy(tj[t].begin(), tj[t].end(), new_j.begin() + static_cast<std::ptrdiff_t>(base));
+        base += tj[t].size();
+      }
     }
     new_start[n] = static_cast<std::uint32_t>(new_j.size());
   }
   // Carry the history over: both lists are sorted by (owner, partner).
   std::vector<ContactHistory> new_hist(new_j.size());
   if (nbr_start_.size() == n + 1) {
+#pragma omp parallel for num_threads(T) schedule(static) if (T > 1)
     for (std::size_t i = 0; i < n; ++i) {
       std::uint32_t a = nbr_start_[i];
       const std::uint32_t ae = nbr_start_[i + 1];

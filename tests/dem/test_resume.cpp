@@ -200,37 +200,42 @@ TEST(DemResume, RefusesMissingOrForeignCheckpoint) {
 // Engine level: save_state/restore_state on a freshly built engine continues bit for bit, through
 // a reorder (reorder_every = 2) and an opened wall.
 TEST(DemResume, EngineStateRoundTrip) {
-  auto build = [] {
-    dem::EngineConfig c;
-    c.kn = 1e6;
-    c.ks = 3e5;
-    c.reorder_every = 2;
-    c.shaking = true;
-    c.shaking_acceleration = scene::TimeFunction::sine(2.0, 3.0);
-    auto e = std::make_unique<dem::Engine>(c);
-    e->add_wall({{0, 2}, {0, 0}, {1, 0}, {1, 2}}, "box");
-    e->add_wall({{0.3, 0.995}, {0.7, 0.995}}, "shelf");
-    return e;
-  };
-  auto e1 = build();
-  std::mt19937_64 g(7);
-  for (int k = 0; k < 200; ++k)
-    e1->add_particle(0.05 + 0.09 * (k % 10), 0.05 + 0.09 * (k / 10),
-                     0.03 + 0.01 * static_cast<double>(g() >> 11) * 0x1.0p-53);
-  e1->set_dt(e1->auto_dt());
-  e1->run_steps(1500);
-  e1->open_wall("shelf");
-  e1->set_friction({{0, 0}, {0.5, 0}, {0.5, 2}, {0, 2}}, 0.2, 0.1);
-  e1->run_steps(500);
-  auto e2 = build();
-  e2->restore_state(e1->particles(), e1->save_state());
-  EXPECT_GT(e1->stats().reorders, 0);
-  e1->run_steps(1000);
-  e2->run_steps(1000);
-  ASSERT_FALSE(e1->failed()) << e1->failure();
-  expect_same_particles(e1->particles(), e2->particles());
-  EXPECT_EQ(e1->energy().total(), e2->energy().total());
-  EXPECT_EQ(e1->stats().neighbour_rebuilds, e2->stats().neighbour_rebuilds);
+  for (const int threads : {1, 2}) { // bit for bit at the same thread count
+    auto build = [threads] {
+      dem::EngineConfig c;
+      c.kn = 1e6;
+      c.ks = 3e5;
+      c.reorder_every = 2;
+      c.shaking = true;
+      c.shaking_acceleration = scene::TimeFunction::sine(2.0, 3.0);
+      c.threads = threads;
+      c.parallel_min_particles = 0;
+      auto e = std::make_unique<dem::Engine>(c);
+      e->add_wall({{0, 2}, {0, 0}, {1, 0}, {1, 2}}, "box");
+      e->add_wall({{0.3, 0.995}, {0.7, 0.995}}, "shelf");
+      return e;
+    };
+    auto e1 = build();
+    std::mt19937_64 g(7);
+    for (int k = 0; k < 200; ++k)
+      e1->add_particle(0.05 + 0.09 * (k % 10), 0.05 + 0.09 * (k / 10),
+                       0.03 + 0.01 * static_cast<double>(g() >> 11) * 0x1.0p-53);
+    e1->set_dt(e1->auto_dt());
+    e1->run_steps(1500);
+    e1->open_wall("shelf");
+    e1->set_friction({{0, 0}, {0.5, 0}, {0.5, 2}, {0, 2}}, 0.2, 0.1);
+    e1->run_steps(500);
+    auto e2 = build();
+    e2->restore_state(e1->particles(), e1->save_state());
+    EXPECT_GT(e1->stats().reorders, 0);
+    EXPECT_EQ(e1->threads_in_use(), threads);
+    e1->run_steps(1000);
+    e2->run_steps(1000);
+    ASSERT_FALSE(e1->failed()) << e1->failure();
+    expect_same_particles(e1->particles(), e2->particles());
+    EXPECT_EQ(e1->energy().total(), e2->energy().total());
+    EXPECT_EQ(e1->stats().neighbour_rebuilds, e2->stats().neighbour_rebuilds);
+  }
 }
 
 // OpenMP: 2 threads give bit-identical results across runs and agree with 1 thread to round-off.
