@@ -938,30 +938,48 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
   const double dt = dt_;
   const double g = config_.gravity;
   const double C = config_.damping_c, D = config_.damping_d;
+  // Local restrict pointers: the loop touches only these arrays (lets the compiler keep them in
+  // registers instead of reloading them from the vectors after every store).
+  double* __restrict x = p_.x.data();
+  double* __restrict z = p_.z.data();
+  double* __restrict phi = p_.phi.data();
+  double* __restrict vx = p_.vx.data();
+  double* __restrict vz = p_.vz.data();
+  double* __restrict om = p_.omega.data();
+  const double* __restrict fxa = p_.fx.data();
+  const double* __restrict fza = p_.fz.data();
+  const double* __restrict tqa = p_.torque.data();
+  const double* __restrict mass = p_.mass.data();
+  const double* __restrict inv_mass = p_.inv_mass.data();
+  const double* __restrict inv_inertia = p_.inv_inertia.data();
+  const std::uint32_t* __restrict flags = p_.flags.data();
   double w_ext = 0.0, e_damp = 0.0;
-  bool is_bad = *bad != ~std::size_t{0};
+  std::size_t first_bad = *bad;
   for (std::size_t i = i0; i < i1; ++i) {
-    if (p_.flags[i] & kFlagRemoved) continue;
-    const double m = p_.mass[i], im = p_.inv_mass[i], ii = p_.inv_inertia[i];
+    if (flags[i] & kFlagRemoved) continue;
+    const double m = mass[i], im = inv_mass[i], ii = inv_inertia[i];
     // eq. 2.1: m ü + C u̇ + F = 0 with C per unit mass; eq. 2.2 likewise with D per inertia.
-    const double fx = p_.fx[i] + m * ax_body - C * m * p_.vx[i];
-    const double fz = p_.fz[i] + m * (az_body - g) - C * m * p_.vz[i];
-    const double tq = p_.torque[i] - D * p_.omega[i] / ii;
-    const double vx0 = p_.vx[i], vz0 = p_.vz[i], om0 = p_.omega[i];
-    p_.vx[i] += fx * im * dt;    // eq. 2.16
-    p_.vz[i] += fz * im * dt;
-    p_.omega[i] += tq * ii * dt; // eq. 2.17
-    p_.x[i] += p_.vx[i] * dt;    // eq. 2.18
-    p_.z[i] += p_.vz[i] * dt;
-    p_.phi[i] += p_.omega[i] * dt;
-    w_ext += m * (ax_body * p_.vx[i] + az_body * p_.vz[i]) * dt;
-    if (C > 0.0) e_damp += C * m * (0.5 * (vx0 + p_.vx[i]) * p_.vx[i] + 0.5 * (vz0 + p_.vz[i]) * p_.vz[i]) * dt;
-    if (D > 0.0) e_damp += D / ii * 0.5 * (om0 + p_.omega[i]) * p_.omega[i] * dt;
-    if (!std::isfinite(p_.x[i] + p_.z[i] + p_.omega[i]) && !is_bad) {
-      is_bad = true;
-      *bad = i;
-    }
+    const double vx0 = vx[i], vz0 = vz[i], om0 = om[i];
+    const double fx = fxa[i] + m * ax_body - C * m * vx0;
+    const double fz = fza[i] + m * (az_body - g) - C * m * vz0;
+    const double tq = tqa[i] - D * om0 / ii;
+    const double vx1 = vx0 + fx * im * dt;   // eq. 2.16
+    const double vz1 = vz0 + fz * im * dt;
+    const double om1 = om0 + tq * ii * dt;   // eq. 2.17
+    vx[i] = vx1;
+    vz[i] = vz1;
+    om[i] = om1;
+    const double x1 = x[i] + vx1 * dt;       // eq. 2.18
+    const double z1 = z[i] + vz1 * dt;
+    x[i] = x1;
+    z[i] = z1;
+    phi[i] += om1 * dt;
+    w_ext += m * (ax_body * vx1 + az_body * vz1) * dt;
+    if (C > 0.0) e_damp += C * m * (0.5 * (vx0 + vx1) * vx1 + 0.5 * (vz0 + vz1) * vz1) * dt;
+    if (D > 0.0) e_damp += D / ii * 0.5 * (om0 + om1) * om1 * dt;
+    if (!std::isfinite(x1 + z1 + om1) && first_bad == ~std::size_t{0}) first_bad = i;
   }
+  *bad = first_bad;
   sums[0] += w_ext;
   sums[1] += e_damp;
 }
