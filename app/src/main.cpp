@@ -1,4 +1,5 @@
 // The `demfem` command: parses arguments, loads scenes, dispatches to the solvers. No physics.
+#include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -26,6 +27,14 @@ namespace fs = std::filesystem;
 using namespace demfem;
 
 namespace {
+
+// Ctrl-C: the first SIGINT asks the running solver to write a checkpoint and stop; a second one
+// kills the process the usual way.
+std::atomic<bool> g_interrupt{false};
+extern "C" void on_sigint(int) {
+  g_interrupt.store(true);
+  std::signal(SIGINT, SIG_DFL);
+}
 
 // Exit codes, documented in --help and the README.
 constexpr int kOk = 0;
@@ -64,10 +73,11 @@ scene::SceneFile load_or_report(const std::string& path, int& rc) {
   }
 }
 
-void setup_run_log(const fs::path& dir) {
+// A resumed run appends to the log of the run it continues.
+void setup_run_log(const fs::path& dir, bool append) {
   fs::create_directories(dir);
   auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
-  auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), true);
+  auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), !append);
   console->set_level(spdlog::level::info);
   auto logger = std::make_shared<spdlog::logger>("demfem", spdlog::sinks_init_list{console, file});
   logger->set_level(spdlog::level::debug);
@@ -114,6 +124,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       o.resume = a.resume;
       o.threads = a.threads;
       o.progress = progress;
+      o.interrupt = &g_interrupt;
       const auto x = dem::run(s, o);
       r.ran = true;
       r.ok = x.ok;
@@ -154,8 +165,8 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
   return out;
 }
 
-void start_run_dir(const scene::Scene& s, const fs::path& out) {
-  setup_run_log(out);
+void start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
+  setup_run_log(out, resume);
   std::ofstream(out / "scene.resolved.toml") << scene::to_toml(s);
 }
 
@@ -183,7 +194,7 @@ int cmd_run(const RunArgs& a) {
       return kBadInput;
     }
     const fs::path out = run_dir_for(*s, a, scenes.size());
-    start_run_dir(*s, out);
+    start_run_dir(*s, out, a.resume);
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
     const auto r = run_solver(*s, solver, out, a);
@@ -211,7 +222,7 @@ int cmd_compare(const RunArgs& a) {
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
-    start_run_dir(*s, out);
+    start_run_dir(*s, out, a.resume);
     compare::ReportOptions ro;
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
@@ -356,6 +367,7 @@ int main(int argc, char** argv) {
                                     "packing goes to packing.cache or <out>/packing");
   pack->footer(kExitCodes);
 
+  std::signal(SIGINT, on_sigint);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -19,9 +19,10 @@ struct Result {
   std::string out; // stdout and stderr together
 };
 
-Result run(const std::string& args) {
+// Runs a shell command line, capturing stdout and stderr together.
+Result run_raw(const std::string& command) {
   const fs::path log = fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
-  const std::string cmd = std::string(DEMFEM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+  const std::string cmd = command + " > " + log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   Result r;
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -32,6 +33,8 @@ Result run(const std::string& args) {
   fs::remove(log);
   return r;
 }
+
+Result run(const std::string& args) { return run_raw(std::string(DEMFEM_BINARY) + " " + args); }
 
 fs::path write_temp(const std::string& name, const std::string& text) {
   const fs::path p = fs::temp_directory_path() / name;
@@ -119,4 +122,28 @@ TEST(Cli, UnbuiltSubcommandsSaySoAndExit2) {
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.out.find("not built yet"), std::string::npos) << args << "\n" << r.out;
   }
+}
+
+// Ctrl-C writes a checkpoint and stops; --resume continues it to the end.
+TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
+  std::ifstream in(fs::path(DEMFEM_SOURCE_DIR) / "cases/verification/settle_box.toml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const auto pos = text.find("\nduration = ");
+  ASSERT_NE(pos, std::string::npos);
+  text.replace(pos, text.find('\n', pos + 1) - pos, "\nduration = 30.0");
+  const auto scene = write_temp("demfem_interrupt.toml", text);
+  const fs::path out = fs::temp_directory_path() / "demfem_interrupt_run";
+  fs::remove_all(out);
+  // `timeout -s INT` sends SIGINT after 1.5 s (the run needs far longer).
+  const auto first = run_raw("timeout -s INT 1.5 " + std::string(DEMFEM_BINARY) + " run " +
+                             scene.string() + " --out " + out.string());
+  EXPECT_NE(first.out.find("interrupted at t ="), std::string::npos) << first.out;
+  EXPECT_TRUE(fs::exists(out / "dem" / "checkpoint.ckpt"));
+  const auto second = run("run " + scene.string() + " --out " + out.string() + " --resume");
+  EXPECT_EQ(second.code, 0) << second.out;
+  EXPECT_TRUE(fs::exists(out / "summary.json"));
+  fs::remove_all(out);
+  fs::remove(scene);
 }
