@@ -109,7 +109,22 @@ struct Model::Impl {
   AffineConstraints<double> hom, inh;
   std::map<types::global_dof_index, double> patch_target; // dof → value at load factor 1
   std::vector<std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>>> patch_dofs;
-  Mat K, M, K0;
+  // Constrained dofs whose value follows a target (patches, rigid-body masters): the raw
+  // (unresolved) line; the Newton predictor gives them target − (u_i − Σ c_ij u_j).
+  struct Line {
+    std::vector<std::pair<types::global_dof_index, double>> entries;
+    std::function<double()> target; // empty: 0 (slaves of a rigid body)
+  };
+  std::map<types::global_dof_index, Line> lines;
+  struct Rigid {
+    types::global_dof_index master[3] = {0, 0, 0}; // A_x, A_z, B_c
+    double T[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}; // q = (ux, uz, θ) = T m
+    std::vector<char> is_dof;                       // by global dof index
+    std::vector<std::pair<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>>> dofs;
+  };
+  std::vector<Rigid> rigid; // by region (empty is_dof for elastic regions)
+  Mat K, M, K0, Cabs;
+  bool has_cabs = false;
   Vec u, rhs, res, f_internal, du, v, acc, u_n, v_n, a_n;
   Vec u_ghost;
   std::vector<QpState> committed, trial;
@@ -238,11 +253,144 @@ struct Model::Impl {
       }
     }
 
-    // constraints: box boundary conditions, patches, pure-shear kinematics, periodicity
+    // rigid regions: masters (2 dofs at the node nearest the pivot, 1 at the node farthest from
+    // it along the better-conditioned direction) and slaves
+    lines.clear();
+    rigid.assign(pb.regions.size(), Rigid{});
+    for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+      const Region& reg = pb.regions[r];
+      if (!reg.rigid) continue;
+      Rigid& R = rigid[r];
+      R.is_dof.assign(dof.n_dofs(), 0);
+      const auto& usp = fe.get_unit_support_points();
+      std::vector<types::global_dof_index> ld(fe.n_dofs_per_cell());
+      for (const auto& cell : dof.active_cell_iterators()) {
+        if (cell->material_id() != r + 1) continue;
+        cell->get_dof_indices(ld);
+        for (unsigned i = 0; i < ld.size(); ++i)
+          if (!R.is_dof[ld[i]]) {
+            R.is_dof[ld[i]] = 1;
+            R.dofs.push_back({ld[i], {fe.system_to_component_index(i).first,
+                                      mapping.transform_unit_to_real_cell(cell, usp[i])}});
+          }
+      }
+      if (R.dofs.empty()) throw std::runtime_error("structure region '" + reg.name + "' has no cells");
+      const double xp = reg.pivot.x, zp = reg.pivot.z;
+      // A: nearest to the pivot (x and z dofs at the same support point)
+      std::size_t ia = 0;
+      double best = 1e300;
+      for (std::size_t k = 0; k < R.dofs.size(); ++k) {
+        const auto& P = R.dofs[k].second.second;
+        const double d = std::hypot(P[0] - xp, P[1] - zp);
+        if (R.dofs[k].second.first == 0 && d < best) { best = d; ia = k; }
+      }
+      const dealii::Point<2> A = R.dofs[ia].second.second;
+      R.master[0] = R.dofs[ia].first;
+      for (const auto& d : R.dofs)
+        if (d.second.first == 1 && d.second.second.distance(A) < 1e-12 * (1 + A.norm())) R.master[1] = d.first;
+      // B: maximise |det R| = |A_z − B_z| (x dof of B) or |B_x − A_x| (z dof of B)
+      best = -1;
+      std::size_t ib = 0;
+      for (std::size_t k = 0; k < R.dofs.size(); ++k) {
+        const auto& P = R.dofs[k].second.second;
+        const double d = R.dofs[k].second.first == 0 ? std::abs(P[1] - A[1]) : std::abs(P[0] - A[0]);
+        if (d > best) { best = d; ib = k; }
+      }
+      R.master[2] = R.dofs[ib].first;
+      const unsigned cb = R.dofs[ib].second.first;
+      const dealii::Point<2> B = R.dofs[ib].second.second;
+      // m = S q with rows of the small rigid motion u = (ux − θ(z − zp), uz + θ(x − xp))
+      auto row = [&](unsigned c, const dealii::Point<2>& P, double out[3]) {
+        out[0] = c == 0 ? 1 : 0;
+        out[1] = c == 1 ? 1 : 0;
+        out[2] = c == 0 ? -(P[1] - zp) : (P[0] - xp);
+      };
+      double S[3][3];
+      row(0, A, S[0]);
+      row(1, A, S[1]);
+      row(cb, B, S[2]);
+      const double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
+                         S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
+                         S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
+      if (std::abs(det) < 1e-12) throw std::runtime_error("structure region '" + reg.name + "' is degenerate");
+      for (int i = 0; i < 3; ++i) // inverse by cofactors
+        for (int j = 0; j < 3; ++j) {
+          const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+          R.T[i][j] = (S[i1][j1] * S[i2][j2] - S[i1][j2] * S[i2][j1]) / det;
+        }
+      // slaves: u_P = row(P) · T · m
+      for (const auto& [i, cp] : R.dofs) {
+        if (i == R.master[0] || i == R.master[1] || i == R.master[2]) continue;
+        double rp[3];
+        row(cp.first, cp.second, rp);
+        Line l;
+        for (int j = 0; j < 3; ++j) {
+          const double c = rp[0] * R.T[0][j] + rp[1] * R.T[1][j] + rp[2] * R.T[2][j];
+          if (std::abs(c) > 1e-14) l.entries.push_back({R.master[j], c});
+        }
+        lines[i] = std::move(l);
+      }
+      // fixed / prescribed components: rows T_k m = g_k(t), solved for |C| masters by
+      // Gauss–Jordan elimination with column pivoting
+      std::vector<std::array<double, 3>> A_;
+      std::vector<std::array<double, 3>> W; // rhs weights on g = (g_x, g_z, g_θ)
+      for (int k = 0; k < 3; ++k)
+        if (reg.mode[k] != Region::Mode::Free) {
+          A_.push_back(std::array<double, 3>{{R.T[k][0], R.T[k][1], R.T[k][2]}});
+          std::array<double, 3> w{{0, 0, 0}};
+          w[static_cast<std::size_t>(k)] = 1;
+          W.push_back(w);
+        }
+      std::vector<int> pivcol(A_.size(), -1);
+      std::vector<char> used(3, 0);
+      for (std::size_t a = 0; a < A_.size(); ++a) {
+        int pc = -1;
+        for (int j = 0; j < 3; ++j)
+          if (!used[j] && (pc < 0 || std::abs(A_[a][j]) > std::abs(A_[a][pc]))) pc = j;
+        used[pc] = 1;
+        pivcol[a] = pc;
+        const double d = A_[a][pc];
+        for (int j = 0; j < 3; ++j) { A_[a][j] /= d; W[a][j] /= d; }
+        for (std::size_t b = 0; b < A_.size(); ++b) {
+          if (b == a) continue;
+          const double f = A_[b][pc];
+          for (int j = 0; j < 3; ++j) { A_[b][j] -= f * A_[a][j]; W[b][j] -= f * W[a][j]; }
+        }
+      }
+      for (std::size_t a = 0; a < A_.size(); ++a) {
+        Line l;
+        for (int j = 0; j < 3; ++j)
+          if (j != pivcol[a] && !used[j] && std::abs(A_[a][j]) > 1e-14) l.entries.push_back({R.master[j], -A_[a][j]});
+        const std::array<double, 3> w = W[a];
+        l.target = [this, r, w]() {
+          double g = 0;
+          for (int k = 0; k < 3; ++k) {
+            const Region& rg = pb.regions[r];
+            if (rg.mode[k] == Region::Mode::Prescribed) g += w[static_cast<std::size_t>(k)] * rg.motion[k](t);
+          }
+          return g;
+        };
+        lines[R.master[pivcol[a]]] = std::move(l);
+      }
+      for (auto m_ : R.master) relevant.add_index(m_);
+    }
+    relevant.compress();
+
+    // constraints: rigid bodies, box boundary conditions, patches, pure-shear kinematics, periodicity
     hom.clear();
     hom.reinit(relevant);
+    for (const auto& [i, l] : lines) {
+      if (!relevant.is_element(i)) continue;
+      hom.add_line(i);
+      hom.add_entries(i, l.entries);
+    }
+    auto in_rigid = [&](types::global_dof_index i) {
+      for (const auto& R : rigid)
+        if (!R.is_dof.empty() && R.is_dof[i]) return true;
+      return false;
+    };
     auto constrain = [&](types::global_dof_index i) {
-      if (relevant.is_element(i) && !hom.is_constrained(i)) hom.add_line(i);
+      if (relevant.is_element(i) && !hom.is_constrained(i) && !in_rigid(i)) hom.add_line(i);
     };
     const Bc bcs[4] = {pb.left, pb.right, pb.bottom, pb.top};
     for (types::boundary_id b = 0; b < 4; ++b) {
@@ -266,7 +414,13 @@ struct Model::Impl {
         const double rx = cp.second[0] - p.pivot.x, rz = cp.second[1] - p.pivot.z;
         // small rigid rotation: u = (ux − θ rz, uz + θ rx)
         patch_target[i] = cp.first == 0 ? p.ux - p.rotation * rz : p.uz + p.rotation * rx;
-        if (relevant.is_element(i) && !hom.is_constrained(i)) hom.add_line(i);
+        if (relevant.is_element(i) && !in_rigid(i)) { // (may already be a box constraint)
+          if (!hom.is_constrained(i)) hom.add_line(i);
+          Line l;
+          const double val = patch_target[i];
+          l.target = [this, val]() { return lambda * val; };
+          lines[i] = std::move(l);
+        }
       }
       patch_dofs.push_back(std::move(sel));
     }
@@ -352,7 +506,49 @@ struct Model::Impl {
     }
     M.compress(VectorOperation::add);
     K0.compress(VectorOperation::add);
+    // Lysmer & Kuhlemeyer (1969) viscous boundary: t = −ρ(c_p (v·n) n + c_s (v − (v·n) n)),
+    // c_p = √((λ + 2G)/ρ), c_s = √(G/ρ) of the adjacent cell's elastic constants
+    has_cabs = false;
+    if (!pb.absorbing) return;
+    has_cabs = true;
+    Cabs.reinit(M);
+    Cabs = 0;
+    FEFaceValues<2> ffv(mapping, fe, face_quad, update_values | update_normal_vectors | update_JxW_values);
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      cm = 0;
+      bool any = false;
+      for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+        if (!cell->face(f)->at_boundary()) continue;
+        const auto bid = cell->face(f)->boundary_id();
+        if (bid > 3 || !pb.absorbing_sides[bid]) continue;
+        any = true;
+        ffv.reinit(cell, f);
+        const mc::Parameters& P = mat[cell->material_id()];
+        const double r = rho[cell->material_id()];
+        const double G = P.young / (2 * (1 + P.poisson));
+        const double lam = P.young * P.poisson / ((1 + P.poisson) * (1 - 2 * P.poisson));
+        const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
+        for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
+          const auto nrm = ffv.normal_vector(q);
+          for (unsigned i = 0; i < n; ++i) {
+            const unsigned ci = fe.system_to_component_index(i).first;
+            for (unsigned j = 0; j < n; ++j) {
+              const unsigned cj = fe.system_to_component_index(j).first;
+              // C_ij = ∫ N_i N_j ρ (c_p n_ci n_cj + c_s (δ_ci,cj − n_ci n_cj)) dΓ
+              const double coef = r * (cp * nrm[ci] * nrm[cj] + cs * ((ci == cj ? 1.0 : 0.0) - nrm[ci] * nrm[cj]));
+              cm(i, j) += ffv.shape_value(i, q) * ffv.shape_value(j, q) * coef * ffv.JxW(q);
+            }
+          }
+        }
+      }
+      if (!any) continue;
+      cell->get_dof_indices(ld);
+      hom.distribute_local_to_global(cm, ld, Cabs);
+    }
+    Cabs.compress(VectorOperation::add);
   }
+
 
   // body force of region r at a point (resultant F at load_point plus moment M, distributed
   // linearly over the area: b = F/A + M_tot/J · e_z×r)
@@ -420,7 +616,8 @@ struct Model::Impl {
         s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
         // body force: gravity along −z, base shaking ρ·a(t), structure loads
         const auto xq = fv.quadrature_point(q);
-        double b[2] = {0.0, -rho[id] * pb.gravity * gfactor};
+        const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
+        double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor : 0.0};
         if (pb.shaking_component >= 0) b[pb.shaking_component] += rho[id] * shake;
         if (id > 0) {
           double bx = 0, bz = 0;
@@ -503,6 +700,10 @@ struct Model::Impl {
     M.vmult(tmp2, tmp);
     K0.vmult(tmp, vel);
     tmp2.add(pb.rayleigh_beta, tmp);
+    if (has_cabs) {
+      Cabs.vmult(tmp, vel);
+      tmp2 += tmp;
+    }
     res += tmp2;
     hom.set_zero(tmp2);
     rhs -= tmp2;
@@ -511,6 +712,7 @@ struct Model::Impl {
       const double a0 = 1.0 / (b * dt_ * dt_), a1 = g / (b * dt_);
       K.add(a0 + a1 * pb.rayleigh_alpha, M);
       K.add(a1 * pb.rayleigh_beta, K0);
+      if (has_cabs) K.add(a1, Cabs);
     }
   }
 
@@ -558,11 +760,21 @@ struct Model::Impl {
     for (types::global_dof_index i : relevant) {
       if (!hom.is_constrained(i)) continue;
       inh.add_line(i);
-      const auto* entries = hom.get_constraint_entries(i);
-      if (entries)
-        for (const auto& e : *entries) inh.add_entry(i, e.first, e.second);
-      auto it = patch_target.find(i);
-      if (it != patch_target.end()) inh.set_inhomogeneity(i, lambda * it->second - u_ghost(i));
+      auto it = lines.find(i);
+      if (it == lines.end()) { // box/periodic: homogeneous, already resolved in hom
+        const auto* entries = hom.get_constraint_entries(i);
+        if (entries)
+          for (const auto& e : *entries) inh.add_entry(i, e.first, e.second);
+        continue;
+      }
+      // raw line (chains resolved by close()): du_i = Σ c du_j + target − (u_i − Σ c u_j)
+      double g = it->second.target ? it->second.target() : 0.0;
+      g -= u_ghost(i);
+      for (const auto& e : it->second.entries) {
+        inh.add_entry(i, e.first, e.second);
+        g += e.second * u_ghost(e.first);
+      }
+      if (it->second.target) inh.set_inhomogeneity(i, g);
     }
     inh.close();
     const bool sym = symmetric_tangent();
@@ -583,7 +795,12 @@ struct Model::Impl {
         return st;
       }
       if (it == pb.newton_max_iterations) break;
-      st.linear_iterations += solve_linear(sym);
+      try {
+        st.linear_iterations += solve_linear(sym);
+      } catch (const std::exception& e) { // e.g. the Krylov solver did not converge: cut the step
+        log << "linear solver failed: " << std::string(e.what()).substr(0, 160) << "\n";
+        break;
+      }
       cons.distribute(du);
       if (!std::isfinite(du.l2_norm())) break;
       // backtracking line search on the free residual norm
@@ -660,6 +877,42 @@ struct Model::Impl {
     return b;
   }
 
+  // One Newmark step of dt; on a Newton failure the step is undone and taken as two halves
+  // (at most 5 levels deep).
+  StepStats dynamic_to(double dt, int depth) {
+    const Vec u0(u), v0(v), a0(a_n);
+    const double t0 = t;
+    dt_ = dt;
+    u_n = u;
+    v_n = v;
+    lambda = 1.0;
+    t += dt;
+    // predictor u = u_n + dt v_n + dt²(½ − β) a_n (Newmark 1959)
+    u.add(dt, v_n);
+    u.add(dt * dt * (0.5 - pb.newmark_beta), a_n);
+    StepStats st = newton(true);
+    if (st.converged) {
+      newmark_va(v, acc);
+      a_n = acc;
+      commit();
+      return st;
+    }
+    u = u0;
+    v = v0;
+    a_n = a0;
+    t = t0;
+    trial = committed;
+    if (depth >= 5) return st;
+    log << "dynamic step cut at t=" << t0 << " dt=" << dt << "\n";
+    StepStats a = dynamic_to(0.5 * dt, depth + 1);
+    if (!a.converged) return a;
+    StepStats b = dynamic_to(0.5 * dt, depth + 1);
+    b.cuts = a.cuts + b.cuts + 1;
+    b.newton_iterations += a.newton_iterations;
+    b.linear_iterations += a.linear_iterations;
+    return b;
+  }
+
   double top_at(double x) const {
     const auto& poly = pb.mesh.domain;
     if (poly.empty()) return zmax;
@@ -703,7 +956,8 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       const auto id = cell->material_id();
       for (unsigned q = 0; q < m.nq(); ++q) {
         const auto x = fv.quadrature_point(q);
-        const double szz = -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
+        const bool rigid_cell = id > 0 && m.pb.regions[id - 1].rigid; // stresses play no role
+        const double szz = rigid_cell ? 0.0 : -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
         QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
         s.stress = mc::Vec3{{k0 * szz, szz, 0.0}};
         s.syy = k0 * szz;
@@ -769,19 +1023,7 @@ StepStats Model::dynamic_step(double dt) {
     m.a_n = m.du;
     m.dyn_init = true;
   }
-  m.dt_ = dt;
-  m.u_n = m.u;
-  m.v_n = m.v;
-  m.lambda = 1.0;
-  m.t += dt;
-  // predictor u = u_n + dt v_n + dt²(½ − β) a_n (Newmark 1959)
-  m.u.add(dt, m.v_n);
-  m.u.add(dt * dt * (0.5 - m.pb.newmark_beta), m.a_n);
-  StepStats st = m.newton(true);
-  m.newmark_va(m.v, m.acc);
-  m.a_n = m.acc;
-  m.commit();
-  return st;
+  return m.dynamic_to(dt, 0);
 }
 
 namespace {
@@ -844,9 +1086,172 @@ Reaction Model::reaction(std::size_t patch) const {
   return r;
 }
 
+Reaction Model::soil_reaction(std::size_t region) const {
+  Impl& m = *impl_;
+  const Region& reg = m.pb.regions.at(region);
+  const auto& R = m.rigid.at(region);
+  m.update_ghost();
+  Vec vg(m.owned, m.relevant, m.comm), ag(m.owned, m.relevant, m.comm);
+  vg = m.v;
+  ag = m.acc;
+  const bool dyn = m.dyn_init;
+  const double shake = m.pb.shaking_component >= 0 && dyn ? m.pb.shaking(m.t) : 0.0;
+  FEValues<2> fv(m.mapping, m.fe, m.quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  const unsigned n = m.fe.n_dofs_per_cell();
+  const auto& usp = m.fe.get_unit_support_points();
+  std::vector<types::global_dof_index> ld(n);
+  dealii::Vector<double> re(n);
+  Reaction out;
+  std::vector<char> is_reg;
+  if (R.is_dof.empty()) { // elastic region: its cells' dofs
+    is_reg.assign(m.dof.n_dofs(), 0);
+    for (const auto& cell : m.dof.active_cell_iterators())
+      if (cell->material_id() == region + 1) {
+        cell->get_dof_indices(ld);
+        for (auto i : ld) is_reg[i] = 1;
+      }
+  }
+  const std::vector<char>& mark = R.is_dof.empty() ? is_reg : R.is_dof;
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned() || cell->material_id() != 0) continue;
+    cell->get_dof_indices(ld);
+    bool touches = false;
+    for (auto i : ld) touches = touches || mark[i];
+    if (!touches) continue;
+    fv.reinit(cell);
+    re = 0;
+    const mc::Parameters& P = m.mat[0];
+    const double rho = m.rho[0];
+    const mc::Mat3 C = mc::elastic_tangent(P);
+    const std::size_t base = cell->active_cell_index() * m.nq();
+    for (unsigned q = 0; q < m.nq(); ++q) {
+      const QpState& st = m.committed[base + q];
+      const double w = fv.JxW(q);
+      double b[2] = {0.0, -rho * m.pb.gravity * m.gfactor};
+      if (m.pb.shaking_component >= 0) b[m.pb.shaking_component] += rho * shake;
+      // velocity, acceleration and elastic strain rate at q (inertia and Rayleigh damping)
+      double vq[2] = {0, 0}, aq[2] = {0, 0}, ev[3] = {0, 0, 0};
+      if (dyn)
+        for (unsigned j = 0; j < n; ++j) {
+          const unsigned cj = m.fe.system_to_component_index(j).first;
+          vq[cj] += vg(ld[j]) * fv.shape_value(j, q);
+          aq[cj] += ag(ld[j]) * fv.shape_value(j, q);
+          const auto gj = fv.shape_grad(j, q);
+          ev[0] += cj == 0 ? vg(ld[j]) * gj[0] : 0.0;
+          ev[1] += cj == 1 ? vg(ld[j]) * gj[1] : 0.0;
+          ev[2] += vg(ld[j]) * (cj == 0 ? gj[1] : gj[0]);
+        }
+      double sv[3] = {0, 0, 0}; // β C ε̇ (stiffness-proportional Rayleigh damping stress)
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c) sv[a] += m.pb.rayleigh_beta * C[a][c] * ev[c];
+      for (unsigned i = 0; i < n; ++i) {
+        const unsigned ci = m.fe.system_to_component_index(i).first;
+        const auto gi = fv.shape_grad(i, q);
+        const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0, ci == 0 ? gi[1] : gi[0]};
+        double r = 0;
+        for (int a = 0; a < 3; ++a) r += Bi[a] * (st.stress[a] + sv[a]);
+        // residual: internal − body + ρ(a + α v) (Newmark inertia, mass-proportional damping)
+        r += fv.shape_value(i, q) * (-b[ci] + rho * (aq[ci] + m.pb.rayleigh_alpha * vq[ci]));
+        re(i) += r * w;
+      }
+    }
+    for (unsigned i = 0; i < n; ++i) {
+      if (!mark[ld[i]]) continue;
+      const unsigned ci = m.fe.system_to_component_index(i).first;
+      const auto X = m.mapping.transform_unit_to_real_cell(cell, usp[i]);
+      const double F = -re(i); // the soil cell pushes the region's node with −(its residual)
+      const double rx = X[0] - reg.pivot.x, rz = X[1] - reg.pivot.z;
+      if (ci == 0) {
+        out.fx += F;
+        out.moment -= rz * F; // (X − p) × F
+      } else {
+        out.fz += F;
+        out.moment += rx * F;
+      }
+    }
+  }
+  out.fx = Utilities::MPI::sum(out.fx, m.comm);
+  out.fz = Utilities::MPI::sum(out.fz, m.comm);
+  out.moment = Utilities::MPI::sum(out.moment, m.comm);
+  return out;
+}
+
+std::vector<double> Model::soil_pressure(std::size_t region, double z0, double z1, int bins,
+                                         Reaction* force) const {
+  const Impl& m = *impl_;
+  const Region& reg = m.pb.regions.at(region);
+  std::vector<double> p(static_cast<std::size_t>(std::max(bins, 1)), 0.0);
+  const double h = (z1 - z0) / double(p.size());
+  Reaction F;
+  FEValues<2> fv(m.mapping, m.fe, m.quad, update_quadrature_points);
+  const unsigned n1 = static_cast<unsigned>(m.pb.degree) + 1; // Gauss points per direction
+  for (const auto& cell : m.tria.active_cell_iterators()) {
+    if (!cell->is_locally_owned() || cell->material_id() != 0) continue;
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+      if (cell->face(f)->at_boundary() || cell->neighbor(f)->material_id() != region + 1) continue;
+      fv.reinit(cell);
+      // the soil stress interpolated (Lagrange, tensor product through the n1 × n1 Gauss points
+      // of this axis-aligned cell, x index fastest) to points on the face
+      const std::size_t base = cell->active_cell_index() * m.nq();
+      std::vector<double> gx(n1), gz(n1);
+      for (unsigned k = 0; k < n1; ++k) {
+        gx[k] = fv.quadrature_point(k)[0];
+        gz[k] = fv.quadrature_point(k * n1)[1];
+      }
+      auto lag = [&](const std::vector<double>& g, unsigned k, double x) {
+        double l = 1;
+        for (unsigned j = 0; j < n1; ++j)
+          if (j != k) l *= (x - g[j]) / (g[k] - g[j]);
+        return l;
+      };
+      const auto a = cell->face(f)->vertex(0), b = cell->face(f)->vertex(1);
+      const double len = a.distance(b);
+      // unit normal out of the soil cell (faces 0..3: −x, +x, −z, +z)
+      const double nx = f == 0 ? -1 : f == 1 ? 1 : 0, nz = f == 2 ? -1 : f == 3 ? 1 : 0;
+      const int sub = 16;
+      for (int k = 0; k < sub; ++k) {
+        const auto X = a + (b - a) * ((k + 0.5) / sub);
+        double sig[3] = {0, 0, 0};
+        for (unsigned iz = 0; iz < n1; ++iz)
+          for (unsigned ix = 0; ix < n1; ++ix) {
+            const double L = lag(gx, ix, X[0]) * lag(gz, iz, X[1]);
+            const auto& st = m.committed[base + iz * n1 + ix].stress;
+            for (int c = 0; c < 3; ++c) sig[c] += L * st[c];
+          }
+        const double ds = len / sub;
+        // traction on the region (outward normal of the region = −n): t = σ(−n)
+        const double tx = -(sig[0] * nx + sig[2] * nz), tz = -(sig[2] * nx + sig[1] * nz);
+        F.fx += tx * ds;
+        F.fz += tz * ds;
+        F.moment += ((X[0] - reg.pivot.x) * tz - (X[1] - reg.pivot.z) * tx) * ds;
+        const double pn = -(nx * (sig[0] * nx + sig[2] * nz) + nz * (sig[2] * nx + sig[1] * nz));
+        if (h > 0 && X[1] >= z0 && X[1] <= z1) {
+          const auto bin = std::min(p.size() - 1, static_cast<std::size_t>((X[1] - z0) / h));
+          p[bin] += pn * ds / h;
+        }
+      }
+    }
+  }
+  for (auto& v : p) v = Utilities::MPI::sum(v, m.comm);
+  if (force) {
+    force->fx = Utilities::MPI::sum(F.fx, m.comm);
+    force->fz = Utilities::MPI::sum(F.fz, m.comm);
+    force->moment = Utilities::MPI::sum(F.moment, m.comm);
+  }
+  return p;
+}
+
 Model::RegionMotion Model::region_motion(std::size_t region) const {
   Impl& m = *impl_;
   m.update_ghost();
+  if (!m.rigid.at(region).is_dof.empty()) {
+    const auto& R = m.rigid[region];
+    double q[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) q[i] += R.T[i][j] * m.u_ghost(R.master[j]);
+    return RegionMotion{q[0], q[1], q[2]};
+  }
   FEValues<2> fv(m.mapping, m.fe, m.quad, update_values | update_gradients | update_JxW_values);
   const FEValuesExtractors::Vector disp(0);
   std::vector<Tensor<1, 2>> val(m.nq());
@@ -872,6 +1277,16 @@ Model::RegionMotion Model::region_motion(std::size_t region) const {
   r.uz = Utilities::MPI::sum(uz, m.comm) / a;
   r.rotation = Utilities::MPI::sum(rot, m.comm) / a;
   return r;
+}
+
+double Model::elastic_energy() const {
+  const Impl& m = *impl_;
+  Vec tmp(m.owned, m.comm);
+  m.M.vmult(tmp, m.v);
+  double e = 0.5 * (tmp * m.v);
+  m.K0.vmult(tmp, m.u);
+  e += 0.5 * (tmp * m.u);
+  return e;
 }
 
 std::vector<QpStress> Model::stresses() const {

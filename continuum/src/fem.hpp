@@ -49,6 +49,15 @@ struct Region {
   scene::TimeFunction force_x, force_z, moment;
   Point load_point;             // where force_x/force_z act
   Point pivot;                  // reference point for rotation and moment output
+  // Rigid body (scene structures): every dof of the region's cells follows the small rigid
+  // motion u = (ux − θ(z − zp), uz + θ(x − xp)) of the pivot p; each of (ux, uz, θ) is fixed
+  // (zero), free (driven by loads, weight, inertia and the soil) or prescribed (`motion`).
+  // Not rigid: an elastic region with `material`.
+  enum class Mode { Fixed, Free, Prescribed };
+  bool rigid = false;
+  Mode mode[3] = {Mode::Free, Mode::Free, Mode::Free}; // x, z, rotation
+  scene::TimeFunction motion[3];                        // [m], [m], [rad]
+  bool dead_weight = true;                              // gravity acts on the region
 };
 
 struct Mesh {
@@ -101,7 +110,10 @@ struct Problem {
   // dynamics
   double newmark_beta = 0.25, newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
-  bool absorbing = false;        // Lysmer dashpots on free sides (and their tangential part)
+  // Lysmer & Kuhlemeyer (1969) dashpots t = −ρ(c_p v_n n + c_s v_t) on the boundaries whose
+  // flag is set (left, right, bottom, top); only unconstrained components feel them.
+  bool absorbing = false;
+  bool absorbing_sides[4] = {true, true, true, false};
   int shaking_component = -1;    // 0 = x, 1 = z, −1 = none
   scene::TimeFunction shaking;   // base acceleration [m/s²] applied as body force ρ·a(t)
 };
@@ -149,7 +161,20 @@ public:
   [[nodiscard]] Reaction reaction(std::size_t patch) const;       // collective
   // Mean displacement and rotation (½ curl u averaged over the area) of region k (collective).
   struct RegionMotion { double ux = 0, uz = 0, rotation = 0; };
+  // Rigid regions: the pivot's displacement and the rotation θ (counter-clockwise).
   [[nodiscard]] RegionMotion region_motion(std::size_t region) const;
+  // Force of the soil on region k (nodal reactions of the soil cells at the region's dofs:
+  // internal force − body force + inertia + damping) and its moment about the region's pivot
+  // (counter-clockwise positive). Collective.
+  [[nodiscard]] Reaction soil_reaction(std::size_t region) const;
+  // Normal pressure of the soil on region k (compression positive) from the soil stresses
+  // interpolated to the soil–region faces, integrated over the faces in `bins` equal z bins
+  // between z0 and z1 and divided by the bin height [Pa] (per metre thickness); `force` receives
+  // the integral of the traction σ·n over all those faces (force of the soil on the region).
+  [[nodiscard]] std::vector<double> soil_pressure(std::size_t region, double z0, double z1,
+                                                  int bins, Reaction* force = nullptr) const;
+  // ½ vᵀM v + ½ uᵀK0 u: kinetic plus elastic strain energy (linear elastic problems) [J/m]
+  [[nodiscard]] double elastic_energy() const;
   [[nodiscard]] std::vector<QpStress> stresses() const;           // locally owned only
   void write_vtu(const std::string& directory, const std::string& basename, int index);
   void write_pvd(const std::string& directory, const std::string& basename) const;

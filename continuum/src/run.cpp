@@ -5,8 +5,9 @@
 // - mesh: tensor-product grid through every vertex coordinate of the domain and the structures,
 //   coarse size min(width, height)/4, refined `refinement` times; cells whose centre lies outside
 //   the domain and all structures are removed (stair-stepped inclined boundaries);
-// - structures are very stiff elastic regions (E = 1000 × soil E, ν = 0.2) tied to the soil;
-//   their external force/moment histories act as body forces with the same resultant;
+// - structures are rigid bodies tied to the soil: every dof of their cells follows the pivot's
+//   (ux, uz, θ), each fixed, free or prescribed as the scene says; their external force/moment
+//   histories act as body forces with the same resultant and moment;
 // - boundaries: sides on rollers, base fixed.
 #include "demfem/continuum/run.hpp"
 
@@ -115,6 +116,17 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     r.moment = s.moment;
     r.load_point = {s.load_point.x, s.load_point.z};
     r.pivot = {s.pivot.x, s.pivot.z};
+    // rigid body honouring the structure's DoF modes (fixed / free / prescribed about the pivot)
+    r.rigid = true;
+    const scene::DofMode modes[3] = {s.dof_x, s.dof_z, s.dof_rotation};
+    const scene::TimeFunction* motion[3] = {&s.motion_x, &s.motion_z, &s.motion_rotation};
+    for (int k = 0; k < 3; ++k) {
+      r.mode[k] = modes[k] == scene::DofMode::Fixed  ? fem::Region::Mode::Fixed
+                  : modes[k] == scene::DofMode::Free ? fem::Region::Mode::Free
+                                                     : fem::Region::Mode::Prescribed;
+      r.motion[k] = *motion[k];
+    }
+    r.dead_weight = s.dead_weight;
     pb.regions.push_back(r);
   }
   // ---- loads and procedures
@@ -144,7 +156,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       log.open(dir / "log.txt");
       log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}\n",
                          scene.label(), m.n_cells(), m.n_dofs(), pb.degree, pb.mesh.refinement);
-      if (co.absorbing) log << "note: absorbing (Lysmer) boundaries are not implemented yet\n";
+      if (co.absorbing)
+        log << "absorbing: Lysmer dashpots on the left, right and bottom boundaries (components "
+               "not constrained there: the vertical on the roller sides, none on the fixed base)\n";
     }
     const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky (1944)
     const fem::StepStats g = m.initialise_gravity(true, k0, co.load_steps);
@@ -160,37 +174,134 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     const long long nsteps = std::max<long long>(1, std::llround(std::ceil(duration / dt - 1e-9)));
     dt = duration / double(nsteps);
 
-    std::ofstream probes;
+    // ---- probes, with the DEM run's names, signs and units (dem/src/run.cpp):
+    // structures.csv: <s>.settlement [m] (−z displacement of the pivot), <s>.rotation [rad]
+    // (counter-clockwise), <s>.moment [N·m] (soil about the pivot), <s>.force_x/_z [N] (force of
+    // the soil on the structure), <s>.applied_moment [N·m] (external loads about the pivot),
+    // <s>.displacement_x [m]; continuum only: <s>.applied_force_x/_z [N] (the load histories).
+    // walls.csv: <w>.thrust [N] = |F·n| with n the normal of the chord from the first to the last
+    // outline vertex (DEM's chord_normal), <w>.reaction_x/_z [N] = F (soil force on the wall).
+    // pressure_<w>.csv: <w>.binK [Pa], normal soil pressure on the structure per z bin between
+    // the outline's lowest and highest vertex.
+    std::vector<std::size_t> thrust;   // structure indices
+    std::vector<std::pair<std::size_t, int>> pressure; // structure index, bins
+    auto index_of = [&](const std::string& name) -> long {
+      for (std::size_t k = 0; k < scene.structures.size(); ++k)
+        if (scene.structures[k].name == name) return static_cast<long>(k);
+      return -1;
+    };
+    auto add_thrust = [&](long k) {
+      if (k >= 0 && std::find(thrust.begin(), thrust.end(), std::size_t(k)) == thrust.end())
+        thrust.push_back(std::size_t(k));
+    };
+    for (std::size_t k = 0; k < scene.structures.size(); ++k) {
+      const auto& s = scene.structures[k];
+      if (s.kind == scene::StructureKind::Wall ||
+          std::find(s.record.begin(), s.record.end(), "thrust") != s.record.end())
+        add_thrust(long(k));
+    }
+    for (const auto& pr : scene.probes) {
+      if (pr.kind == scene::ProbeKind::WallThrust) add_thrust(index_of(pr.target));
+      if (pr.kind == scene::ProbeKind::PressureProfile && index_of(pr.target) >= 0)
+        pressure.emplace_back(std::size_t(index_of(pr.target)), pr.bins);
+    }
+    auto zrange = [&](std::size_t k) {
+      double lo = 1e300, hi = -1e300;
+      for (const auto& p : scene.structures[k].outline) {
+        lo = std::min(lo, p.z);
+        hi = std::max(hi, p.z);
+      }
+      return std::pair{lo, hi};
+    };
+    std::ofstream sfile, wfile;
+    std::vector<std::ofstream> pfiles(pressure.size());
     if (root) {
-      probes.open(dir / "probes.csv");
-      probes << "time [s]";
-      for (const auto& s : scene.structures)
-        probes << "," << s.name << ".settlement [m]," << s.name << ".rotation [rad],"
-               << s.name << ".force_x [N]," << s.name << ".force_z [N]," << s.name
-               << ".moment [N·m]";
-      probes << "\n";
+      if (!scene.structures.empty()) {
+        sfile.open(dir / "structures.csv");
+        sfile << "time [s]";
+        for (const auto& s : scene.structures)
+          for (const char* q : {"settlement [m]", "rotation [rad]", "moment [N·m]", "force_x [N]",
+                                "force_z [N]", "applied_moment [N·m]", "displacement_x [m]",
+                                "applied_force_x [N]", "applied_force_z [N]"})
+            sfile << "," << s.name << "." << q;
+        sfile << "\n";
+      }
+      if (!thrust.empty()) {
+        wfile.open(dir / "walls.csv");
+        wfile << "time [s]";
+        for (auto k : thrust)
+          for (const char* q : {"thrust [N]", "reaction_x [N]", "reaction_z [N]"})
+            wfile << "," << scene.structures[k].name << "." << q;
+        wfile << "\n";
+      }
+      for (std::size_t j = 0; j < pressure.size(); ++j) {
+        const auto& name = scene.structures[pressure[j].first].name;
+        pfiles[j].open(dir / ("pressure_" + name + ".csv"));
+        pfiles[j] << "time [s]";
+        for (int b = 0; b < pressure[j].second; ++b) pfiles[j] << fmt::format(",{}.bin{} [Pa]", name, b);
+        pfiles[j] << "\n";
+      }
     }
     auto write_probes = [&](double t) {
       std::vector<fem::Model::RegionMotion> motion;
-      for (std::size_t k = 0; k < scene.structures.size(); ++k) motion.push_back(m.region_motion(k));
-      if (!root) return;
-      probes << fmt::format("{:.6g}", t);
+      std::vector<fem::Reaction> react;
       for (std::size_t k = 0; k < scene.structures.size(); ++k) {
-        const auto& s = scene.structures[k];
-        probes << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", -motion[k].uz,
-                              motion[k].rotation, s.force_x(t), s.force_z(t), s.moment(t));
+        motion.push_back(m.region_motion(k));
+        react.push_back(m.soil_reaction(k));
       }
-      probes << "\n";
+      std::vector<std::vector<double>> prof;
+      for (const auto& [k, bins] : pressure) {
+        const auto [lo, hi] = zrange(k);
+        prof.push_back(m.soil_pressure(k, lo, hi, bins));
+      }
+      if (!root) return;
+      if (sfile.is_open()) {
+        sfile << fmt::format("{:.6g}", t);
+        for (std::size_t k = 0; k < scene.structures.size(); ++k) {
+          const auto& s = scene.structures[k];
+          const double fx = s.force_x(t), fz = s.force_z(t);
+          // applied moment about the pivot: M + (load point − pivot) × F
+          const double ma = s.moment(t) + (s.load_point.x - s.pivot.x) * fz - (s.load_point.z - s.pivot.z) * fx;
+          sfile << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}",
+                               -motion[k].uz, motion[k].rotation, react[k].moment, react[k].fx,
+                               react[k].fz, ma, motion[k].ux, fx, fz);
+        }
+        sfile << "\n";
+      }
+      if (wfile.is_open()) {
+        wfile << fmt::format("{:.6g}", t);
+        for (auto k : thrust) {
+          const auto& o = scene.structures[k].outline;
+          double dx = o.back().x - o.front().x, dz = o.back().z - o.front().z;
+          if (std::hypot(dx, dz) == 0.0 && o.size() > 2) { // closed outline: its first edge
+            dx = o[1].x - o[0].x;
+            dz = o[1].z - o[0].z;
+          }
+          const double l = std::hypot(dx, dz);
+          const double nx = l > 0 ? dz / l : 1.0, nz = l > 0 ? -dx / l : 0.0;
+          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}", std::abs(react[k].fx * nx + react[k].fz * nz),
+                               react[k].fx, react[k].fz);
+        }
+        wfile << "\n";
+      }
+      for (std::size_t j = 0; j < pressure.size(); ++j) {
+        pfiles[j] << fmt::format("{:.6g}", t);
+        for (double v : prof[j]) pfiles[j] << fmt::format(",{:.9g}", v);
+        pfiles[j] << "\n";
+      }
     };
     int snapshot = 0;
     const bool vtk = scene.output.vtk;
     if (vtk) m.write_vtu(dir.string(), "continuum", snapshot++);
     write_probes(0.0);
     double next_probe = scene.output.probe_interval, next_out = scene.output.interval;
-    long long newton_total = 0;
+    long long newton_total = 0, linear_total = 0, cuts_total = 0;
+    const auto t_dyn = std::chrono::steady_clock::now();
     for (long long step = 1; step <= nsteps; ++step) {
       const fem::StepStats st = m.dynamic_step(dt);
       newton_total += st.newton_iterations;
+      linear_total += st.linear_iterations;
+      cuts_total += st.cuts;
       if (!st.converged) {
         summary.message = fmt::format("Newton did not converge at t = {:.6g} s\n{}", m.time(), m.log());
         summary.steps = step;
@@ -233,8 +344,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       f << "x [m],settlement [m]\n";
       for (const auto& [x, s] : profile) f << fmt::format("{:.6g},{:.9g}\n", x, s);
       log << m.log();
-      log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations\n", nsteps, dt,
-                         newton_total);
+      const double wall_dyn =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
+      log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations, {} linear "
+                         "iterations, {} step cuts, {:.3f} s wall per step ({:.1f} s)\n",
+                         nsteps, dt, newton_total, linear_total, cuts_total,
+                         wall_dyn / double(nsteps), wall_dyn);
     }
     summary.ok = true;
     summary.simulated_time = m.time();

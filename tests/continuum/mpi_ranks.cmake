@@ -13,7 +13,7 @@ endif()
 if(NOT EXISTS ${OUT}/np2/continuum/continuum_0000.1.vtu)
   message(FATAL_ERROR "the 2-rank run did not write a second partition")
 endif()
-foreach(f probes.csv surface_profile.csv)
+foreach(f structures.csv surface_profile.csv)
   execute_process(COMMAND ${COMPARE} ${OUT}/np1/continuum/${f} ${OUT}/np2/continuum/${f} 1e-7
                   RESULT_VARIABLE rc)
   if(NOT rc EQUAL 0)
