@@ -20,9 +20,21 @@ void ProgressReporter::operator()(const scene::Progress& p) {
   if (!first_ && since < min_gap && !done) return;
   first_ = false;
   last_ = now;
-  const double rate = p.wall_seconds > 0 ? static_cast<double>(p.step) / p.wall_seconds : 0.0;
+  if (p.stage != last_stage_ || p.step < last_step_) { // a new stage starts its own clock
+    last_stage_ = p.stage;
+    last_step_ = 0;
+    last_time_ = 0.0;
+    last_wall_ = 0.0;
+  }
+  // Rates over the interval since the last report, so a slow start does not skew the ETA.
+  const double dwall = p.wall_seconds - last_wall_;
+  const double rate = dwall > 0 ? static_cast<double>(p.step - last_step_) / dwall : 0.0;
+  const double sim_rate = dwall > 0 ? (p.time - last_time_) / dwall : 0.0;
   const double frac = p.end_time > 0 ? p.time / p.end_time : 1.0;
-  const double eta = frac > 0 ? p.wall_seconds * (1.0 - frac) / frac : 0.0;
+  const double eta = sim_rate > 0 ? (p.end_time - p.time) / sim_rate : 0.0;
+  last_step_ = p.step;
+  last_time_ = p.time;
+  last_wall_ = p.wall_seconds;
   const std::string line =
       fmt::format("[{}] t = {:.4g} / {:.4g} s ({:5.1f} %)  step {}  {:.3g} steps/s  ETA {:.0f} s",
                   p.stage, p.time, p.end_time, 100.0 * frac, p.step, rate, eta);

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <string>
 
 #include "demfem/scene/progress.hpp"
 
@@ -25,6 +26,11 @@ private:
   std::chrono::steady_clock::time_point last_;
   bool drawn_ = false;
   bool first_ = true;
+  // The previous report, for rates over the last interval (not since the start).
+  long long last_step_ = 0;
+  double last_time_ = 0.0;
+  double last_wall_ = 0.0;
+  std::string last_stage_;
 };
 
 } // namespace demfem::app
