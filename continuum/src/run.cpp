@@ -242,6 +242,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         pfiles[j] << "\n";
       }
     }
+    auto flush_all = [&] {
+      sfile.flush();
+      wfile.flush();
+      for (auto& f : pfiles) f.flush();
+    };
     auto write_probes = [&](double t) {
       std::vector<fem::Model::RegionMotion> motion;
       std::vector<fem::Reaction> react;
@@ -302,6 +307,10 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       newton_total += st.newton_iterations;
       linear_total += st.linear_iterations;
       cuts_total += st.cuts;
+      if (root && (st.cuts > 0 || st.newton_iterations > 10))
+        log << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step,
+                           m.time(), st.newton_iterations, st.cuts)
+            << std::flush;
       if (!st.converged) {
         summary.message = fmt::format("Newton did not converge at t = {:.6g} s\n{}", m.time(), m.log());
         summary.steps = step;
@@ -311,6 +320,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       const double t = m.time();
       if (t >= next_probe - 1e-9 * dt || step == nsteps) {
         write_probes(t);
+        if (root && step % 50 == 0) flush_all();
         next_probe += scene.output.probe_interval;
       }
       if (vtk && (t >= next_out - 1e-9 * dt || step == nsteps)) {
