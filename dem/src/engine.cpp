@@ -419,8 +419,9 @@ void Engine::rebuild() {
   ++rebuilds_since_reorder_;
   ++stats_.neighbour_rebuilds;
 
-  // Remove particles that left the scene (e.g. fell through an opened wall): far outside the
-  // bounding box of all boundaries.
+  // Remove particles that left the scene (e.g. fell through an opened wall, the paper's §3 "3D
+  // loss"): under gravity, a centre more than 2 r_max below the lowest boundary point can never be
+  // caught again; sideways (or without gravity) only far outside the boundaries' bounding box.
   if (!boundaries_.empty()) {
     double bx0 = bvx_[0], bx1 = bvx_[0], bz0 = bvz_[0], bz1 = bvz_[0];
     for (std::size_t k = 0; k < bvx_.size(); ++k) {
@@ -432,7 +433,8 @@ void Engine::rebuild() {
     const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
     for (std::size_t i = 0; i < n; ++i)
       if (!(p_.flags[i] & kFlagRemoved) &&
-          (p_.z[i] < bz0 - margin || p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
+          (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
+           p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
         p_.flags[i] |= kFlagRemoved;
         p_.vx[i] = p_.vz[i] = p_.omega[i] = 0.0;
       }
