@@ -53,6 +53,7 @@ struct RunArgs {
   int threads = 1; // results are bit-reproducible per thread count; 1 unless asked
   int refinement = -1;
   int degree = -1;
+  bool report_only = false; // compare: rewrite the report from the run directory's outputs
 };
 
 int not_built(const std::string& what, const std::string& issue_hint) {
@@ -222,13 +223,24 @@ int cmd_compare(const RunArgs& a) {
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
-    start_run_dir(*s, out, a.resume);
+    if (a.report_only) {
+      if (!fs::is_directory(out)) {
+        fmt::print(stderr, "demfem compare --report-only: no run directory {}\n", out.string());
+        return kBadInput;
+      }
+    } else {
+      start_run_dir(*s, out, a.resume);
+    }
     compare::ReportOptions ro;
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
     bool any_ok = false;
     for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
       const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";
+      if (a.report_only) {
+        any_ok = any_ok || fs::is_directory(out / name);
+        continue;
+      }
       if (!s->uses(solver)) {
         ro.notes.push_back(fmt::format("The scene does not list \"{}\" in scene.solvers.", name));
         continue;
@@ -347,6 +359,8 @@ int main(int argc, char** argv) {
   compare->add_flag("--all-variants", ra.all_variants, "All variants");
   compare->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   compare->add_flag("--resume", ra.resume, "DEM: continue from the last checkpoint");
+  compare->add_flag("--report-only", ra.report_only,
+                    "Run nothing: rewrite report.html and metrics.json from the run directory");
   compare->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")
       ->default_val(1)
       ->check(CLI::NonNegativeNumber);

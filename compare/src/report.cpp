@@ -133,6 +133,45 @@ std::string summary_table(const fs::path& json_path) {
   return rows.empty() ? std::string() : "<table>" + rows + "</table>\n";
 }
 
+// "<wall>.bin<k> [Pa]" columns form a pressure profile, compared as a profile, not as 14 series.
+bool is_profile_bin(const std::string& name, std::string* wall = nullptr, int* bin = nullptr) {
+  const auto p = name.find(".bin");
+  if (p == std::string::npos) return false;
+  std::size_t q = p + 4;
+  int k = 0;
+  bool digits = false;
+  while (q < name.size() && std::isdigit(static_cast<unsigned char>(name[q]))) {
+    k = 10 * k + (name[q] - '0');
+    ++q;
+    digits = true;
+  }
+  if (!digits || (q < name.size() && name[q] != ' ')) return false;
+  if (wall) *wall = name.substr(0, p);
+  if (bin) *bin = k;
+  return true;
+}
+
+// The quantities a reader looks for first come first.
+int priority(const std::string& name) {
+  for (const auto& [key, rank] : {std::pair<const char*, int>{".thrust", 0}, {".rotation", 1},
+                                  {".settlement", 2}, {".moment", 3}, {".force", 4}})
+    if (name.find(key) != std::string::npos) return rank;
+  return 10;
+}
+
+double mean_over(const std::vector<double>& t, const std::vector<double>& y, double a, double b) {
+  double sum = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < std::min(t.size(), y.size()); ++i)
+    if (t[i] >= a && t[i] <= b && std::isfinite(y[i])) {
+      sum += y[i];
+      ++n;
+    }
+  return n ? sum / n : NAN;
+}
+
+double finite_or_zero(double v) { return std::isfinite(v) ? v : 0.0; }
+
 } // namespace
 
 ReportResult write_report(const fs::path& run_dir, const ReportOptions& options) {
@@ -141,7 +180,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   const auto cont = collect(run_dir / "continuum");
   res.dem_series = dem.size();
   res.continuum_series = cont.size();
-  const fs::path figdir = run_dir / "compare";
+  const fs::path figdir = run_dir / "compare"; // the report's own folder: rewritten whole
+  fs::remove_all(figdir);
   fs::create_directories(figdir);
 
   nlohmann::json metrics = nlohmann::json::object();
@@ -149,10 +189,18 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   metrics["divergence_threshold"] = options.divergence_threshold;
   metrics["series"] = nlohmann::json::array();
 
-  for (const auto& [name, d] : dem) {
-    const auto it = cont.find(name);
-    if (it == cont.end()) continue;
-    const auto& c = it->second;
+  std::vector<std::string> names;
+  for (const auto& [name, d] : dem)
+    if (cont.count(name) && !is_profile_bin(name)) names.push_back(name);
+  std::stable_sort(names.begin(), names.end(),
+                   [](const std::string& a, const std::string& b) { return priority(a) < priority(b); });
+  for (const auto& name : names) {
+    const auto& d = dem.at(name);
+    const auto& c = cont.at(name);
+    double scale = 0.0;
+    for (double v : d.y) scale = std::max(scale, std::abs(finite_or_zero(v)));
+    for (double v : c.y) scale = std::max(scale, std::abs(finite_or_zero(v)));
+    if (scale == 0.0) continue; // identically zero in both (e.g. a fixed wall's rotation)
     SeriesMetrics m;
     m.name = name;
     // Common time base: the DEM samples inside the continuum's time span.
@@ -177,6 +225,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     m.relative_rms = m.max_abs_dem > 0 ? m.rms_difference / m.max_abs_dem : NAN;
     m.final_dem = d.y.empty() ? NAN : d.y.back();
     m.final_continuum = c.y.empty() ? NAN : c.y.back();
+    // Mean over the last third of the common span: the slowly varying (DC) part of a shaken signal.
+    m.late_mean_dem = mean_over(d.t, d.y, t1 - (t1 - t0) / 3.0, t1);
+    m.late_mean_continuum = mean_over(c.t, c.y, t1 - (t1 - t0) / 3.0, t1);
     PlotSpec spec;
     spec.title = name + ": DEM vs continuum";
     spec.xlabel = "time [s]";
@@ -194,8 +245,44 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                                  {"final_dem", m.final_dem},
                                  {"final_continuum", m.final_continuum},
                                  {"first_divergence_time", m.first_divergence_time},
+                                 {"late_mean_dem", m.late_mean_dem},
+                                 {"late_mean_continuum", m.late_mean_continuum},
                                  {"figure", m.figure}});
     res.compared.push_back(std::move(m));
+  }
+
+  // ---- pressure profiles: time-mean pressure per bin along each wall, bin 0 at the bottom -----
+  std::map<std::string, std::map<int, std::pair<double, double>>> profiles; // wall → bin → (dem, cont)
+  for (const auto& [name, d] : dem) {
+    std::string wall;
+    int bin = 0;
+    if (!is_profile_bin(name, &wall, &bin) || !cont.count(name)) continue;
+    const auto& c = cont.at(name);
+    const double t1 = std::min(d.t.back(), c.t.back());
+    profiles[wall][bin] = {mean_over(d.t, d.y, 0.0, t1), mean_over(c.t, c.y, 0.0, t1)};
+  }
+  for (const auto& [wall, bins] : profiles) {
+    const int n = bins.rbegin()->first + 1;
+    Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
+    Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
+    nlohmann::json jp = nlohmann::json::array();
+    for (const auto& [k, v] : bins) {
+      const double h = (k + 0.5) / n; // bin centre as a fraction of the wall height
+      sd.x.push_back(v.first);
+      sd.y.push_back(h);
+      sc.x.push_back(v.second);
+      sc.y.push_back(h);
+      jp.push_back({{"height_fraction", h}, {"dem_Pa", v.first}, {"continuum_Pa", v.second}});
+    }
+    PlotSpec spec;
+    spec.title = wall + ": time-mean pressure along the wall";
+    spec.xlabel = "pressure [Pa] (compression positive)";
+    spec.ylabel = "height / wall height";
+    spec.series = {sd, sc};
+    const fs::path png = figdir / (safe_name(wall) + "_pressure_profile.png");
+    std::string err;
+    if (plot(spec, png, &err)) res.profile_figures.push_back(fs::relative(png, run_dir).string());
+    metrics["pressure_profiles"][wall] = jp;
   }
 
   res.metrics_json = run_dir / "metrics.json";
@@ -218,17 +305,20 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   if (!res.compared.empty()) {
     h += fmt::format("<h2>Where the two answers diverge</h2><p>Divergence: |continuum − DEM| above "
                      "{:.0f} % of the largest DEM magnitude.</p><table><tr><th>quantity</th>"
-                     "<th>final DEM</th><th>final continuum</th><th>RMS difference</th>"
+                     "<th>final DEM</th><th>final continuum</th><th>late mean DEM</th>"
+                     "<th>late mean continuum</th><th>RMS difference</th>"
                      "<th>relative RMS</th><th>first divergence [s]</th></tr>\n",
                      100 * options.divergence_threshold);
     for (const auto& m : res.compared)
-      h += fmt::format("<tr><td>{}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.1f} %</td>"
-                       "<td class=\"{}\">{}</td></tr>\n",
-                       html_escape(m.name), m.final_dem, m.final_continuum, m.rms_difference,
+      h += fmt::format("<tr><td>{}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td>"
+                       "<td>{:.4g}</td><td>{:.1f} %</td><td class=\"{}\">{}</td></tr>\n",
+                       html_escape(m.name), m.final_dem, m.final_continuum, m.late_mean_dem,
+                       m.late_mean_continuum, m.rms_difference,
                        100 * m.relative_rms, m.first_divergence_time >= 0 ? "div" : "",
                        m.first_divergence_time >= 0 ? fmt::format("{:.3g}", m.first_divergence_time)
                                                     : std::string("never"));
     h += "</table>\n";
+    for (const auto& f : res.profile_figures) h += img(run_dir / f, fs::path(f).stem().string());
     for (const auto& m : res.compared)
       if (!m.figure.empty()) h += img(run_dir / m.figure, m.name);
   }

@@ -16,6 +16,7 @@ struct SeriesMetrics {
   double relative_rms = 0;   // rms_difference / max_abs_dem
   double final_dem = 0, final_continuum = 0;
   double first_divergence_time = -1; // first t where |c − d| > threshold · max|d| (−1: never)
+  double late_mean_dem = 0, late_mean_continuum = 0; // mean over the last third (DC part)
   std::string figure;        // relative path of its figure
 };
 
@@ -28,7 +29,8 @@ struct ReportOptions {
 struct ReportResult {
   std::filesystem::path html;
   std::filesystem::path metrics_json;
-  std::vector<SeriesMetrics> compared;
+  std::vector<SeriesMetrics> compared;          // key quantities first; all-zero pairs left out
+  std::vector<std::string> profile_figures;     // pressure profiles along walls
   std::size_t dem_series = 0, continuum_series = 0;
 };
 
