@@ -310,6 +310,25 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     try {
       const auto ck = dem::io::read_checkpoint(dem / "final.ckpt");
       const auto& p = ck.particles;
+      // Size segregation (Ontake: "large particles gather at the toe"): mean radius of the leading
+      // tenth of the particles still in the model (largest x) over the mean radius of all of them.
+      {
+        std::vector<std::pair<double, double>> xr;
+        for (std::size_t i = 0; i < p.size(); ++i)
+          if (!(p.flags[i] & dem::kFlagRemoved)) xr.emplace_back(p.x[i], p.radius[i]);
+        if (xr.size() >= 20) {
+          std::sort(xr.begin(), xr.end());
+          const std::size_t lead = xr.size() / 10;
+          double all = 0.0, front = 0.0;
+          for (std::size_t k = 0; k < xr.size(); ++k) {
+            all += xr[k].second;
+            if (k >= xr.size() - lead) front += xr[k].second;
+          }
+          sum["leading_tenth_mean_radius_over_mean"] =
+              (front / static_cast<double>(lead)) / (all / static_cast<double>(xr.size()));
+          sum["particles_remaining"] = xr.size();
+        }
+      }
       // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
       const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
       std::vector<dem::ContactView> cv;

@@ -83,6 +83,14 @@ CsvTable read_csv(const fs::path& path) {
 }
 
 bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
+  std::size_t finite = 0;
+  for (const auto& se : spec.series)
+    for (std::size_t i = 0; i < std::min(se.x.size(), se.y.size()); ++i)
+      finite += std::isfinite(se.x[i]) && std::isfinite(se.y[i]);
+  if (finite == 0) {
+    if (error) *error = "no finite data to plot";
+    return false;
+  }
   fs::create_directories(png.parent_path().empty() ? fs::path(".") : png.parent_path());
   fs::path stem = png;
   stem.replace_extension();
