@@ -48,10 +48,10 @@ int main(int argc, char** argv) {
               st.neighbour_rebuilds - nr0, st.rebuild_seconds - rb0, st.force_seconds - fc0);
   const auto m = e.memory_use();
   const double dn = n;
-  std::printf("bytes/particle: %.1f total = particles %.1f + contact history %.1f + neighbour "
-              "lists (incl. Verlet reference) %.1f + grid %.1f + other (thread buffers, walls) %.1f\n",
-              static_cast<double>(m.total()) / dn, static_cast<double>(m.particles) / dn,
-              static_cast<double>(m.contact_history) / dn,
-              static_cast<double>(m.neighbour_lists) / dn, static_cast<double>(m.grid) / dn,
-              static_cast<double>(m.other) / dn);
+  std::printf(
+      "bytes/particle: %.1f total = particles %.1f + contact history %.1f + neighbour "
+      "lists (incl. Verlet reference) %.1f + grid %.1f + other (thread buffers, walls) %.1f\n",
+      static_cast<double>(m.total()) / dn, static_cast<double>(m.particles) / dn,
+      static_cast<double>(m.contact_history) / dn, static_cast<double>(m.neighbour_lists) / dn,
+      static_cast<double>(m.grid) / dn, static_cast<double>(m.other) / dn);
 }

@@ -57,8 +57,7 @@ struct RunArgs {
 };
 
 int not_built(const std::string& what, const std::string& issue_hint) {
-  fmt::print(stderr,
-             "demfem {}: not built yet ({}). Nothing was run.\n", what, issue_hint);
+  fmt::print(stderr, "demfem {}: not built yet ({}). Nothing was run.\n", what, issue_hint);
   return kBadInput;
 }
 
@@ -78,7 +77,8 @@ scene::SceneFile load_or_report(const std::string& path, int& rc) {
 void setup_run_log(const fs::path& dir, bool append) {
   fs::create_directories(dir);
   auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
-  auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), !append);
+  auto file =
+      std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), !append);
   console->set_level(spdlog::level::info);
   auto logger = std::make_shared<spdlog::logger>("demfem", spdlog::sinks_init_list{console, file});
   logger->set_level(spdlog::level::debug);
@@ -106,7 +106,7 @@ std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& 
 }
 
 struct SolverOutcome {
-  bool ran = false;       // false: not built or not listed by the scene
+  bool ran = false; // false: not built or not listed by the scene
   bool ok = false;
   bool bad_input = false; // the solver refused the scene (SceneError)
   std::string message;
@@ -162,7 +162,8 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
 
 fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count) {
   fs::path out = a.out.empty() ? fs::path("runs") / s.info.name : fs::path(a.out);
-  if (count > 1 || (!s.variant.empty() && a.out.empty())) out /= s.variant.empty() ? "base" : s.variant;
+  if (count > 1 || (!s.variant.empty() && a.out.empty()))
+    out /= s.variant.empty() ? "base" : s.variant;
   return out;
 }
 
@@ -255,14 +256,14 @@ int cmd_compare(const RunArgs& a) {
       if (r.ok) {
         any_ok = true;
       } else {
-        ro.notes.push_back(fmt::format("The {} solver {}: {}", name, r.ran ? "failed" : "did not run",
-                                       r.message));
+        ro.notes.push_back(
+            fmt::format("The {} solver {}: {}", name, r.ran ? "failed" : "did not run", r.message));
         spdlog::error("{}: {} solver: {}", s->label(), name, r.message);
       }
     }
     const auto rep = compare::write_report(out, ro);
-    spdlog::info("{}: report {} ({} quantities compared), metrics {}", s->label(), rep.html.string(),
-                 rep.compared.size(), rep.metrics_json.string());
+    spdlog::info("{}: report {} ({} quantities compared), metrics {}", s->label(),
+                 rep.html.string(), rep.compared.size(), rep.metrics_json.string());
     if (!any_ok) worst = kRunFailed;
   }
   return worst;
@@ -287,12 +288,13 @@ int cmd_pack(const RunArgs& a) {
     try {
       const auto r = dem::pack_or_load(*s, out, [&](const scene::Progress& p) { reporter(p); });
       reporter.finish();
-      fmt::print("{}: {} particles, {} {} (deposition {:.3g} s simulated, {} steps, KE/PE {:.2e}{}, "
-                 "{} layer(s), {:.1f} s wall), surface top {:.4g} m\n",
-                 s->label(), r.particles.size(), r.from_cache ? "found in the cache" : "packed into",
-                 r.path.string(), r.deposition_time, r.steps, r.ke_ratio,
-                 r.converged ? "" : " — stopped at packing.max_time", r.layers, r.wall_seconds,
-                 r.surface_max);
+      fmt::print(
+          "{}: {} particles, {} {} (deposition {:.3g} s simulated, {} steps, KE/PE {:.2e}{}, "
+          "{} layer(s), {:.1f} s wall), surface top {:.4g} m\n",
+          s->label(), r.particles.size(), r.from_cache ? "found in the cache" : "packed into",
+          r.path.string(), r.deposition_time, r.steps, r.ke_ratio,
+          r.converged ? "" : " — stopped at packing.max_time", r.layers, r.wall_seconds,
+          r.surface_max);
     } catch (const scene::SceneError& e) {
       reporter.finish();
       fmt::print(stderr, "{}\n", e.what());
@@ -313,8 +315,9 @@ int cmd_check(const std::string& path, bool quiet) {
       fmt::print("{}", scene::to_toml(v));
     }
   }
-  fmt::print(stderr, "{}: OK ({} variant(s){})\n", path, file.variants.size(),
-             file.variants.empty() ? "" : ": " + fmt::format("{}", fmt::join(file.variant_names(), ", ")));
+  fmt::print(
+      stderr, "{}: OK ({} variant(s){})\n", path, file.variants.size(),
+      file.variants.empty() ? "" : ": " + fmt::format("{}", fmt::join(file.variant_names(), ", ")));
   return kOk;
 }
 
@@ -335,10 +338,13 @@ int main(int argc, char** argv) {
   run->add_flag("--all-variants", ra.all_variants, "Run every [[variant]] of the file");
   run->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   run->add_flag("--resume", ra.resume, "Continue from the last checkpoint in the run directory");
-  run->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
+  run->add_option(
+         "--threads", ra.threads,
+         "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
       ->default_val(1)
       ->check(CLI::NonNegativeNumber);
-  run->add_option("--refinement", ra.refinement, "Continuum: global refinement level (overrides the scene)");
+  run->add_option("--refinement", ra.refinement,
+                  "Continuum: global refinement level (overrides the scene)");
   run->add_option("--degree", ra.degree, "Continuum: polynomial degree (overrides the scene)");
   run->footer(kExitCodes);
 
@@ -373,7 +379,8 @@ int main(int argc, char** argv) {
   study->add_option("scene", other_scene, "Scene file")->required();
   study->add_option("--out", ra.out, "Output directory");
   study->footer(kExitCodes);
-  auto* calibrate = app.add_subcommand("calibrate", "Continuum parameters from a DEM element test. (not built yet)");
+  auto* calibrate = app.add_subcommand(
+      "calibrate", "Continuum parameters from a DEM element test. (not built yet)");
   calibrate->add_option("scene", other_scene, "Scene file")->required();
   calibrate->footer(kExitCodes);
   auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing "
@@ -381,8 +388,9 @@ int main(int argc, char** argv) {
   pack->add_option("scene", ra.scene, "Scene file")->required()->check(CLI::ExistingFile);
   pack->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
   pack->add_flag("--all-variants", ra.all_variants, "Every [[variant]] of the file");
-  pack->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>]); the "
-                                    "packing goes to packing.cache or <out>/packing");
+  pack->add_option("--out", ra.out,
+                   "Run directory (default runs/<scene>[/<variant>]); the "
+                   "packing goes to packing.cache or <out>/packing");
   pack->footer(kExitCodes);
 
   std::signal(SIGINT, on_sigint);
@@ -403,7 +411,8 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet);
     if (*compare) return cmd_compare(ra);
-    if (*study) return not_built("study", "the error-vs-time and stability studies are a later issue");
+    if (*study)
+      return not_built("study", "the error-vs-time and stability studies are a later issue");
     if (*calibrate) return not_built("calibrate", "calibration is a later issue");
     if (*pack) return cmd_pack(ra);
   } catch (const std::exception& e) {

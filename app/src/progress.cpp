@@ -10,7 +10,9 @@ ProgressReporter::ProgressReporter(std::FILE* stream, double plain_interval_s)
     : stream_(stream), tty_(isatty(fileno(stream)) != 0), plain_interval_(plain_interval_s),
       last_(std::chrono::steady_clock::now()) {}
 
-ProgressReporter::~ProgressReporter() { finish(); }
+ProgressReporter::~ProgressReporter() {
+  finish();
+}
 
 void ProgressReporter::operator()(const scene::Progress& p) {
   const auto now = std::chrono::steady_clock::now();

@@ -55,7 +55,8 @@ double peak_snapshot_speed(const fs::path& vtk_dir, double zmin) {
 
 namespace {
 
-double mean_between(const std::vector<double>& t, const std::vector<double>& y, double a, double b) {
+double mean_between(const std::vector<double>& t, const std::vector<double>& y, double a,
+                    double b) {
   double s = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < std::min(t.size(), y.size()); ++i)
@@ -118,8 +119,8 @@ std::string strip_unit(const std::string& c) {
 
 } // namespace
 
-RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir, double wall_seconds,
-                             long long steps) {
+RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
+                             double wall_seconds, long long steps) {
   RunFigures out;
   const fs::path dem = run_dir / "dem";
   const fs::path fig = run_dir / "figures";
@@ -148,18 +149,18 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       for (std::size_t i = 0; i < rot.size(); ++i) theta[i] = -rot[i];
       j["max_abs_rotation_rad"] = max_abs(rot);
       if (!rot.empty()) j["final_rotation_paper_theta_rad"] = theta.back();
-      draw(spec_of(fmt::format("{}: settlement (penetration) — {}", s.name, scene.label()), "time [s]",
-            "settlement [m] (down +)", {ser(s.name, t, settle)}),
+      draw(spec_of(fmt::format("{}: settlement (penetration) — {}", s.name, scene.label()),
+                   "time [s]", "settlement [m] (down +)", {ser(s.name, t, settle)}),
            fig / (s.name + "_settlement.png"), out);
       if (s.dof_rotation != scene::DofMode::Fixed && !rot.empty()) {
-        draw(spec_of(fmt::format("{}: rotation θ (clockwise +) — {}", s.name, scene.label()), "time [s]",
-              "θ [rad]", {ser(s.name, t, theta)}),
+        draw(spec_of(fmt::format("{}: rotation θ (clockwise +) — {}", s.name, scene.label()),
+                     "time [s]", "θ [rad]", {ser(s.name, t, theta)}),
              fig / (s.name + "_rotation.png"), out);
-        draw(spec_of(fmt::format("{}: soil moment about the pivot — {}", s.name, scene.label()), "time [s]",
-              "M [N·m]", {ser(s.name, t, mom)}),
+        draw(spec_of(fmt::format("{}: soil moment about the pivot — {}", s.name, scene.label()),
+                     "time [s]", "M [N·m]", {ser(s.name, t, mom)}),
              fig / (s.name + "_moment.png"), out);
-        draw(spec_of(fmt::format("{}: moment–rotation — {}", s.name, scene.label()), "θ [rad]", "M [N·m]",
-              {ser(s.name, theta, mom)}),
+        draw(spec_of(fmt::format("{}: moment–rotation — {}", s.name, scene.label()), "θ [rad]",
+                     "M [N·m]", {ser(s.name, theta, mom)}),
              fig / (s.name + "_moment_rotation.png"), out);
         // Loop area per load period (energy dissipated per cycle) when the load is A·t·sin ωt.
         const auto& f = s.force_x.kind == scene::TimeFunction::Kind::TSine ? s.force_x : s.moment;
@@ -200,15 +201,18 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         const double f = scene.load.shaking->acceleration.frequency;
         window_s = std::max(1.0, std::round(f)) / f;
       }
-      const auto avg = running_mean(y, static_cast<std::size_t>(std::max(1.0, std::round(window_s / dtp))));
+      const auto avg =
+          running_mean(y, static_cast<std::size_t>(std::max(1.0, std::round(window_s / dtp))));
       draw(spec_of(fmt::format("{} — {}", name, scene.label()), "time [s]", "force [N]",
-            {ser("thrust", t, y),
-             ser(fmt::format("running mean ({:.3g} s)", window_s), t, avg, "lines", "lw 3")}),
+                   {ser("thrust", t, y), ser(fmt::format("running mean ({:.3g} s)", window_s), t,
+                                             avg, "lines", "lw 3")}),
            fig / (name + ".png"), out);
       json j;
-      // Static value: the mean before the shaking starts (or over the first 0.1 s if it starts at 0).
+      // Static value: the mean before the shaking starts (or over the first 0.1 s if it starts at
+      // 0).
       const double ts = scene.load.shaking ? scene.load.shaking->acceleration.start : 0.0;
-      const double stat = ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts) : mean_between(t, y, 0.0, 0.1);
+      const double stat =
+          ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts) : mean_between(t, y, 0.0, 0.1);
       const double tend = t.empty() ? 0.0 : t.back();
       const double late = mean_between(t, y, std::max(ts, tend - 3.0), tend);
       j["static_N"] = stat;
@@ -254,10 +258,10 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       }
     }
     draw(spec_of(fmt::format("surface — {}", scene.label()), "x [m]", "z [m]",
-          {ser("start", xb, z0), ser("end", xb, z1, "lines", "lw 2")}),
+                 {ser("start", xb, z0), ser("end", xb, z1, "lines", "lw 2")}),
          fig / "surface_profile.png", out);
     draw(spec_of(fmt::format("surface change (end − start) — {}", scene.label()), "x [m]", "Δz [m]",
-          {ser("Δz", xb, dz, "linespoints")}),
+                 {ser("Δz", xb, dz, "linespoints")}),
          fig / "surface_change.png", out);
     sum["surface"]["max_subsidence_m"] = max_sub;
     sum["surface"]["max_rise_m"] = max_rise;
@@ -266,14 +270,16 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   // ---- loci -----------------------------------------------------------------------------------
   const auto lc = try_csv(dem / "loci.csv", out);
   if (!lc.rows.empty()) {
-    PlotSpec ps = spec_of(fmt::format("loci of tagged particles — {}", scene.label()), "x [m]", "z [m]", {});
+    PlotSpec ps =
+        spec_of(fmt::format("loci of tagged particles — {}", scene.label()), "x [m]", "z [m]", {});
     ps.equal_axes = true;
     const auto t = lc.column("time");
     double vmax = 0.0;
     for (std::size_t c = 1; c + 1 < lc.columns.size(); c += 2) {
       const auto x = lc.column(strip_unit(lc.columns[c]));
       const auto z = lc.column(strip_unit(lc.columns[c + 1]));
-      ps.series.push_back(ser(strip_unit(lc.columns[c]).substr(0, strip_unit(lc.columns[c]).find('.')), x, z));
+      ps.series.push_back(
+          ser(strip_unit(lc.columns[c]).substr(0, strip_unit(lc.columns[c]).find('.')), x, z));
       for (std::size_t i = 1; i < std::min({x.size(), z.size(), t.size()}); ++i)
         if (t[i] > t[i - 1])
           vmax = std::max(vmax, std::hypot(x[i] - x[i - 1], z[i] - z[i - 1]) / (t[i] - t[i - 1]));
@@ -287,7 +293,9 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   if (!en.rows.empty()) {
     const auto t = en.column("time");
     draw(spec_of(fmt::format("energy — {}", scene.label()), "time [s]", "[J]",
-          {ser("kinetic", t, en.column("kinetic")), ser("friction (cum.)", t, en.column("friction")), ser("rebound (cum.)", t, en.column("rebound"))}),
+                 {ser("kinetic", t, en.column("kinetic")),
+                  ser("friction (cum.)", t, en.column("friction")),
+                  ser("rebound (cum.)", t, en.column("rebound"))}),
          fig / "energy.png", out);
   }
 

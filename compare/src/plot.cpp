@@ -103,22 +103,24 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
       d << "# " << spec.series[s].label << "\n";
       const auto& se = spec.series[s];
       for (std::size_t i = 0; i < std::min(se.x.size(), se.y.size()); ++i)
-        if (std::isfinite(se.x[i]) && std::isfinite(se.y[i])) d << se.x[i] << " " << se.y[i] << "\n";
+        if (std::isfinite(se.x[i]) && std::isfinite(se.y[i]))
+          d << se.x[i] << " " << se.y[i] << "\n";
       d << "\n\n"; // gnuplot data block separator (index s)
     }
   }
   std::ofstream g(gp);
   std::string body;
-  body += fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
-                      quote(spec.title), quote(spec.xlabel), quote(spec.ylabel));
+  body +=
+      fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
+                  quote(spec.title), quote(spec.xlabel), quote(spec.ylabel));
   body += "set grid lc rgb '#dddddd'\nset key outside right top noenhanced\n";
   if (spec.equal_axes) body += "set size ratio -1\n";
   std::string clauses;
   for (std::size_t s = 0; s < spec.series.size(); ++s) {
     const auto& se = spec.series[s];
     if (!clauses.empty()) clauses += ", \\\n     ";
-    clauses += fmt::format("{} index {} using 1:2 with {} title {} {}", quote(dat.filename().string()), s,
-                           se.style, quote(se.label), se.extra);
+    clauses += fmt::format("{} index {} using 1:2 with {} title {} {}",
+                           quote(dat.filename().string()), s, se.style, quote(se.label), se.extra);
   }
   if (clauses.empty()) clauses = "NaN notitle";
   body += "plot " + clauses + "\n";
@@ -126,11 +128,13 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
   svg.replace_extension(".svg");
   g << "# demfem figure; re-plot with: gnuplot " << gp.filename().string() << "\n";
   g << "cd " << quote(fs::absolute(dat).parent_path().string()) << "\n";
-  g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n",
-                   spec.width, spec.height, quote(fs::absolute(png).string()));
+  g << fmt::format(
+      "set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n",
+      spec.width, spec.height, quote(fs::absolute(png).string()));
   g << body;
-  g << fmt::format("set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n",
-                   spec.width, spec.height, quote(fs::absolute(svg).string()));
+  g << fmt::format(
+      "set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n",
+      spec.width, spec.height, quote(fs::absolute(svg).string()));
   g << "replot\nset output\n";
   g.close();
   return run_gnuplot(gp, error);
@@ -180,7 +184,8 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
         const int k = std::min(kClasses - 1, static_cast<int>(kClasses * std::abs(c.fn) / fmax));
         if (k != cls) continue;
         const auto j = static_cast<std::size_t>(c.j);
-        d << p.x[c.i] << " " << p.z[c.i] << " " << p.x[j] - p.x[c.i] << " " << p.z[j] - p.z[c.i] << "\n";
+        d << p.x[c.i] << " " << p.z[c.i] << " " << p.x[j] - p.x[c.i] << " " << p.z[j] - p.z[c.i]
+          << "\n";
         has_block[block] = true;
       }
       if (!has_block[block]) d << "NaN NaN NaN NaN\n";
@@ -215,27 +220,34 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   std::ofstream g(gp);
   g << "# demfem particle snapshot; re-plot with: gnuplot " << gp.filename().string() << "\n";
   g << "cd " << quote(fs::absolute(pdat).parent_path().string()) << "\n";
-  g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n", w,
-                   h, quote(fs::absolute(png).string()));
-  g << fmt::format("set title {} noenhanced\nset size ratio -1\nset xrange [{}:{}]\nset yrange [{}:{}]\n",
-                   quote(spec.title), xmin, xmax, zmin, zmax);
+  g << fmt::format(
+      "set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n", w, h,
+      quote(fs::absolute(png).string()));
+  g << fmt::format(
+      "set title {} noenhanced\nset size ratio -1\nset xrange [{}:{}]\nset yrange [{}:{}]\n",
+      quote(spec.title), xmin, xmax, zmin, zmax);
   g << "set xlabel 'x [m]'\nset ylabel 'z [m]'\nset cblabel 'speed [m/s]'\n";
-  g << "set palette defined (0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 '#d7191c')\n";
+  g << "set palette defined (0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 "
+       "'#d7191c')\n";
   g << fmt::format("set cbrange [0:{}]\n", vmax > 0 ? vmax : 1.0);
   g << "set style fill solid 0.85 noborder\nset key off\n";
-  std::string cl = fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
+  std::string cl =
+      fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
   for (int block = 0; spec.force_chains && block < 2 * kClasses; ++block) {
     if (!has_block[block]) continue;
     const bool tension = block >= kClasses;
     const double lw = 0.4 + spec.chain_width_max * ((block % kClasses) + 1) / kClasses;
-    cl += fmt::format(", \\\n  {} index {} using 1:2:3:4 with vectors nohead lw {:.2f} {} lc rgb '{}'",
-                      quote(cdat.filename().string()), block, lw, tension ? "dt 2" : "",
-                      tension ? "#7b3294" : "#222222");
+    cl += fmt::format(
+        ", \\\n  {} index {} using 1:2:3:4 with vectors nohead lw {:.2f} {} lc rgb '{}'",
+        quote(cdat.filename().string()), block, lw, tension ? "dt 2" : "",
+        tension ? "#7b3294" : "#222222");
   }
-  cl += fmt::format(", \\\n  {} using 1:2 with lines lw 3 lc rgb '#000000'", quote(bdat.filename().string()));
+  cl += fmt::format(", \\\n  {} using 1:2 with lines lw 3 lc rgb '#000000'",
+                    quote(bdat.filename().string()));
   g << "plot " << cl << "\n";
-  g << fmt::format("set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n", w,
-                   h, quote(fs::absolute(svg).string()));
+  g << fmt::format(
+      "set terminal svg size {},{} dynamic enhanced font 'DejaVu Sans,11'\nset output {}\n", w, h,
+      quote(fs::absolute(svg).string()));
   g << "replot\nset output\n";
   g.close();
   return run_gnuplot(gp, error);

@@ -65,7 +65,8 @@ std::string base64(const std::string& in) {
   std::size_t i = 0;
   for (; i + 2 < in.size(); i += 3) {
     const unsigned v = (static_cast<unsigned char>(in[i]) << 16) |
-                       (static_cast<unsigned char>(in[i + 1]) << 8) | static_cast<unsigned char>(in[i + 2]);
+                       (static_cast<unsigned char>(in[i + 1]) << 8) |
+                       static_cast<unsigned char>(in[i + 2]);
     out += k[(v >> 18) & 63];
     out += k[(v >> 12) & 63];
     out += k[(v >> 6) & 63];
@@ -93,11 +94,20 @@ std::string html_escape(const std::string& s) {
   std::string o;
   for (char c : s) {
     switch (c) {
-    case '&': o += "&amp;"; break;
-    case '<': o += "&lt;"; break;
-    case '>': o += "&gt;"; break;
-    case '"': o += "&quot;"; break;
-    default: o += c;
+    case '&':
+      o += "&amp;";
+      break;
+    case '<':
+      o += "&lt;";
+      break;
+    case '>':
+      o += "&gt;";
+      break;
+    case '"':
+      o += "&quot;";
+      break;
+    default:
+      o += c;
     }
   }
   return o;
@@ -112,7 +122,8 @@ std::string img(const fs::path& png, const std::string& caption) {
 
 std::string safe_name(const std::string& s) {
   std::string o;
-  for (char c : s) o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
+  for (char c : s)
+    o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
   while (!o.empty() && o.back() == '_') o.pop_back();
   return o;
 }
@@ -153,8 +164,11 @@ bool is_profile_bin(const std::string& name, std::string* wall = nullptr, int* b
 
 // The quantities a reader looks for first come first.
 int priority(const std::string& name) {
-  for (const auto& [key, rank] : {std::pair<const char*, int>{".thrust", 0}, {".rotation", 1},
-                                  {".settlement", 2}, {".moment", 3}, {".force", 4}})
+  for (const auto& [key, rank] : {std::pair<const char*, int>{".thrust", 0},
+                                  {".rotation", 1},
+                                  {".settlement", 2},
+                                  {".moment", 3},
+                                  {".force", 4}})
     if (name.find(key) != std::string::npos) return rank;
   return 10;
 }
@@ -170,7 +184,9 @@ double mean_over(const std::vector<double>& t, const std::vector<double>& y, dou
   return n ? sum / n : NAN;
 }
 
-double finite_or_zero(double v) { return std::isfinite(v) ? v : 0.0; }
+double finite_or_zero(double v) {
+  return std::isfinite(v) ? v : 0.0;
+}
 
 } // namespace
 
@@ -192,8 +208,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   std::vector<std::string> names;
   for (const auto& [name, d] : dem)
     if (cont.count(name) && !is_profile_bin(name)) names.push_back(name);
-  std::stable_sort(names.begin(), names.end(),
-                   [](const std::string& a, const std::string& b) { return priority(a) < priority(b); });
+  std::stable_sort(names.begin(), names.end(), [](const std::string& a, const std::string& b) {
+    return priority(a) < priority(b);
+  });
   for (const auto& name : names) {
     const auto& d = dem.at(name);
     const auto& c = cont.at(name);
@@ -252,7 +269,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   }
 
   // ---- pressure profiles: time-mean pressure per bin along each wall, bin 0 at the bottom -----
-  std::map<std::string, std::map<int, std::pair<double, double>>> profiles; // wall → bin → (dem, cont)
+  std::map<std::string, std::map<int, std::pair<double, double>>>
+      profiles; // wall → bin → (dem, cont)
   for (const auto& [name, d] : dem) {
     std::string wall;
     int bin = 0;
@@ -313,8 +331,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
       h += fmt::format("<tr><td>{}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td>"
                        "<td>{:.4g}</td><td>{:.1f} %</td><td class=\"{}\">{}</td></tr>\n",
                        html_escape(m.name), m.final_dem, m.final_continuum, m.late_mean_dem,
-                       m.late_mean_continuum, m.rms_difference,
-                       100 * m.relative_rms, m.first_divergence_time >= 0 ? "div" : "",
+                       m.late_mean_continuum, m.rms_difference, 100 * m.relative_rms,
+                       m.first_divergence_time >= 0 ? "div" : "",
                        m.first_divergence_time >= 0 ? fmt::format("{:.3g}", m.first_divergence_time)
                                                     : std::string("never"));
     h += "</table>\n";
@@ -325,8 +343,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   for (const char* solver : {"dem", "continuum"}) {
     const fs::path sd = run_dir / solver;
     if (!fs::is_directory(sd)) continue;
-    h += fmt::format("<h2>{}</h2>\n", std::string(solver) == "dem" ? "Granular assembly (DEM)"
-                                                                     : "Continuum (FEM)");
+    h += fmt::format("<h2>{}</h2>\n",
+                     std::string(solver) == "dem" ? "Granular assembly (DEM)" : "Continuum (FEM)");
     h += summary_table(sd / "summary.json");
     std::vector<fs::path> pngs;
     std::vector<fs::path> dirs{sd / "figures"};

@@ -40,7 +40,8 @@ using namespace dealii;
 using Vec = PETScWrappers::MPI::Vector;
 using Mat = PETScWrappers::MPI::SparseMatrix;
 
-// ---- MPI -----------------------------------------------------------------------------------------
+// ---- MPI
+// -----------------------------------------------------------------------------------------
 struct MpiScope::Impl {
   std::unique_ptr<Utilities::MPI::MPI_InitFinalize> init;
 };
@@ -51,8 +52,12 @@ MpiScope::MpiScope(int& argc, char**& argv) : impl_(std::make_unique<Impl>()) {
   if (!initialised) impl_->init = std::make_unique<Utilities::MPI::MPI_InitFinalize>(argc, argv, 1);
 }
 MpiScope::~MpiScope() = default;
-int MpiScope::rank() { return static_cast<int>(Utilities::MPI::this_mpi_process(MPI_COMM_WORLD)); }
-int MpiScope::size() { return static_cast<int>(Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD)); }
+int MpiScope::rank() {
+  return static_cast<int>(Utilities::MPI::this_mpi_process(MPI_COMM_WORLD));
+}
+int MpiScope::size() {
+  return static_cast<int>(Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD));
+}
 
 void ensure_mpi() {
   static int argc = 1;
@@ -87,7 +92,7 @@ bool on_segment(const Point& a, const Point& b, double x, double z, double tol) 
 
 struct QpState {
   mc::ElasticStrain ee;
-  mc::Vec3 eps{{0, 0, 0}};    // total strain (εxx, εzz, γxz)
+  mc::Vec3 eps{{0, 0, 0}}; // total strain (εxx, εzz, γxz)
   mc::Vec3 stress{{0, 0, 0}};
   double syy = 0.0;
   double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
@@ -95,7 +100,8 @@ struct QpState {
 
 } // namespace
 
-// ---- the model -----------------------------------------------------------------------------------
+// ---- the model
+// -----------------------------------------------------------------------------------
 struct Model::Impl {
   Problem pb;
   MPI_Comm comm = MPI_COMM_WORLD;
@@ -117,9 +123,9 @@ struct Model::Impl {
   };
   std::map<types::global_dof_index, Line> lines;
   struct Rigid {
-    types::global_dof_index master[3] = {0, 0, 0}; // A_x, A_z, B_c
+    types::global_dof_index master[3] = {0, 0, 0};      // A_x, A_z, B_c
     double T[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}; // q = (ux, uz, θ) = T m
-    std::vector<char> is_dof;                       // by global dof index
+    std::vector<char> is_dof;                           // by global dof index
     std::vector<std::pair<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>>> dofs;
   };
   std::vector<Rigid> rigid; // by region (empty is_dof for elastic regions)
@@ -130,7 +136,9 @@ struct Model::Impl {
   std::vector<QpState> committed, trial;
   std::vector<mc::Parameters> mat; // by material id
   std::vector<double> rho;
-  struct RegionGeom { double area = 0, xc = 0, zc = 0, J = 0; };
+  struct RegionGeom {
+    double area = 0, xc = 0, zc = 0, J = 0;
+  };
   std::vector<RegionGeom> geom;
   double lambda = 0.0, gfactor = 0.0;
   double t = 0.0;
@@ -167,8 +175,8 @@ struct Model::Impl {
       }
       x += m.dx[i];
     }
-    GridGenerator::subdivided_hyper_rectangle(tria, {m.dx, m.dz}, dealii::Point<2>(m.x0, m.z0),
-                                              ids, false);
+    GridGenerator::subdivided_hyper_rectangle(tria, {m.dx, m.dz}, dealii::Point<2>(m.x0, m.z0), ids,
+                                              false);
     xmin = m.x0;
     zmin = m.z0;
     xmax = xmin;
@@ -181,10 +189,14 @@ struct Model::Impl {
         if (cell->face(f)->at_boundary()) {
           const auto c = cell->face(f)->center();
           types::boundary_id b = 4;
-          if (std::abs(c[0] - xmin) < tol) b = 0;
-          else if (std::abs(c[0] - xmax) < tol) b = 1;
-          else if (std::abs(c[1] - zmin) < tol) b = 2;
-          else if (std::abs(c[1] - zmax) < tol) b = 3;
+          if (std::abs(c[0] - xmin) < tol)
+            b = 0;
+          else if (std::abs(c[0] - xmax) < tol)
+            b = 1;
+          else if (std::abs(c[1] - zmin) < tol)
+            b = 2;
+          else if (std::abs(c[1] - zmax) < tol)
+            b = 3;
           cell->face(f)->set_boundary_id(b);
         }
     tria.refine_global(static_cast<unsigned>(std::max(0, m.refinement)));
@@ -270,11 +282,13 @@ struct Model::Impl {
         for (unsigned i = 0; i < ld.size(); ++i)
           if (!R.is_dof[ld[i]]) {
             R.is_dof[ld[i]] = 1;
-            R.dofs.push_back({ld[i], {fe.system_to_component_index(i).first,
-                                      mapping.transform_unit_to_real_cell(cell, usp[i])}});
+            R.dofs.push_back({ld[i],
+                              {fe.system_to_component_index(i).first,
+                               mapping.transform_unit_to_real_cell(cell, usp[i])}});
           }
       }
-      if (R.dofs.empty()) throw std::runtime_error("structure region '" + reg.name + "' has no cells");
+      if (R.dofs.empty())
+        throw std::runtime_error("structure region '" + reg.name + "' has no cells");
       const double xp = reg.pivot.x, zp = reg.pivot.z;
       // A: nearest to the pivot (x and z dofs at the same support point)
       std::size_t ia = 0;
@@ -282,19 +296,27 @@ struct Model::Impl {
       for (std::size_t k = 0; k < R.dofs.size(); ++k) {
         const auto& P = R.dofs[k].second.second;
         const double d = std::hypot(P[0] - xp, P[1] - zp);
-        if (R.dofs[k].second.first == 0 && d < best) { best = d; ia = k; }
+        if (R.dofs[k].second.first == 0 && d < best) {
+          best = d;
+          ia = k;
+        }
       }
       const dealii::Point<2> A = R.dofs[ia].second.second;
       R.master[0] = R.dofs[ia].first;
       for (const auto& d : R.dofs)
-        if (d.second.first == 1 && d.second.second.distance(A) < 1e-12 * (1 + A.norm())) R.master[1] = d.first;
+        if (d.second.first == 1 && d.second.second.distance(A) < 1e-12 * (1 + A.norm()))
+          R.master[1] = d.first;
       // B: maximise |det R| = |A_z − B_z| (x dof of B) or |B_x − A_x| (z dof of B)
       best = -1;
       std::size_t ib = 0;
       for (std::size_t k = 0; k < R.dofs.size(); ++k) {
         const auto& P = R.dofs[k].second.second;
-        const double d = R.dofs[k].second.first == 0 ? std::abs(P[1] - A[1]) : std::abs(P[0] - A[0]);
-        if (d > best) { best = d; ib = k; }
+        const double d =
+            R.dofs[k].second.first == 0 ? std::abs(P[1] - A[1]) : std::abs(P[0] - A[0]);
+        if (d > best) {
+          best = d;
+          ib = k;
+        }
       }
       R.master[2] = R.dofs[ib].first;
       const unsigned cb = R.dofs[ib].second.first;
@@ -312,7 +334,8 @@ struct Model::Impl {
       const double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
                          S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
                          S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
-      if (std::abs(det) < 1e-12) throw std::runtime_error("structure region '" + reg.name + "' is degenerate");
+      if (std::abs(det) < 1e-12)
+        throw std::runtime_error("structure region '" + reg.name + "' is degenerate");
       for (int i = 0; i < 3; ++i) // inverse by cofactors
         for (int j = 0; j < 3; ++j) {
           const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
@@ -350,23 +373,31 @@ struct Model::Impl {
         used[pc] = 1;
         pivcol[a] = pc;
         const double d = A_[a][pc];
-        for (int j = 0; j < 3; ++j) { A_[a][j] /= d; W[a][j] /= d; }
+        for (int j = 0; j < 3; ++j) {
+          A_[a][j] /= d;
+          W[a][j] /= d;
+        }
         for (std::size_t b = 0; b < A_.size(); ++b) {
           if (b == a) continue;
           const double f = A_[b][pc];
-          for (int j = 0; j < 3; ++j) { A_[b][j] -= f * A_[a][j]; W[b][j] -= f * W[a][j]; }
+          for (int j = 0; j < 3; ++j) {
+            A_[b][j] -= f * A_[a][j];
+            W[b][j] -= f * W[a][j];
+          }
         }
       }
       for (std::size_t a = 0; a < A_.size(); ++a) {
         Line l;
         for (int j = 0; j < 3; ++j)
-          if (j != pivcol[a] && !used[j] && std::abs(A_[a][j]) > 1e-14) l.entries.push_back({R.master[j], -A_[a][j]});
+          if (j != pivcol[a] && !used[j] && std::abs(A_[a][j]) > 1e-14)
+            l.entries.push_back({R.master[j], -A_[a][j]});
         const std::array<double, 3> w = W[a];
         l.target = [this, r, w]() {
           double g = 0;
           for (int k = 0; k < 3; ++k) {
             const Region& rg = pb.regions[r];
-            if (rg.mode[k] == Region::Mode::Prescribed) g += w[static_cast<std::size_t>(k)] * rg.motion[k](t);
+            if (rg.mode[k] == Region::Mode::Prescribed)
+              g += w[static_cast<std::size_t>(k)] * rg.motion[k](t);
           }
           return g;
         };
@@ -376,7 +407,8 @@ struct Model::Impl {
     }
     relevant.compress();
 
-    // constraints: rigid bodies, box boundary conditions, patches, pure-shear kinematics, periodicity
+    // constraints: rigid bodies, box boundary conditions, patches, pure-shear kinematics,
+    // periodicity
     hom.clear();
     hom.reinit(relevant);
     for (const auto& [i, l] : lines) {
@@ -397,7 +429,8 @@ struct Model::Impl {
       if (bcs[b] == Bc::Free) continue;
       if (pb.mesh.periodic_x && b < 2) continue;
       const unsigned normal = b < 2 ? 0u : 1u;
-      for (const auto& [i, cp] : face_dofs([b](const dealii::Point<2>&, types::boundary_id id) { return id == b; }))
+      for (const auto& [i, cp] :
+           face_dofs([b](const dealii::Point<2>&, types::boundary_id id) { return id == b; }))
         if (bcs[b] == Bc::Fixed || cp.first == normal) constrain(i);
     }
     const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
@@ -436,7 +469,8 @@ struct Model::Impl {
     if (pb.mesh.periodic_x) {
       // u(right, z) = u(left, z), component by component (single-rank construction)
       auto left = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 0; });
-      auto right = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 1; });
+      auto right =
+          face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 1; });
       const double ptol = 1e-9 * (zmax - zmin);
       for (const auto& [r, rc] : right) {
         if (hom.is_constrained(r) || !relevant.is_element(r)) continue;
@@ -456,7 +490,8 @@ struct Model::Impl {
     K.reinit(owned, owned, dsp, comm);
     M.reinit(owned, owned, dsp, comm);
     K0.reinit(owned, owned, dsp, comm);
-    for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n}) w->reinit(owned, comm);
+    for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n})
+      w->reinit(owned, comm);
     u_ghost.reinit(owned, relevant, comm);
 
     committed.assign(tria.n_active_cells() * nq(), QpState{});
@@ -513,7 +548,8 @@ struct Model::Impl {
     has_cabs = true;
     Cabs.reinit(M);
     Cabs = 0;
-    FEFaceValues<2> ffv(mapping, fe, face_quad, update_values | update_normal_vectors | update_JxW_values);
+    FEFaceValues<2> ffv(mapping, fe, face_quad,
+                        update_values | update_normal_vectors | update_JxW_values);
     for (const auto& cell : dof.active_cell_iterators()) {
       if (!cell->is_locally_owned()) continue;
       cm = 0;
@@ -536,7 +572,8 @@ struct Model::Impl {
             for (unsigned j = 0; j < n; ++j) {
               const unsigned cj = fe.system_to_component_index(j).first;
               // C_ij = ∫ N_i N_j ρ (c_p n_ci n_cj + c_s (δ_ci,cj − n_ci n_cj)) dΓ
-              const double coef = r * (cp * nrm[ci] * nrm[cj] + cs * ((ci == cj ? 1.0 : 0.0) - nrm[ci] * nrm[cj]));
+              const double coef =
+                  r * (cp * nrm[ci] * nrm[cj] + cs * ((ci == cj ? 1.0 : 0.0) - nrm[ci] * nrm[cj]));
               cm(i, j) += ffv.shape_value(i, q) * ffv.shape_value(j, q) * coef * ffv.JxW(q);
             }
           }
@@ -549,20 +586,20 @@ struct Model::Impl {
     Cabs.compress(VectorOperation::add);
   }
 
-
   // body force of region r at a point (resultant F at load_point plus moment M, distributed
   // linearly over the area: b = F/A + M_tot/J · e_z×r)
   void region_force(std::size_t r, double x, double z, double& bx, double& bz) const {
     const Region& reg = pb.regions[r];
     const RegionGeom& g = geom[r + 1];
     const double Fx = reg.force_x(t), Fz = reg.force_z(t);
-    const double Mt = reg.moment(t) + (reg.load_point.x - g.xc) * Fz - (reg.load_point.z - g.zc) * Fx;
+    const double Mt =
+        reg.moment(t) + (reg.load_point.x - g.xc) * Fz - (reg.load_point.z - g.zc) * Fx;
     bx = Fx / g.area - Mt * (z - g.zc) / g.J;
     bz = Fz / g.area + Mt * (x - g.xc) / g.J;
   }
 
-  // Residual (f_internal − fext, raw) and, if `matrix`, the tangent; the linear system (K, rhs = −R)
-  // goes through `cons`. Trial states are updated.
+  // Residual (f_internal − fext, raw) and, if `matrix`, the tangent; the linear system (K, rhs =
+  // −R) goes through `cons`. Trial states are updated.
   void assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
     update_ghost();
     FEValues<2> fv(mapping, fe, quad,
@@ -612,7 +649,8 @@ struct Model::Impl {
         s.stress = r.stress;
         s.syy = r.stress_yy;
         for (int k = 0; k < 3; ++k)
-          s.eps_p[k] = c0.eps_p[k] + (e[k] - c0.eps[k]) - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
+          s.eps_p[k] =
+              c0.eps_p[k] + (e[k] - c0.eps[k]) - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
         s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
         // body force: gravity along −z, base shaking ρ·a(t), structure loads
         const auto xq = fv.quadrature_point(q);
@@ -668,8 +706,10 @@ struct Model::Impl {
       }
       res.add(ld, cr);
       f_internal.add(ld, cf);
-      if (matrix) cons.distribute_local_to_global(ck, crhs, ld, K, rhs, true);
-      else cons.distribute_local_to_global(crhs, ld, rhs);
+      if (matrix)
+        cons.distribute_local_to_global(ck, crhs, ld, K, rhs, true);
+      else
+        cons.distribute_local_to_global(crhs, ld, rhs);
     }
     if (matrix) K.compress(VectorOperation::add);
     rhs.compress(VectorOperation::add);
@@ -677,7 +717,8 @@ struct Model::Impl {
     f_internal.compress(VectorOperation::add);
   }
 
-  // Newmark constants (Newmark 1959): a = a0(u − u_n) − a2 v_n − a3 a_n, v = v_n + dt((1−γ)a_n + γa)
+  // Newmark constants (Newmark 1959): a = a0(u − u_n) − a2 v_n − a3 a_n, v = v_n + dt((1−γ)a_n +
+  // γa)
   double dt_ = 0.0;
   void newmark_va(Vec& vel, Vec& accel) const {
     const double b = pb.newmark_beta, g = pb.newmark_gamma;
@@ -841,7 +882,8 @@ struct Model::Impl {
       }
     }
     log << "newton failed: λ=" << lambda << " g=" << gfactor << " t=" << t
-        << " residual=" << st.residual << "\n" << trace.str();
+        << " residual=" << st.residual << "\n"
+        << trace.str();
     st.converged = false;
     st.newton_iterations = pb.newton_max_iterations;
     return st;
@@ -921,24 +963,30 @@ struct Model::Impl {
       const Point& a = poly[i];
       const Point& b = poly[j];
       if ((a.x <= x && b.x >= x) || (b.x <= x && a.x >= x)) {
-        const double zz = std::abs(b.x - a.x) < 1e-300 ? std::max(a.z, b.z)
-                                                       : a.z + (b.z - a.z) * (x - a.x) / (b.x - a.x);
+        const double zz = std::abs(b.x - a.x) < 1e-300
+                              ? std::max(a.z, b.z)
+                              : a.z + (b.z - a.z) * (x - a.x) / (b.x - a.x);
         top = std::max(top, zz);
       }
     }
     return top;
   }
 
-  template <class F>
-  double sum(F f) const { return Utilities::MPI::sum(f(), comm); }
+  template <class F> double sum(F f) const { return Utilities::MPI::sum(f(), comm); }
 };
 
 Model::Model(const Problem& problem) : impl_(std::make_unique<Impl>(problem)) {}
 Model::~Model() = default;
 
-std::size_t Model::n_dofs() const { return impl_->dof.n_dofs(); }
-std::size_t Model::n_cells() const { return impl_->tria.n_active_cells(); }
-double Model::time() const { return impl_->t; }
+std::size_t Model::n_dofs() const {
+  return impl_->dof.n_dofs();
+}
+std::size_t Model::n_cells() const {
+  return impl_->tria.n_active_cells();
+}
+double Model::time() const {
+  return impl_->t;
+}
 const std::string& Model::log() const {
   impl_->log_str = impl_->log.str();
   return impl_->log_str;
@@ -957,7 +1005,8 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       for (unsigned q = 0; q < m.nq(); ++q) {
         const auto x = fv.quadrature_point(q);
         const bool rigid_cell = id > 0 && m.pb.regions[id - 1].rigid; // stresses play no role
-        const double szz = rigid_cell ? 0.0 : -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
+        const double szz =
+            rigid_cell ? 0.0 : -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
         QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
         s.stress = mc::Vec3{{k0 * szz, szz, 0.0}};
         s.syy = k0 * szz;
@@ -983,7 +1032,9 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   return total;
 }
 
-StepStats Model::static_step(double lambda) { return impl_->static_to(lambda, impl_->gfactor); }
+StepStats Model::static_step(double lambda) {
+  return impl_->static_to(lambda, impl_->gfactor);
+}
 
 void Model::set_displacement(const std::function<Point(Point)>& f) {
   Impl& m = *impl_;
@@ -1028,12 +1079,12 @@ StepStats Model::dynamic_step(double dt) {
 
 namespace {
 // value and gradient of the displacement-like field at a point; collective
-template <class M>
-bool eval_at(const M& m, const Vec& field_ghost, Point p, double val[2]) {
+template <class M> bool eval_at(const M& m, const Vec& field_ghost, Point p, double val[2]) {
   val[0] = val[1] = 0;
   double found = 0;
   try {
-    const auto hit = GridTools::find_active_cell_around_point(m.mapping, m.dof, dealii::Point<2>(p.x, p.z));
+    const auto hit =
+        GridTools::find_active_cell_around_point(m.mapping, m.dof, dealii::Point<2>(p.x, p.z));
     if (hit.first->is_locally_owned()) {
       const Quadrature<2> q(GeometryInfo<2>::project_to_unit_cell(hit.second));
       FEValues<2> fv(m.mapping, m.fe, q, update_values);
@@ -1075,8 +1126,10 @@ Reaction Model::reaction(std::size_t patch) const {
   for (const auto& [i, cp] : m.patch_dofs.at(patch)) {
     if (!m.owned.is_element(i)) continue;
     const double f = m.res(i);
-    if (cp.first == 0) r.fx += f;
-    else r.fz += f;
+    if (cp.first == 0)
+      r.fx += f;
+    else
+      r.fz += f;
     const double rx = cp.second[0] - p.pivot.x, rz = cp.second[1] - p.pivot.z;
     r.moment += cp.first == 0 ? -rz * f : rx * f;
   }
@@ -1148,7 +1201,8 @@ Reaction Model::soil_reaction(std::size_t region) const {
       for (unsigned i = 0; i < n; ++i) {
         const unsigned ci = m.fe.system_to_component_index(i).first;
         const auto gi = fv.shape_grad(i, q);
-        const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0, ci == 0 ? gi[1] : gi[0]};
+        const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
+                              ci == 0 ? gi[1] : gi[0]};
         double r = 0;
         for (int a = 0; a < 3; ++a) r += Bi[a] * (st.stress[a] + sv[a]);
         // residual: internal − body + ρ(a + α v) (Newmark inertia, mass-proportional damping)
@@ -1298,8 +1352,8 @@ std::vector<QpStress> Model::stresses() const {
     fv.reinit(cell);
     for (unsigned q = 0; q < m.nq(); ++q) {
       const QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
-      out.push_back({fv.quadrature_point(q)[0], fv.quadrature_point(q)[1], s.stress[0],
-                     s.stress[1], s.stress[2], s.syy, int(cell->material_id())});
+      out.push_back({fv.quadrature_point(q)[0], fv.quadrature_point(q)[1], s.stress[0], s.stress[1],
+                     s.stress[2], s.syy, int(cell->material_id())});
     }
   }
   return out;
@@ -1312,8 +1366,9 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   vg = m.v;
   const std::size_t nc = m.tria.n_active_cells();
   std::vector<dealii::Vector<float>> cd(9, dealii::Vector<float>(nc));
-  const char* names[9] = {"stress_xx", "stress_zz", "stress_xz", "stress_yy", "plastic_strain",
-                          "volumetric_strain", "rotation", "material", "subdomain"};
+  const char* names[9] = {"stress_xx", "stress_zz",      "stress_xz",
+                          "stress_yy", "plastic_strain", "volumetric_strain",
+                          "rotation",  "material",       "subdomain"};
   FEValues<2> fv(m.mapping, m.fe, m.quad, update_gradients | update_JxW_values);
   const FEValuesExtractors::Vector disp(0);
   std::vector<Tensor<2, 2>> grad(m.nq());
@@ -1333,8 +1388,8 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
       acc[2] += s.stress[2] * w;
       acc[3] += s.syy * w;
       // equivalent plastic strain √(2/3 εp:εp)
-      const double e2 = s.eps_p[0] * s.eps_p[0] + s.eps_p[1] * s.eps_p[1] + s.eps_p[3] * s.eps_p[3] +
-                        0.5 * s.eps_p[2] * s.eps_p[2];
+      const double e2 = s.eps_p[0] * s.eps_p[0] + s.eps_p[1] * s.eps_p[1] +
+                        s.eps_p[3] * s.eps_p[3] + 0.5 * s.eps_p[2] * s.eps_p[2];
       acc[4] += std::sqrt(2.0 / 3.0 * e2) * w;
       acc[5] += (grad[q][0][0] + grad[q][1][1]) * w;
       acc[6] += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w;
@@ -1352,8 +1407,8 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   out.add_data_vector(vg, std::vector<std::string>(2, "velocity"), DataOut<2>::type_dof_data, vec);
   for (int k = 0; k < 9; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
   out.build_patches(m.mapping, static_cast<unsigned>(m.pb.degree));
-  const std::string name =
-      out.write_vtu_with_pvtu_record(directory + "/", basename, static_cast<unsigned>(index), m.comm, 4);
+  const std::string name = out.write_vtu_with_pvtu_record(directory + "/", basename,
+                                                          static_cast<unsigned>(index), m.comm, 4);
   m.pvd_records.emplace_back(m.t, name);
 }
 

@@ -42,13 +42,13 @@ void ensure_mpi();
 // A region of the mesh with its own material (structures as very stiff elastic bodies).
 struct Region {
   std::string name;
-  std::vector<Point> outline;   // cells whose centre lies inside get this material
-  mc::Parameters material;      // elastic
+  std::vector<Point> outline; // cells whose centre lies inside get this material
+  mc::Parameters material;    // elastic
   double density = 2400.0;
   // external loads on the region (body-force distribution with the given resultant and moment)
   scene::TimeFunction force_x, force_z, moment;
-  Point load_point;             // where force_x/force_z act
-  Point pivot;                  // reference point for rotation and moment output
+  Point load_point; // where force_x/force_z act
+  Point pivot;      // reference point for rotation and moment output
   // Rigid body (scene structures): every dof of the region's cells follows the small rigid
   // motion u = (ux − θ(z − zp), uz + θ(x − xp)) of the pivot p; each of (ux, uz, θ) is fixed
   // (zero), free (driven by loads, weight, inertia and the soil) or prescribed (`motion`).
@@ -56,17 +56,17 @@ struct Region {
   enum class Mode { Fixed, Free, Prescribed };
   bool rigid = false;
   Mode mode[3] = {Mode::Free, Mode::Free, Mode::Free}; // x, z, rotation
-  scene::TimeFunction motion[3];                        // [m], [m], [rad]
-  bool dead_weight = true;                              // gravity acts on the region
+  scene::TimeFunction motion[3];                       // [m], [m], [rad]
+  bool dead_weight = true;                             // gravity acts on the region
 };
 
 struct Mesh {
   double x0 = 0.0, z0 = 0.0;
-  std::vector<double> dx, dz;    // coarse tensor-grid step sizes
-  std::vector<Point> domain;     // soil polygon; cells with centre outside (and outside all
-                                 // regions) are removed; empty = the whole rectangle
-  int refinement = 0;            // global refinements of the coarse grid
-  bool periodic_x = false;       // tie the left and right boundaries (shear column)
+  std::vector<double> dx, dz; // coarse tensor-grid step sizes
+  std::vector<Point> domain;  // soil polygon; cells with centre outside (and outside all
+                              // regions) are removed; empty = the whole rectangle
+  int refinement = 0;         // global refinements of the coarse grid
+  bool periodic_x = false;    // tie the left and right boundaries (shear column)
 };
 
 enum class Bc { Free, Roller, Fixed }; // roller: normal component fixed
@@ -98,8 +98,8 @@ struct Problem {
   int degree = 2;
   mc::Parameters soil;
   double density = 1700.0;
-  std::vector<Region> regions;   // material id k+1
-  double gravity = 9.81;         // along −z
+  std::vector<Region> regions; // material id k+1
+  double gravity = 9.81;       // along −z
   Bc left = Bc::Roller, right = Bc::Roller, bottom = Bc::Fixed, top = Bc::Free;
   bool fix_z_everywhere = false; // pure horizontal kinematics (shear column)
   std::vector<Traction> tractions;
@@ -114,8 +114,8 @@ struct Problem {
   // flag is set (left, right, bottom, top); only unconstrained components feel them.
   bool absorbing = false;
   bool absorbing_sides[4] = {true, true, true, false};
-  int shaking_component = -1;    // 0 = x, 1 = z, −1 = none
-  scene::TimeFunction shaking;   // base acceleration [m/s²] applied as body force ρ·a(t)
+  int shaking_component = -1;  // 0 = x, 1 = z, −1 = none
+  scene::TimeFunction shaking; // base acceleration [m/s²] applied as body force ρ·a(t)
 };
 
 struct QpStress {
@@ -158,9 +158,11 @@ public:
   // Displacement at a point (collective: every rank must call).
   [[nodiscard]] Point displacement(Point p) const;
   [[nodiscard]] Point velocity(Point p) const;
-  [[nodiscard]] Reaction reaction(std::size_t patch) const;       // collective
+  [[nodiscard]] Reaction reaction(std::size_t patch) const; // collective
   // Mean displacement and rotation (½ curl u averaged over the area) of region k (collective).
-  struct RegionMotion { double ux = 0, uz = 0, rotation = 0; };
+  struct RegionMotion {
+    double ux = 0, uz = 0, rotation = 0;
+  };
   // Rigid regions: the pivot's displacement and the rotation θ (counter-clockwise).
   [[nodiscard]] RegionMotion region_motion(std::size_t region) const;
   // Force of the soil on region k (nodal reactions of the soil cells at the region's dofs:
@@ -175,7 +177,7 @@ public:
                                                   int bins, Reaction* force = nullptr) const;
   // ½ vᵀM v + ½ uᵀK0 u: kinetic plus elastic strain energy (linear elastic problems) [J/m]
   [[nodiscard]] double elastic_energy() const;
-  [[nodiscard]] std::vector<QpStress> stresses() const;           // locally owned only
+  [[nodiscard]] std::vector<QpStress> stresses() const; // locally owned only
   void write_vtu(const std::string& directory, const std::string& basename, int index);
   void write_pvd(const std::string& directory, const std::string& basename) const;
   [[nodiscard]] const std::string& log() const;

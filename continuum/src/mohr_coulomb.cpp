@@ -70,9 +70,9 @@ bool invert(int n, const double A[3][3], double Ainv[3][3]) {
 }
 
 struct Surface {
-  Vec3 a{};  // yield gradient in sorted principal space: Φ = a·σ − r
+  Vec3 a{}; // yield gradient in sorted principal space: Φ = a·σ − r
   double r = 0.0;
-  Vec3 n{};  // flow direction (plastic potential gradient)
+  Vec3 n{}; // flow direction (plastic potential gradient)
 };
 
 } // namespace
@@ -81,8 +81,7 @@ void elastic_stress(const Parameters& p, const ElasticStrain& e, Vec3& stress, d
   const double lam = p.lame(), G = p.shear_modulus();
   const double tr = e.in_plane[0] + e.in_plane[1] + e.out_of_plane;
   // Hooke's law σ = λ tr(ε) 1 + 2G ε (isotropic linear elasticity)
-  stress = {lam * tr + 2 * G * e.in_plane[0], lam * tr + 2 * G * e.in_plane[1],
-            G * e.in_plane[2]};
+  stress = {lam * tr + 2 * G * e.in_plane[0], lam * tr + 2 * G * e.in_plane[1], G * e.in_plane[2]};
   stress_yy = lam * tr + 2 * G * e.out_of_plane;
 }
 
@@ -158,7 +157,11 @@ Result integrate(const Parameters& p, const ElasticStrain& trial) {
         for (int i = 0; i < 3; ++i)
           DN[k][i] = lam * trn + 2 * G * surf[k].n[static_cast<std::size_t>(i)];
       }
-      struct Candidate { int n; int set[3]; Return region; };
+      struct Candidate {
+        int n;
+        int set[3];
+        Return region;
+      };
       static const Candidate candidates[] = {
           {1, {0, 0, 0}, Return::MainPlane},   {1, {3, 0, 0}, Return::Tension},
           {2, {0, 1, 0}, Return::EdgeLeft},    {2, {0, 2, 0}, Return::EdgeRight},

@@ -17,11 +17,11 @@ using Mat3 = std::array<std::array<double, 3>, 3>;
 struct Parameters {
   double young = 3.0e7;
   double poisson = 0.3;
-  bool plastic = false;          // false: linear elastic
-  double friction = 0.5236;      // φ [rad]
-  double cohesion = 0.0;         // c [Pa]
-  double dilation = 0.0;         // ψ [rad]
-  double tension_cutoff = -1.0;  // t [Pa]: max principal stress; < 0 = none (only the MC apex)
+  bool plastic = false;         // false: linear elastic
+  double friction = 0.5236;     // φ [rad]
+  double cohesion = 0.0;        // c [Pa]
+  double dilation = 0.0;        // ψ [rad]
+  double tension_cutoff = -1.0; // t [Pa]: max principal stress; < 0 = none (only the MC apex)
 
   [[nodiscard]] double shear_modulus() const { return young / (2.0 * (1.0 + poisson)); }
   [[nodiscard]] double lame() const {
@@ -31,8 +31,17 @@ struct Parameters {
 };
 
 // Which return the mapping took (for tests and statistics).
-enum class Return { Elastic, MainPlane, EdgeLeft, EdgeRight, Apex, Tension, TensionMain,
-                    TensionEdge, TensionApex };
+enum class Return {
+  Elastic,
+  MainPlane,
+  EdgeLeft,
+  EdgeRight,
+  Apex,
+  Tension,
+  TensionMain,
+  TensionEdge,
+  TensionApex
+};
 
 // Elastic strain state of the point. εe = (εxx, εzz, γxz) in-plane + εyy out of plane.
 struct ElasticStrain {
@@ -52,8 +61,7 @@ struct Result {
 // Stress from an elastic strain (isotropic Hooke's law, plane strain components).
 void elastic_stress(const Parameters& p, const ElasticStrain& e, Vec3& stress, double& stress_yy);
 // Elastic strain from a stress (inverse Hooke); used to start from geostatic stresses.
-ElasticStrain elastic_strain_from_stress(const Parameters& p, const Vec3& stress,
-                                         double stress_yy);
+ElasticStrain elastic_strain_from_stress(const Parameters& p, const Vec3& stress, double stress_yy);
 [[nodiscard]] Mat3 elastic_tangent(const Parameters& p);
 
 // Yield function values of the principal stresses (sorted σ1 ≥ σ2 ≥ σ3, tension positive):

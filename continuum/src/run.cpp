@@ -183,7 +183,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // outline vertex (DEM's chord_normal), <w>.reaction_x/_z [N] = F (soil force on the wall).
     // pressure_<w>.csv: <w>.binK [Pa], normal soil pressure on the structure per z bin between
     // the outline's lowest and highest vertex.
-    std::vector<std::size_t> thrust;   // structure indices
+    std::vector<std::size_t> thrust;                   // structure indices
     std::vector<std::pair<std::size_t, int>> pressure; // structure index, bins
     auto index_of = [&](const std::string& name) -> long {
       for (std::size_t k = 0; k < scene.structures.size(); ++k)
@@ -238,7 +238,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         const auto& name = scene.structures[pressure[j].first].name;
         pfiles[j].open(dir / ("pressure_" + name + ".csv"));
         pfiles[j] << "time [s]";
-        for (int b = 0; b < pressure[j].second; ++b) pfiles[j] << fmt::format(",{}.bin{} [Pa]", name, b);
+        for (int b = 0; b < pressure[j].second; ++b)
+          pfiles[j] << fmt::format(",{}.bin{} [Pa]", name, b);
         pfiles[j] << "\n";
       }
     }
@@ -266,7 +267,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
           const auto& s = scene.structures[k];
           const double fx = s.force_x(t), fz = s.force_z(t);
           // applied moment about the pivot: M + (load point − pivot) × F
-          const double ma = s.moment(t) + (s.load_point.x - s.pivot.x) * fz - (s.load_point.z - s.pivot.z) * fx;
+          const double ma =
+              s.moment(t) + (s.load_point.x - s.pivot.x) * fz - (s.load_point.z - s.pivot.z) * fx;
           sfile << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}",
                                -motion[k].uz, motion[k].rotation, react[k].moment, react[k].fx,
                                react[k].fz, ma, motion[k].ux, fx, fz);
@@ -284,8 +286,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
           }
           const double l = std::hypot(dx, dz);
           const double nx = l > 0 ? dz / l : 1.0, nz = l > 0 ? -dx / l : 0.0;
-          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}", std::abs(react[k].fx * nx + react[k].fz * nz),
-                               react[k].fx, react[k].fz);
+          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}",
+                               std::abs(react[k].fx * nx + react[k].fz * nz), react[k].fx,
+                               react[k].fz);
         }
         wfile << "\n";
       }
@@ -312,7 +315,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                            m.time(), st.newton_iterations, st.cuts)
             << std::flush;
       if (!st.converged) {
-        summary.message = fmt::format("Newton did not converge at t = {:.6g} s\n{}", m.time(), m.log());
+        summary.message =
+            fmt::format("Newton did not converge at t = {:.6g} s\n{}", m.time(), m.log());
         summary.steps = step;
         summary.simulated_time = m.time();
         return summary;

@@ -92,8 +92,8 @@ void Engine::compute_mass(std::uint32_t i) {
   p_.inv_inertia[i] = 1.0 / (0.5 * m * r * r); // I = ½ m r² (disk)
 }
 
-std::uint32_t Engine::add_particle(double x, double z, double r, double vx, double vz,
-                                   double omega, std::uint16_t material) {
+std::uint32_t Engine::add_particle(double x, double z, double r, double vx, double vz, double omega,
+                                   std::uint16_t material) {
   const auto i = static_cast<std::uint32_t>(p_.size());
   p_.x.push_back(x);
   p_.z.push_back(z);
@@ -253,7 +253,9 @@ double Engine::stable_dt() const {
     kmax = h.max_stiffness(r_min_);
     break;
   }
-  default: kmax = std::max(config_.kn, config_.ks); break;
+  default:
+    kmax = std::max(config_.kn, config_.ks);
+    break;
   }
   if (p_.size() == 0 || !(kmax > 0.0)) return std::numeric_limits<double>::infinity();
   return 2.0 * std::sqrt(m_min_ / kmax); // critical step of a mass on a spring, 2/ω
@@ -642,7 +644,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
       const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta; // l_i + l_j = |x_i − x_j|
       ContactInput in;
       in.delta = delta;
-      in.vn = -(dvx * nx + dvz * nz);                        // eq. 2.5, approach positive
+      in.vn = -(dvx * nx + dvz * nz);                          // eq. 2.5, approach positive
       in.vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5, slip
       in.m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
       in.r_eff = ri * rad[j] / rsum;
@@ -715,9 +717,11 @@ template <class Law> void Engine::pair_forces(const Law& law) {
     split_[0] = 0;
     const std::uint32_t total = nbr_start_[n];
     for (std::size_t t = 1; t < tcount; ++t) {
-      const auto target = static_cast<std::uint32_t>(static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
+      const auto target = static_cast<std::uint32_t>(
+          static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
       split_[t] = static_cast<std::size_t>(
-          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n), target) -
+          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n),
+                           target) -
           nbr_start_.begin());
       split_[t] = std::max(split_[t], split_[t - 1]);
     }
@@ -764,7 +768,8 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   }
   if (fail[0] != ~0u && failure_.empty()) {
     const std::uint32_t i = fail[0], j = fail[1];
-    const double delta = p_.radius[i] + p_.radius[j] - std::hypot(p_.x[i] - p_.x[j], p_.z[i] - p_.z[j]);
+    const double delta =
+        p_.radius[i] + p_.radius[j] - std::hypot(p_.x[i] - p_.x[j], p_.z[i] - p_.z[j]);
     failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
                            delta, p_.id[i], p_.id[j]);
   }
@@ -868,7 +873,8 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
     e_s += r.e_shear;
     if (delta > config_.max_overlap * ri && failure_.empty())
       failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
-                             "boundary '{}'", delta, p_.id[i], B.name);
+                             "boundary '{}'",
+                             delta, p_.id[i], B.name);
     const double fnt = r.fn + r.impulse;
     const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
     p_.fx[i] += Fx;
@@ -898,8 +904,9 @@ void Engine::compute_forces() {
   switch (config_.law) {
   case scene::ContactLaw::CundallRebound: {
     CundallRebound law;
-    law.p = {config_.kn, config_.ks, config_.rebound, config_.rebound_speed, config_.tension,
-             config_.tensile_strength};
+    law.p = {config_.kn,      config_.ks,
+             config_.rebound, config_.rebound_speed,
+             config_.tension, config_.tensile_strength};
     pair_forces(law);
     boundary_forces(law);
     break;
@@ -921,8 +928,8 @@ void Engine::compute_forces() {
   case scene::ContactLaw::HertzMindlin: {
     HertzMindlin law;
     const double E = config_.young, nu = config_.poisson;
-    law.p.e_star = E / (2.0 * (1.0 - nu * nu));             // equal materials
-    law.p.g_star = E / (4.0 * (2.0 - nu) * (1.0 + nu));     // G/(2(2−ν)) with G = E/(2(1+ν))
+    law.p.e_star = E / (2.0 * (1.0 - nu * nu));         // equal materials
+    law.p.g_star = E / (4.0 * (2.0 - nu) * (1.0 + nu)); // G/(2(2−ν)) with G = E/(2(1+ν))
     pair_forces(law);
     boundary_forces(law);
     break;
@@ -965,13 +972,13 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
     const double fx = fxa[i] + m * ax_body - C * m * vx0;
     const double fz = fza[i] + m * (az_body - g) - C * m * vz0;
     const double tq = tqa[i] - D * om0 / ii;
-    const double vx1 = vx0 + fx * im * dt;   // eq. 2.16
+    const double vx1 = vx0 + fx * im * dt; // eq. 2.16
     const double vz1 = vz0 + fz * im * dt;
-    const double om1 = om0 + tq * ii * dt;   // eq. 2.17
+    const double om1 = om0 + tq * ii * dt; // eq. 2.17
     vx[i] = vx1;
     vz[i] = vz1;
     om[i] = om1;
-    const double x1 = x[i] + vx1 * dt;       // eq. 2.18
+    const double x1 = x[i] + vx1 * dt; // eq. 2.18
     const double z1 = z[i] + vz1 * dt;
     x[i] = x1;
     z[i] = z1;
@@ -1052,7 +1059,9 @@ void Engine::update_structures() {
     auto advance = [&](scene::DofMode mode, const scene::TimeFunction& motion, double force,
                        double inv_m, double& u, double& v) {
       switch (mode) {
-      case scene::DofMode::Fixed: v = 0.0; break;
+      case scene::DofMode::Fixed:
+        v = 0.0;
+        break;
       case scene::DofMode::Free:
         v += force * inv_m * dt; // symplectic Euler, like the particles
         u += v * dt;
@@ -1203,8 +1212,8 @@ void Engine::contacts(std::vector<ContactView>& out) const {
     } else {
       const double ax = bvx_[F.v0], az = bvz_[F.v0];
       const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
-      const double t = std::clamp(((p_.x[i] - ax) * ex + (p_.z[i] - az) * ez) / (ex * ex + ez * ez),
-                                  0.0, 1.0);
+      const double t =
+          std::clamp(((p_.x[i] - ax) * ex + (p_.z[i] - az) * ez) / (ex * ex + ez * ez), 0.0, 1.0);
       v.cx = ax + t * ex;
       v.cz = az + t * ez;
     }
@@ -1324,8 +1333,10 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
     detail::ByteReader::fail(fmt::format("unsupported version {}", v));
   const auto n = r.value<std::uint64_t>();
   if (n != particles.size())
-    detail::ByteReader::fail(fmt::format("{} particles in the state, {} in the arrays", n, particles.size()));
-  if (r.value<std::uint64_t>() != boundaries_.size() || r.value<std::uint64_t>() != structures_.size() ||
+    detail::ByteReader::fail(
+        fmt::format("{} particles in the state, {} in the arrays", n, particles.size()));
+  if (r.value<std::uint64_t>() != boundaries_.size() ||
+      r.value<std::uint64_t>() != structures_.size() ||
       r.value<std::uint64_t>() != features_.size())
     detail::ByteReader::fail("walls or structures differ from the scene's");
   p_ = std::move(particles);
@@ -1368,7 +1379,8 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   need_rebuild_ = r.value<std::uint8_t>() != 0;
   r.value(rebuilds_since_reorder_);
   r.value(next_id_);
-  for (double* v : {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_, &pe_ref_})
+  for (double* v :
+       {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_, &pe_ref_})
     r.value(*v);
   pe_ref_set_ = r.value<std::uint8_t>() != 0;
   if (!r.at_end()) detail::ByteReader::fail("trailing bytes");
@@ -1473,12 +1485,16 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
 
 Engine::MemoryUse Engine::memory_use() const {
   MemoryUse m;
-  auto cap = [](const auto& v) { return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type); };
+  auto cap = [](const auto& v) {
+    return v.capacity() * sizeof(typename std::decay_t<decltype(v)>::value_type);
+  };
   m.particles = cap(p_.x) + cap(p_.z) + cap(p_.phi) + cap(p_.vx) + cap(p_.vz) + cap(p_.omega) +
                 cap(p_.fx) + cap(p_.fz) + cap(p_.torque) + cap(p_.radius) + cap(p_.mass) +
-                cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) + cap(p_.flags);
+                cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) +
+                cap(p_.flags);
   m.contact_history = cap(nbr_hist_) + cap(bnd_hist_);
-  m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(bnd_i_) + cap(bnd_f_) + cap(x_ref_) + cap(z_ref_);
+  m.neighbour_lists =
+      cap(nbr_start_) + cap(nbr_j_) + cap(bnd_i_) + cap(bnd_f_) + cap(x_ref_) + cap(z_ref_);
   m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);
   m.other = cap(tbuf_) + cap(split_) + cap(bvx_) * 6 + cap(features_);
   return m;

@@ -27,7 +27,9 @@ double PortableRandom::uniform() {
   return static_cast<double>(engine_() >> 11) * 0x1.0p-53; // 53 random bits → [0, 1)
 }
 
-double PortableRandom::uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
+double PortableRandom::uniform(double lo, double hi) {
+  return lo + (hi - lo) * uniform();
+}
 
 std::vector<double> draw_radii(const scene::RadiusDistribution& d, int count, std::uint64_t seed) {
   PortableRandom rng(seed);
@@ -42,12 +44,17 @@ std::vector<double> draw_radii(const scene::RadiusDistribution& d, int count, st
   }
   for (auto& ri : r) {
     switch (d.kind) {
-    case K::Uniform: ri = rng.uniform(d.min, d.max); break; // uniform in r (paper Fig. 3.4)
-    case K::Equal: ri = d.min; break;
+    case K::Uniform:
+      ri = rng.uniform(d.min, d.max);
+      break; // uniform in r (paper Fig. 3.4)
+    case K::Equal:
+      ri = d.min;
+      break;
     case K::Table: {
       const double u = rng.uniform();
       const auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
-      const auto k = std::min<std::size_t>(static_cast<std::size_t>(it - cdf.begin()), cdf.size() - 1);
+      const auto k =
+          std::min<std::size_t>(static_cast<std::size_t>(it - cdf.begin()), cdf.size() - 1);
       ri = d.table[k].first;
       break;
     }
@@ -152,7 +159,8 @@ namespace {
 
 double seg_distance(scene::Vec2 p, scene::Vec2 a, scene::Vec2 b) {
   const double ex = b.x - a.x, ez = b.z - a.z, l2 = ex * ex + ez * ez;
-  const double t = l2 > 0.0 ? std::clamp(((p.x - a.x) * ex + (p.z - a.z) * ez) / l2, 0.0, 1.0) : 0.0;
+  const double t =
+      l2 > 0.0 ? std::clamp(((p.x - a.x) * ex + (p.z - a.z) * ez) / l2, 0.0, 1.0) : 0.0;
   return std::hypot(p.x - a.x - t * ex, p.z - a.z - t * ez);
 }
 
@@ -226,7 +234,8 @@ Placement place(const scene::Scene& scene) {
   for (int row = 0; row < max_rows && out.x.size() < need; ++row) {
     const double z = fb.z0 + half + row * row_h;
     const double shift = (row % 2) ? half : 0.0;
-    for (double x = fb.x0 + half + shift; x <= fb.x1 - half + 1e-12 && out.x.size() < need; x += s) {
+    for (double x = fb.x0 + half + shift; x <= fb.x1 - half + 1e-12 && out.x.size() < need;
+         x += s) {
       if (!site_ok(x, z)) continue;
       const std::size_t i = out.x.size();
       const double slack = std::max(0.0, half - radii[i]) * 0.95;
@@ -268,9 +277,22 @@ void sort_by_id(Particles& p) {
     auto copy = v;
     for (std::size_t k = 0; k < order.size(); ++k) v[k] = copy[order[k]];
   };
-  perm(p.x); perm(p.z); perm(p.phi); perm(p.vx); perm(p.vz); perm(p.omega); perm(p.fx);
-  perm(p.fz); perm(p.torque); perm(p.radius); perm(p.mass); perm(p.inv_mass);
-  perm(p.inv_inertia); perm(p.id); perm(p.material); perm(p.flags);
+  perm(p.x);
+  perm(p.z);
+  perm(p.phi);
+  perm(p.vx);
+  perm(p.vz);
+  perm(p.omega);
+  perm(p.fx);
+  perm(p.fz);
+  perm(p.torque);
+  perm(p.radius);
+  perm(p.mass);
+  perm(p.inv_mass);
+  perm(p.inv_inertia);
+  perm(p.id);
+  perm(p.material);
+  perm(p.flags);
 }
 
 std::string stats_text(const PackResult& r) {
@@ -288,12 +310,18 @@ void parse_stats(const std::string& s, PackResult& r) {
     if (eq == std::string::npos) continue;
     const std::string k = item.substr(0, eq);
     const double v = std::strtod(item.c_str() + eq + 1, nullptr);
-    if (k == "deposition_time") r.deposition_time = v;
-    else if (k == "steps") r.steps = static_cast<long long>(v);
-    else if (k == "ke_ratio") r.ke_ratio = v;
-    else if (k == "converged") r.converged = v != 0.0;
-    else if (k == "layers") r.layers = static_cast<int>(v);
-    else if (k == "wall_seconds") r.wall_seconds = v;
+    if (k == "deposition_time")
+      r.deposition_time = v;
+    else if (k == "steps")
+      r.steps = static_cast<long long>(v);
+    else if (k == "ke_ratio")
+      r.ke_ratio = v;
+    else if (k == "converged")
+      r.converged = v != 0.0;
+    else if (k == "layers")
+      r.layers = static_cast<int>(v);
+    else if (k == "wall_seconds")
+      r.wall_seconds = v;
   }
 }
 
@@ -314,7 +342,8 @@ Particles place_particles(const scene::Scene& scene, int* layers) {
   return e.particles();
 }
 
-PackResult pack(const scene::Scene& scene, const fs::path& out_dir, const scene::ProgressFn& progress) {
+PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
+                const scene::ProgressFn& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto& d = scene.soil.dem.value();
   const Placement pl = place(scene);
@@ -326,7 +355,8 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir, const scene:
     // at ratio ζ = packing.damping of critical for the mean particle on one normal spring:
     // C = 2ζ√(K_n/m̄) (single-degree-of-freedom oscillator). It caps the fall speed at g/C.
     double m_mean = 0.0;
-    for (double r : pl.r) m_mean += d.density * 3.14159265358979323846 * r * r * d.thickness; // m = ρπr²t
+    for (double r : pl.r)
+      m_mean += d.density * 3.14159265358979323846 * r * r * d.thickness; // m = ρπr²t
     m_mean /= static_cast<double>(std::max<std::size_t>(pl.r.size(), 1));
     const double extra = 2.0 * d.packing.damping * std::sqrt(d.kn / m_mean);
     c.damping_c += extra;
@@ -348,7 +378,8 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir, const scene:
   for (std::size_t k = 0; k < F.size(); ++k) {
     const auto a = F[k], b = F[(k + 1) % F.size()];
     const double len = std::hypot(b.x - a.x, b.z - a.z);
-    const double nz = -(b.x - a.x) / len; // outward normal of a counter-clockwise polygon: (dz, −dx)/len
+    const double nz =
+        -(b.x - a.x) / len; // outward normal of a counter-clockwise polygon: (dz, −dx)/len
     if (nz > 0.5 || on_boundary_of(scene, a, b, tol)) continue;
     e.add_wall({a, b}, fmt::format("packing-container-{}", k));
   }
@@ -460,7 +491,8 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
         r.from_cache = true;
         const auto nul = std::find(ck.extra.begin(), ck.extra.end(), std::byte{0});
         parse_stats(std::string(reinterpret_cast<const char*>(ck.extra.data()),
-                                static_cast<std::size_t>(nul - ck.extra.begin())), r);
+                                static_cast<std::size_t>(nul - ck.extra.begin())),
+                    r);
         if (nul != ck.extra.end()) r.contact_history.assign(nul + 1, ck.extra.end());
         r.surface_max = top_of(r.particles);
         return r;

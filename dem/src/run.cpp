@@ -95,9 +95,9 @@ void log_energy_budget(const EnergyBudget& b, double e0, double t,
                "closure error", closure);
   std::string js = "{\n";
   js += fmt::format("  \"time\": {:.17g},\n", t);
-  const char* keys[] = {"kinetic", "rotational", "potential_change", "spring_normal",
-                        "spring_shear", "friction", "damping", "rebound", "external_work",
-                        "gravity_work", "imbalance"};
+  const char* keys[] = {"kinetic",       "rotational",   "potential_change", "spring_normal",
+                        "spring_shear",  "friction",     "damping",          "rebound",
+                        "external_work", "gravity_work", "imbalance"};
   for (std::size_t k = 0; k < std::size(keys); ++k)
     js += fmt::format("  \"{}\": {:.17g},\n", keys[k], rows[k].second);
   js += fmt::format("  \"closure_error\": {:.17g}\n}}\n", closure);
@@ -209,7 +209,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     throw scene::SceneError({d});
   }
   if (!resume_from)
-    for (const auto& q : scene.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+    for (const auto& q : scene.soil.dem->particles)
+      e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
 #endif
   for (const auto& w : scene.walls) e.add_wall(w);
   for (const auto& s : scene.structures) e.add_structure(s);
@@ -256,12 +257,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   csv_opt.comments = {fmt::format("demfem dem run of {}", scene.label())};
   csv_opt.flush_every_rows = 50;
   if (resuming) csv_opt.resume_after = keep_until;
-  scene::TimeSeriesWriter energy_csv(
-      out / "energy.csv",
-      {"time [s]", "kinetic [J]", "rotational [J]", "potential [J]", "spring_normal [J]",
-       "spring_shear [J]", "friction [J]", "damping [J]", "rebound [J]", "external_work [J]",
-       "gravity_work [J]", "imbalance [J]"},
-      csv_opt);
+  scene::TimeSeriesWriter energy_csv(out / "energy.csv",
+                                     {"time [s]", "kinetic [J]", "rotational [J]", "potential [J]",
+                                      "spring_normal [J]", "spring_shear [J]", "friction [J]",
+                                      "damping [J]", "rebound [J]", "external_work [J]",
+                                      "gravity_work [J]", "imbalance [J]"},
+                                     csv_opt);
   std::optional<scene::TimeSeriesWriter> struct_csv, wall_csv, surface_csv, loci_csv, coord_csv;
   std::vector<std::pair<std::size_t, scene::TimeSeriesWriter>> pressure_csv; // probe index
   if (!e.structures().empty()) {
@@ -293,13 +294,15 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   for (std::size_t k = 0; k < scene.probes.size(); ++k) {
     const auto& pr = scene.probes[k];
     switch (pr.kind) {
-    case scene::ProbeKind::WallThrust: add_thrust(pr.target); break;
+    case scene::ProbeKind::WallThrust:
+      add_thrust(pr.target);
+      break;
     case scene::ProbeKind::PressureProfile: {
       if (e.boundary_index(pr.target) < 0) break;
       std::vector<std::string> cols{"time [s]"};
       for (int b = 0; b < pr.bins; ++b) cols.push_back(fmt::format("{}.bin{} [Pa]", pr.target, b));
-      pressure_csv.emplace_back(k, scene::TimeSeriesWriter(out / ("pressure_" + pr.target + ".csv"),
-                                                           cols, csv_opt));
+      pressure_csv.emplace_back(
+          k, scene::TimeSeriesWriter(out / ("pressure_" + pr.target + ".csv"), cols, csv_opt));
       break;
     }
     case scene::ProbeKind::SurfaceProfile: {
@@ -344,7 +347,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       coord_csv.emplace(out / "coordination.csv",
                         std::vector<std::string>{"time [s]", "coordination [-]"}, csv_opt);
       break;
-    default: break;
+    default:
+      break;
     }
   }
   if (!thrust.empty()) {
@@ -384,12 +388,13 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // (energy_scale starts at the initial kinetic energy and never decreases)
     if (b.kinetic + b.rotational > 10.0 * energy_scale + 1e-9 && t > 0.0 && !e.failed())
       return fmt::format("energy jump: kinetic energy {:.4g} J exceeds 10 × the energy put in "
-                         "({:.4g} J)", b.kinetic + b.rotational, energy_scale);
+                         "({:.4g} J)",
+                         b.kinetic + b.rotational, energy_scale);
     if (struct_csv) {
       std::vector<double> row{t};
       for (const auto& s : e.structures())
-        row.insert(row.end(), {-s.uz, s.rot, s.soil_moment, s.soil_fx, s.soil_fz,
-                               s.applied_moment, s.ux});
+        row.insert(row.end(),
+                   {-s.uz, s.rot, s.soil_moment, s.soil_fx, s.soil_fz, s.applied_moment, s.ux});
       struct_csv->append(row);
     }
     if (wall_csv) {
@@ -455,7 +460,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         if (c.j >= 0) ++pp;
       for (auto f : e.particles().flags)
         if (!(f & kFlagRemoved)) ++active;
-      coord_csv->append({t, active ? 2.0 * static_cast<double>(pp) / static_cast<double>(active) : 0.0});
+      coord_csv->append(
+          {t, active ? 2.0 * static_cast<double>(pp) / static_cast<double>(active) : 0.0});
     }
     return std::string();
   };

@@ -27,8 +27,7 @@ std::string header_row(const std::vector<std::string>& columns) {
 
 // Rewrites an existing series keeping its comment lines, header and the rows whose first value
 // is ≤ t; returns the number of rows kept.
-std::size_t truncate_after(const std::filesystem::path& path, const std::string& header,
-                           double t) {
+std::size_t truncate_after(const std::filesystem::path& path, const std::string& header, double t) {
   std::ifstream in(path);
   if (!in) fail("cannot read", path);
   std::string kept;
@@ -113,8 +112,7 @@ TimeSeriesWriter::TimeSeriesWriter(std::filesystem::path path, std::vector<std::
   std::string head;
   for (const std::string& c : options.comments) head += "# " + c + '\n';
   head += header;
-  if (std::fwrite(head.data(), 1, head.size(), file_) != head.size() ||
-      std::fflush(file_) != 0) {
+  if (std::fwrite(head.data(), 1, head.size(), file_) != head.size() || std::fflush(file_) != 0) {
     fail("cannot write", path_);
   }
 }
@@ -144,8 +142,8 @@ TimeSeriesWriter& TimeSeriesWriter::operator=(TimeSeriesWriter&& other) noexcept
 void TimeSeriesWriter::append(std::span<const double> values) {
   if (file_ == nullptr) throw CsvError("time series writer has been moved from");
   if (values.size() != columns_.size()) {
-    throw CsvError(fmt::format("time series '{}': row of {} values for {} columns",
-                               path_.string(), values.size(), columns_.size()));
+    throw CsvError(fmt::format("time series '{}': row of {} values for {} columns", path_.string(),
+                               values.size(), columns_.size()));
   }
   line_.clear();
   for (std::size_t k = 0; k < values.size(); ++k) {

@@ -16,31 +16,40 @@ namespace {
 
 constexpr double kToDeg = 180.0 / std::numbers::pi;
 // Degrees for the file, rounded to 1e-9° so 30° does not come back as 29.999999999999996.
-double deg(double rad) { return std::round(rad * kToDeg * 1e9) / 1e9; }
+double deg(double rad) {
+  return std::round(rad * kToDeg * 1e9) / 1e9;
+}
 
 toml::array pts(const std::vector<Vec2>& p) {
   toml::array a;
   for (const auto& v : p) a.push_back(toml::array{v.x, v.z});
   return a;
 }
-toml::array pt(Vec2 v) { return toml::array{v.x, v.z}; }
+toml::array pt(Vec2 v) {
+  return toml::array{v.x, v.z};
+}
 
 toml::table tf(const TimeFunction& f) {
   using K = TimeFunction::Kind;
   switch (f.kind) {
-  case K::Constant: return toml::table{{"type", "constant"}, {"value", f.value}};
+  case K::Constant:
+    return toml::table{{"type", "constant"}, {"value", f.value}};
   case K::Ramp: {
     toml::table t{{"type", "ramp"}, {"rate", f.rate}, {"offset", f.offset}, {"start", f.start}};
     if (f.stop > f.start) t.insert("stop", f.stop);
     return t;
   }
   case K::Sine: {
-    toml::table t{{"type", "sine"}, {"amplitude", f.amplitude}, {"frequency", f.frequency},
-                  {"phase", f.phase}, {"start", f.start}};
+    toml::table t{{"type", "sine"},
+                  {"amplitude", f.amplitude},
+                  {"frequency", f.frequency},
+                  {"phase", f.phase},
+                  {"start", f.start}};
     if (f.stop > f.start) t.insert("stop", f.stop);
     return t;
   }
-  case K::TSine: return toml::table{{"type", "t-sine"}, {"amplitude", f.amplitude}, {"omega", f.omega}};
+  case K::TSine:
+    return toml::table{{"type", "t-sine"}, {"amplitude", f.amplitude}, {"omega", f.omega}};
   case K::Table: {
     toml::array a;
     for (const auto& [t, v] : f.table) a.push_back(toml::array{t, v});
@@ -100,8 +109,12 @@ std::string to_toml(const Scene& s) {
   if (const auto& d = s.soil.dem) {
     toml::table radius;
     switch (d->radius.kind) {
-    case RadiusDistribution::Kind::Uniform: radius.insert("uniform", toml::array{d->radius.min, d->radius.max}); break;
-    case RadiusDistribution::Kind::Equal: radius.insert("equal", d->radius.min); break;
+    case RadiusDistribution::Kind::Uniform:
+      radius.insert("uniform", toml::array{d->radius.min, d->radius.max});
+      break;
+    case RadiusDistribution::Kind::Equal:
+      radius.insert("equal", d->radius.min);
+      break;
     case RadiusDistribution::Kind::Table: {
       toml::array a;
       for (const auto& [r, w] : d->radius.table) a.push_back(toml::array{r, w});
@@ -109,42 +122,71 @@ std::string to_toml(const Scene& s) {
       break;
     }
     }
-    soil.insert("dem", toml::table{
-        {"count", d->count}, {"radius", inline_table(radius)}, {"density", d->density},
-        {"thickness", d->thickness}, {"contact", keyword(kContactLawNames, d->law)},
-        {"kn", d->kn}, {"ks", d->ks}, {"mu_static", d->mu_static}, {"mu_dynamic", d->mu_dynamic},
-        {"rebound", d->rebound}, {"rebound_speed", d->rebound_speed}, {"tension", d->tension},
-        {"tensile_strength", d->tensile_strength}, {"eta_n", d->eta_n}, {"eta_s", d->eta_s},
-        {"restitution", d->restitution}, {"young", d->young}, {"poisson", d->poisson},
-        {"damping_c", d->damping_c}, {"damping_d", d->damping_d}, {"dt", d->dt},
-        {"dt_safety", d->dt_safety}, {"max_overlap", d->max_overlap}, {"fill", pts(d->fill)},
-        {"packing", toml::table{{"ke_ratio", d->packing.ke_ratio}, {"max_time", d->packing.max_time},
-                                {"damping", d->packing.damping}, {"cache", d->packing.cache}}}});
+    soil.insert("dem", toml::table{{"count", d->count},
+                                   {"radius", inline_table(radius)},
+                                   {"density", d->density},
+                                   {"thickness", d->thickness},
+                                   {"contact", keyword(kContactLawNames, d->law)},
+                                   {"kn", d->kn},
+                                   {"ks", d->ks},
+                                   {"mu_static", d->mu_static},
+                                   {"mu_dynamic", d->mu_dynamic},
+                                   {"rebound", d->rebound},
+                                   {"rebound_speed", d->rebound_speed},
+                                   {"tension", d->tension},
+                                   {"tensile_strength", d->tensile_strength},
+                                   {"eta_n", d->eta_n},
+                                   {"eta_s", d->eta_s},
+                                   {"restitution", d->restitution},
+                                   {"young", d->young},
+                                   {"poisson", d->poisson},
+                                   {"damping_c", d->damping_c},
+                                   {"damping_d", d->damping_d},
+                                   {"dt", d->dt},
+                                   {"dt_safety", d->dt_safety},
+                                   {"max_overlap", d->max_overlap},
+                                   {"fill", pts(d->fill)},
+                                   {"packing", toml::table{{"ke_ratio", d->packing.ke_ratio},
+                                                           {"max_time", d->packing.max_time},
+                                                           {"damping", d->packing.damping},
+                                                           {"cache", d->packing.cache}}}});
     if (!d->particles.empty()) {
       toml::array list;
-      for (const auto& q : d->particles) list.push_back(toml::array{q[0], q[1], q[2], q[3], q[4], q[5]});
+      for (const auto& q : d->particles)
+        list.push_back(toml::array{q[0], q[1], q[2], q[3], q[4], q[5]});
       soil.get_as<toml::table>("dem")->insert("particles", list);
     }
   }
   if (const auto& c = s.soil.continuum) {
-    soil.insert("continuum", toml::table{
-        {"model", keyword(kContinuumModelNames, c->model)}, {"young", c->young},
-        {"poisson", c->poisson}, {"friction_angle", deg(c->friction_angle)},
-        {"cohesion", c->cohesion}, {"dilation_angle", deg(c->dilation_angle)},
-        {"tension_cutoff", c->tension_cutoff}, {"density", c->density}, {"k0", c->k0}});
+    soil.insert("continuum", toml::table{{"model", keyword(kContinuumModelNames, c->model)},
+                                         {"young", c->young},
+                                         {"poisson", c->poisson},
+                                         {"friction_angle", deg(c->friction_angle)},
+                                         {"cohesion", c->cohesion},
+                                         {"dilation_angle", deg(c->dilation_angle)},
+                                         {"tension_cutoff", c->tension_cutoff},
+                                         {"density", c->density},
+                                         {"k0", c->k0}});
   }
   if (!soil.empty()) root.insert("soil", soil);
 
   if (s.uses(Solver::Continuum)) {
     const auto& o = s.continuum;
-    root.insert("continuum", toml::table{
-        {"refinement", o.refinement}, {"degree", o.degree}, {"dt", o.dt},
-        {"newmark_beta", o.newmark_beta}, {"newmark_gamma", o.newmark_gamma},
-        {"rayleigh_alpha", o.rayleigh_alpha}, {"rayleigh_beta", o.rayleigh_beta},
-        {"absorbing", o.absorbing}, {"linear_solver", o.linear_solver}, {"interface", o.interface},
-        {"interface_friction_angle", deg(o.interface_friction_angle)},
-        {"load_steps", o.load_steps}, {"newton_tolerance", o.newton_tolerance},
-        {"newton_max_iterations", o.newton_max_iterations}});
+    root.insert("continuum",
+                toml::table{{"refinement", o.refinement},
+                            {"degree", o.degree},
+                            {"dt", o.dt},
+                            {"newmark_beta", o.newmark_beta},
+                            {"newmark_gamma", o.newmark_gamma},
+                            {"rayleigh_alpha", o.rayleigh_alpha},
+                            {"rayleigh_beta", o.rayleigh_beta},
+                            {"absorbing", o.absorbing},
+                            {"linear_solver", o.linear_solver},
+                            {"interface", o.interface},
+                            {"interface_friction_angle", deg(o.interface_friction_angle)},
+                            {"load_steps", o.load_steps},
+                            {"newton_tolerance", o.newton_tolerance},
+                            {"newton_max_iterations", o.newton_max_iterations}});
   }
 
   if (!s.walls.empty()) {
@@ -163,10 +205,15 @@ std::string to_toml(const Scene& s) {
     for (const auto& st : s.structures) {
       toml::array rec;
       for (const auto& r : st.record) rec.push_back(r);
-      toml::table t{{"name", st.name}, {"kind", keyword(kStructureKindNames, st.kind)},
-                    {"shape", "polygon"}, {"polygon", pts(st.outline)},
-                    {"density", st.density}, {"mass", st.mass}, {"inertia", st.inertia},
-                    {"pivot", pt(st.pivot)}, {"dof_x", keyword(kDofModeNames, st.dof_x)},
+      toml::table t{{"name", st.name},
+                    {"kind", keyword(kStructureKindNames, st.kind)},
+                    {"shape", "polygon"},
+                    {"polygon", pts(st.outline)},
+                    {"density", st.density},
+                    {"mass", st.mass},
+                    {"inertia", st.inertia},
+                    {"pivot", pt(st.pivot)},
+                    {"dof_x", keyword(kDofModeNames, st.dof_x)},
                     {"dof_z", keyword(kDofModeNames, st.dof_z)},
                     {"dof_rotation", keyword(kDofModeNames, st.dof_rotation)},
                     {"motion_x", inline_table(tf(st.motion_x))},
@@ -175,7 +222,8 @@ std::string to_toml(const Scene& s) {
                     {"force_x", inline_table(tf(st.force_x))},
                     {"force_z", inline_table(tf(st.force_z))},
                     {"moment", inline_table(tf(st.moment))},
-                    {"load_point", pt(st.load_point)}, {"dead_weight", st.dead_weight},
+                    {"load_point", pt(st.load_point)},
+                    {"dead_weight", st.dead_weight},
                     {"record", rec}};
       if (st.mu_static) t.insert("mu_static", *st.mu_static);
       if (st.mu_dynamic) t.insert("mu_dynamic", *st.mu_dynamic);
@@ -185,7 +233,8 @@ std::string to_toml(const Scene& s) {
   }
   if (!s.groups.empty()) {
     toml::array a;
-    for (const auto& g : s.groups) a.push_back(toml::table{{"name", g.name}, {"region", pts(g.region)}});
+    for (const auto& g : s.groups)
+      a.push_back(toml::table{{"name", g.name}, {"region", pts(g.region)}});
     root.insert("group", a);
   }
   if (!s.events.empty()) {
@@ -206,8 +255,11 @@ std::string to_toml(const Scene& s) {
   if (!s.probes.empty()) {
     toml::array a;
     for (const auto& p : s.probes)
-      a.push_back(toml::table{{"kind", keyword(kProbeKindNames, p.kind)}, {"target", p.target},
-                              {"interval", p.interval}, {"bins", p.bins}, {"points", pts(p.points)}});
+      a.push_back(toml::table{{"kind", keyword(kProbeKindNames, p.kind)},
+                              {"target", p.target},
+                              {"interval", p.interval},
+                              {"bins", p.bins},
+                              {"points", pts(p.points)}});
     root.insert("probe", a);
   }
   toml::table load{{"gravity", s.load.gravity}};
@@ -223,7 +275,8 @@ std::string to_toml(const Scene& s) {
   root.insert("load", load);
   root.insert("output", toml::table{{"interval", s.output.interval},
                                     {"probe_interval", s.output.probe_interval},
-                                    {"vtk", s.output.vtk}, {"force_chains", s.output.force_chains},
+                                    {"vtk", s.output.vtk},
+                                    {"force_chains", s.output.force_chains},
                                     {"figures", s.output.figures},
                                     {"checkpoint_interval", s.output.checkpoint_interval}});
   std::ostringstream os;

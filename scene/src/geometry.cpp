@@ -17,7 +17,9 @@ double signed_area(const Polygon& p) {
 }
 
 namespace {
-double cross(Vec2 o, Vec2 a, Vec2 b) { return (a.x - o.x) * (b.z - o.z) - (a.z - o.z) * (b.x - o.x); }
+double cross(Vec2 o, Vec2 a, Vec2 b) {
+  return (a.x - o.x) * (b.z - o.z) - (a.z - o.z) * (b.x - o.x);
+}
 bool on_segment(Vec2 p, Vec2 q, Vec2 r) {
   return std::min(p.x, r.x) <= q.x && q.x <= std::max(p.x, r.x) && std::min(p.z, r.z) <= q.z &&
          q.z <= std::max(p.z, r.z);

@@ -170,7 +170,8 @@ public:
     return opt_string(key).value_or(def);
   }
   template <std::size_t N>
-  std::optional<std::size_t> keyword(std::string_view key, const std::array<const char*, N>& names) {
+  std::optional<std::size_t> keyword(std::string_view key,
+                                     const std::array<const char*, N>& names) {
     const auto s = opt_string(key);
     if (!s) return std::nullopt;
     for (std::size_t i = 0; i < N; ++i)
@@ -187,8 +188,8 @@ public:
   std::optional<Vec2> as_point(const toml::node& n, const std::string& kp) {
     const auto* a = n.as_array();
     if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) {
-      error_at(n.source(), kp, fmt::format("expected a point [x, z] of two numbers, got {}",
-                                           type_name(n)));
+      error_at(n.source(), kp,
+               fmt::format("expected a point [x, z] of two numbers, got {}", type_name(n)));
       return std::nullopt;
     }
     Vec2 p{(*a)[0].value<double>().value_or(0.0), (*a)[1].value<double>().value_or(0.0)};
@@ -217,7 +218,8 @@ public:
   Polygon polygon(std::string_view key, bool required) {
     if (!has(key)) {
       node(key);
-      if (required) error_here(fmt::format("missing required key '{}' (a polygon [[x, z], …])", key));
+      if (required)
+        error_here(fmt::format("missing required key '{}' (a polygon [[x, z], …])", key));
       return {};
     }
     Polygon p = points(key, 3);
@@ -278,13 +280,20 @@ public:
 
   static std::string type_name(const toml::node& n) {
     switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return fmt::format("the string \"{}\"", n.value<std::string>().value_or(""));
-    case toml::node_type::integer: return fmt::format("the integer {}", n.value<int64_t>().value_or(0));
-    case toml::node_type::floating_point: return fmt::format("the number {}", n.value<double>().value_or(0));
-    case toml::node_type::boolean: return n.value<bool>().value_or(false) ? "true" : "false";
-    default: return "a date/time";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return fmt::format("the string \"{}\"", n.value<std::string>().value_or(""));
+    case toml::node_type::integer:
+      return fmt::format("the integer {}", n.value<int64_t>().value_or(0));
+    case toml::node_type::floating_point:
+      return fmt::format("the number {}", n.value<double>().value_or(0));
+    case toml::node_type::boolean:
+      return n.value<bool>().value_or(false) ? "true" : "false";
+    default:
+      return "a date/time";
     }
   }
 
@@ -301,8 +310,8 @@ private:
 std::optional<TimeFunction> read_time_function(Reader& parent, std::string_view key);
 
 TimeFunction time_function_from_table(Reader& r) {
-  static const std::vector<std::string> kTypes = {"constant", "ramp", "sine", "t-sine", "table",
-                                                  "sum"};
+  static const std::vector<std::string> kTypes = {"constant", "ramp",  "sine",
+                                                  "t-sine",   "table", "sum"};
   TimeFunction f;
   const std::string type = r.string("type", "");
   if (type.empty()) {
@@ -367,7 +376,8 @@ TimeFunction time_function_from_table(Reader& r) {
     f = TimeFunction::sum(std::move(terms));
     valid.push_back("terms");
   } else {
-    r.error("type", fmt::format("unknown time function '{}'; valid: {}", type, fmt::join(kTypes, ", ")));
+    r.error("type",
+            fmt::format("unknown time function '{}'; valid: {}", type, fmt::join(kTypes, ", ")));
     return f;
   }
   r.finish(valid);
@@ -427,7 +437,8 @@ RadiusDistribution read_radius(Reader& parent) {
     d.min = (*a)[0].value<double>().value_or(0);
     d.max = (*a)[1].value<double>().value_or(0);
     if (!(d.min > 0.0) || !(d.max >= d.min) || !std::isfinite(d.max))
-      r.error("uniform", fmt::format("radii must satisfy 0 < min ≤ max, got [{}, {}]", d.min, d.max));
+      r.error("uniform",
+              fmt::format("radii must satisfy 0 < min ≤ max, got [{}, {}]", d.min, d.max));
   } else if (r.has("equal")) {
     d.kind = RadiusDistribution::Kind::Equal;
     d.min = d.max = r.positive("equal", 1.0);
@@ -436,7 +447,8 @@ RadiusDistribution read_radius(Reader& parent) {
     for (const auto& p : r.points("table", 1)) {
       if (!(p.x > 0.0) || !(p.z >= 0.0))
         r.error("table", fmt::format("each entry [radius, weight] needs radius > 0 and weight ≥ 0, "
-                                     "got [{}, {}]", p.x, p.z));
+                                     "got [{}, {}]",
+                                     p.x, p.z));
       d.table.emplace_back(p.x, p.z);
     }
     if (!d.table.empty()) {
@@ -465,7 +477,8 @@ DemSoil read_dem_soil(Reader& r) {
   s.mu_dynamic = r.non_negative("mu_dynamic", s.mu_dynamic);
   if (s.mu_dynamic > s.mu_static)
     r.error("mu_dynamic", fmt::format("dynamic friction {} exceeds static friction {}; need "
-                                      "mu_dynamic ≤ mu_static", s.mu_dynamic, s.mu_static));
+                                      "mu_dynamic ≤ mu_static",
+                                      s.mu_dynamic, s.mu_static));
   s.rebound = r.in_range("rebound", s.rebound, 0.0, 1.0);
   s.rebound_speed = r.non_negative("rebound_speed", s.rebound_speed);
   s.tension = r.boolean("tension", s.tension);
@@ -499,8 +512,10 @@ DemSoil read_dem_soil(Reader& r) {
       std::array<double, 6> q{};
       bool ok = e && (e->size() == 3 || e->size() == 6);
       for (std::size_t k = 0; ok && k < e->size(); ++k) {
-        if (!(*e)[k].is_number()) ok = false;
-        else q[k] = (*e)[k].value<double>().value_or(0.0);
+        if (!(*e)[k].is_number())
+          ok = false;
+        else
+          q[k] = (*e)[k].value<double>().value_or(0.0);
       }
       if (ok && !(q[2] > 0.0)) ok = false;
       if (!ok)
@@ -510,12 +525,35 @@ DemSoil read_dem_soil(Reader& r) {
         s.particles.push_back(q);
     }
     if (a && static_cast<std::size_t>(s.count) != a->size())
-      r.error("particles", fmt::format("count = {} but {} particles are listed", s.count, a->size()));
+      r.error("particles",
+              fmt::format("count = {} but {} particles are listed", s.count, a->size()));
   }
-  r.finish({"count", "radius", "density", "thickness", "contact", "kn", "ks", "mu_static",
-            "mu_dynamic", "rebound", "rebound_speed", "tension", "tensile_strength", "eta_n",
-            "eta_s", "restitution", "young", "poisson", "damping_c", "damping_d", "dt",
-            "dt_safety", "max_overlap", "fill", "packing", "particles"});
+  r.finish({"count",
+            "radius",
+            "density",
+            "thickness",
+            "contact",
+            "kn",
+            "ks",
+            "mu_static",
+            "mu_dynamic",
+            "rebound",
+            "rebound_speed",
+            "tension",
+            "tensile_strength",
+            "eta_n",
+            "eta_s",
+            "restitution",
+            "young",
+            "poisson",
+            "damping_c",
+            "damping_d",
+            "dt",
+            "dt_safety",
+            "max_overlap",
+            "fill",
+            "packing",
+            "particles"});
   return s;
 }
 
@@ -549,19 +587,19 @@ ContinuumOptions read_continuum_options(Reader& r) {
   o.absorbing = r.boolean("absorbing", o.absorbing);
   o.linear_solver = r.string("linear_solver", o.linear_solver);
   if (o.linear_solver != "cg-amg" && o.linear_solver != "gmres-amg" && o.linear_solver != "direct")
-    r.error("linear_solver", fmt::format("unknown solver '{}'; valid: cg-amg, gmres-amg, direct",
-                                         o.linear_solver));
+    r.error("linear_solver",
+            fmt::format("unknown solver '{}'; valid: cg-amg, gmres-amg, direct", o.linear_solver));
   o.interface = r.string("interface", o.interface);
   if (o.interface != "tied" && o.interface != "frictional")
-    r.error("interface", fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
+    r.error("interface",
+            fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
   o.interface_friction_angle = r.in_range("interface_friction_angle", 20.0, 0.0, 89.0) * kDeg;
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
   o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);
   r.finish({"refinement", "degree", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
-            "rayleigh_beta", "absorbing", "linear_solver", "interface",
-            "interface_friction_angle", "load_steps", "newton_tolerance",
-            "newton_max_iterations"});
+            "rayleigh_beta", "absorbing", "linear_solver", "interface", "interface_friction_angle",
+            "load_steps", "newton_tolerance", "newton_max_iterations"});
   return o;
 }
 
@@ -599,7 +637,8 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
     if (!r.has("base")) r.error_here("rectangle needs 'base' = [x, z], the centre of its base");
     const double hw = 0.5 * s.width;
     const auto b = s.base_centre;
-    s.outline = {{b.x - hw, b.z}, {b.x + hw, b.z}, {b.x + hw, b.z + s.height}, {b.x - hw, b.z + s.height}};
+    s.outline = {
+        {b.x - hw, b.z}, {b.x + hw, b.z}, {b.x + hw, b.z + s.height}, {b.x - hw, b.z + s.height}};
     valid.insert(valid.end(), {"width", "height", "base"});
   } else if (shape == "segment") {
     // A thin wall: a rectangle of the given thickness behind the segment's right-hand side.
@@ -627,8 +666,10 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
     if (!s.outline.empty()) {
       double xmin = s.outline[0].x, xmax = xmin, zmin = s.outline[0].z, zmax = zmin;
       for (const auto& p : s.outline) {
-        xmin = std::min(xmin, p.x); xmax = std::max(xmax, p.x);
-        zmin = std::min(zmin, p.z); zmax = std::max(zmax, p.z);
+        xmin = std::min(xmin, p.x);
+        xmax = std::max(xmax, p.x);
+        zmin = std::min(zmin, p.z);
+        zmax = std::max(zmax, p.z);
       }
       s.width = xmax - xmin;
       s.height = zmax - zmin;
@@ -665,7 +706,8 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
         const auto v = e.value<std::string>();
         if (!v || std::find(kRecord.begin(), kRecord.end(), *v) == kRecord.end())
           r.error_at(e.source(), r.key_path("record"),
-                     fmt::format("unknown record '{}'; valid: {}", v.value_or("?"), fmt::join(kRecord, ", ")));
+                     fmt::format("unknown record '{}'; valid: {}", v.value_or("?"),
+                                 fmt::join(kRecord, ", ")));
         else
           s.record.push_back(*v);
       }
@@ -674,10 +716,10 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
     }
   }
   (void)dem;
-  valid.insert(valid.end(), {"density", "mass", "inertia", "pivot", "dof_x", "dof_z",
-                             "dof_rotation", "motion_x", "motion_z", "motion_rotation", "force_x",
-                             "force_z", "moment", "load_point", "dead_weight", "mu_static",
-                             "mu_dynamic", "record"});
+  valid.insert(valid.end(),
+               {"density", "mass", "inertia", "pivot", "dof_x", "dof_z", "dof_rotation", "motion_x",
+                "motion_z", "motion_rotation", "force_x", "force_z", "moment", "load_point",
+                "dead_weight", "mu_static", "mu_dynamic", "record"});
   r.finish(valid);
   return s;
 }
@@ -689,11 +731,13 @@ Load read_load(Reader& r) {
     Reader s(*st, r.key_path("shaking"), r.file(), r.diags(), st->source());
     Shaking sh;
     const std::string dir = s.string("direction", "x");
-    if (dir != "x" && dir != "z") s.error("direction", fmt::format("must be \"x\" or \"z\", got \"{}\"", dir));
+    if (dir != "x" && dir != "z")
+      s.error("direction", fmt::format("must be \"x\" or \"z\", got \"{}\"", dir));
     sh.direction = dir == "z" ? 'z' : 'x';
     // body force m·A·sin(2πft) (paper §6)
-    sh.acceleration = TimeFunction::sine(s.number("amplitude", 0.0), s.positive("frequency", 1.0, true),
-                                         s.number("phase", 0.0), s.non_negative("start", 0.0));
+    sh.acceleration =
+        TimeFunction::sine(s.number("amplitude", 0.0), s.positive("frequency", 1.0, true),
+                           s.number("phase", 0.0), s.non_negative("start", 0.0));
     sh.acceleration.stop = s.non_negative("stop", 0.0);
     if (!s.has("amplitude")) s.error_here("shaking needs 'amplitude' [m/s²] (1 gal = 0.01 m/s²)");
     s.finish({"direction", "amplitude", "frequency", "phase", "start", "stop"});
@@ -707,7 +751,8 @@ Probe read_probe(Reader& r) {
   Probe p;
   p.kind = read_enum(r, "kind", kProbeKindNames, p.kind);
   if (!r.has("kind"))
-    r.error_here(fmt::format("every [[probe]] needs 'kind'; valid: {}", fmt::join(kProbeKindNames, ", ")));
+    r.error_here(
+        fmt::format("every [[probe]] needs 'kind'; valid: {}", fmt::join(kProbeKindNames, ", ")));
   p.target = r.string("target", "");
   p.interval = r.non_negative("interval", 0.0);
   p.bins = r.integer("bins", p.bins, 1, 100000);
@@ -732,13 +777,18 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     if (const toml::node* n = r.node("solvers")) {
       sc.info.solvers.clear();
       const auto* a = n->as_array();
-      if (!a || a->empty()) r.error("solvers", "expected a non-empty list: [\"dem\"], [\"continuum\"] or both");
+      if (!a || a->empty())
+        r.error("solvers", "expected a non-empty list: [\"dem\"], [\"continuum\"] or both");
       else
         for (const auto& e : *a) {
           const auto v = e.value<std::string>();
-          if (v == "dem") sc.info.solvers.push_back(Solver::Dem);
-          else if (v == "continuum") sc.info.solvers.push_back(Solver::Continuum);
-          else r.error_at(e.source(), "scene.solvers", fmt::format("unknown solver '{}'; valid: dem, continuum", v.value_or("?")));
+          if (v == "dem")
+            sc.info.solvers.push_back(Solver::Dem);
+          else if (v == "continuum")
+            sc.info.solvers.push_back(Solver::Continuum);
+          else
+            r.error_at(e.source(), "scene.solvers",
+                       fmt::format("unknown solver '{}'; valid: dem, continuum", v.value_or("?")));
         }
     }
     r.finish({"name", "description", "duration", "seed", "solvers"});
@@ -827,28 +877,35 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     sc.output.vtk = r.boolean("vtk", sc.output.vtk);
     sc.output.force_chains = r.boolean("force_chains", sc.output.force_chains);
     sc.output.figures = r.boolean("figures", sc.output.figures);
-    sc.output.checkpoint_interval = r.non_negative("checkpoint_interval", sc.output.checkpoint_interval);
-    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval"});
+    sc.output.checkpoint_interval =
+        r.non_negative("checkpoint_interval", sc.output.checkpoint_interval);
+    r.finish(
+        {"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval"});
   }
 
   // Cross references.
   std::set<std::string> names;
   for (const auto& w : sc.walls)
-    if (!names.insert(w.name).second) top.error_here(fmt::format("duplicate wall/structure name '{}'", w.name));
+    if (!names.insert(w.name).second)
+      top.error_here(fmt::format("duplicate wall/structure name '{}'", w.name));
   for (const auto& s : sc.structures)
-    if (!names.insert(s.name).second) top.error_here(fmt::format("duplicate wall/structure name '{}'", s.name));
+    if (!names.insert(s.name).second)
+      top.error_here(fmt::format("duplicate wall/structure name '{}'", s.name));
   for (const auto& e : sc.events) {
     if (e.action == EventAction::SetFriction && !sc.group(e.group))
-      top.error_here(fmt::format("event at t = {} names group '{}', which no [[group]] defines", e.time, e.group));
+      top.error_here(fmt::format("event at t = {} names group '{}', which no [[group]] defines",
+                                 e.time, e.group));
     if (e.action == EventAction::OpenWall && !sc.wall(e.wall))
-      top.error_here(fmt::format("event at t = {} names wall '{}', which no [[wall]] defines", e.time, e.wall));
+      top.error_here(fmt::format("event at t = {} names wall '{}', which no [[wall]] defines",
+                                 e.time, e.wall));
   }
   for (const auto& p : sc.probes) {
     const bool needs_target = p.kind == ProbeKind::Structure || p.kind == ProbeKind::WallThrust ||
                               p.kind == ProbeKind::PressureProfile;
     if (needs_target && !sc.structure(p.target) && !sc.wall(p.target))
-      top.error_here(fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
-                                 keyword(kProbeKindNames, p.kind), p.target));
+      top.error_here(
+          fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
+                      keyword(kProbeKindNames, p.kind), p.target));
   }
 
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
@@ -904,7 +961,8 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
             idx = k;
       }
       if (idx >= a->size())
-        return fmt::format("'{}' has no element '{}' (use an index or the element's name)", walked, p);
+        return fmt::format("'{}' has no element '{}' (use an index or the element's name)", walked,
+                           p);
       if (last) {
         a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), std::move(value));
         return "";
@@ -1001,7 +1059,8 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
         }
         // A fresh parse per variant keeps every node's source position (toml++ copies drop it).
         toml::table copy = parse_toml(text, source_name);
-        toml::table* set = (*copy.get_as<toml::array>("variant"))[i].as_table()->get_as<toml::table>("set");
+        toml::table* set =
+            (*copy.get_as<toml::array>("variant"))[i].as_table()->get_as<toml::table>("set");
         if (!set && vt.contains("set")) {
           const auto& sn = *vt.get("set");
           diags.push_back({source_name, static_cast<int>(sn.source().begin.line),
@@ -1045,7 +1104,8 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
 SceneFile load_scene_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw SceneError({Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
+    throw SceneError(
+        {Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_scene(ss.str(), path.string());

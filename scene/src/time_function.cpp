@@ -9,7 +9,9 @@
 namespace demfem::scene {
 
 namespace {
-bool stopped(const TimeFunction& f, double t) { return f.stop > f.start && t > f.stop; }
+bool stopped(const TimeFunction& f, double t) {
+  return f.stop > f.start && t > f.stop;
+}
 } // namespace
 
 double TimeFunction::operator()(double t) const {

@@ -21,7 +21,8 @@ struct Result {
 
 // Runs a shell command line, capturing stdout and stderr together.
 Result run_raw(const std::string& command) {
-  const fs::path log = fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
+  const fs::path log =
+      fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
   const std::string cmd = command + " > " + log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   Result r;
@@ -34,7 +35,9 @@ Result run_raw(const std::string& command) {
   return r;
 }
 
-Result run(const std::string& args) { return run_raw(std::string(DEMFEM_BINARY) + " " + args); }
+Result run(const std::string& args) {
+  return run_raw(std::string(DEMFEM_BINARY) + " " + args);
+}
 
 fs::path write_temp(const std::string& name, const std::string& text) {
   const fs::path p = fs::temp_directory_path() / name;
@@ -62,9 +65,15 @@ TEST(Cli, HelpDocumentsExitCodesAndSubcommands) {
   }
 }
 
-TEST(Cli, NoSubcommandIsUsageError) { EXPECT_EQ(run("").code, 2); }
-TEST(Cli, UnknownSubcommandIsUsageError) { EXPECT_EQ(run("frobnicate").code, 2); }
-TEST(Cli, UnknownOptionIsUsageError) { EXPECT_EQ(run("check --bogus x.toml").code, 2); }
+TEST(Cli, NoSubcommandIsUsageError) {
+  EXPECT_EQ(run("").code, 2);
+}
+TEST(Cli, UnknownSubcommandIsUsageError) {
+  EXPECT_EQ(run("frobnicate").code, 2);
+}
+TEST(Cli, UnknownOptionIsUsageError) {
+  EXPECT_EQ(run("check --bogus x.toml").code, 2);
+}
 TEST(Cli, MissingSceneFileIsBadInput) {
   const auto r = run("check /nonexistent/scene.toml");
   EXPECT_EQ(r.code, 2);
@@ -84,7 +93,8 @@ TEST(Cli, CheckAcceptsEveryCaseFile) {
 }
 
 TEST(Cli, CheckPrintsResolvedVariants) {
-  const auto r = run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  const auto r =
+      run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("# ===== variant case-12 ====="), std::string::npos);
   EXPECT_NE(r.out.find("amplitude = 8.0"), std::string::npos); // case-2's override
@@ -103,15 +113,17 @@ TEST(Cli, CheckRejectsMalformedSceneWithLine) {
 }
 
 TEST(Cli, RunUnknownVariantIsBadInput) {
-  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
-                     " --variant no-such-case --out " + (fs::temp_directory_path() / "demfem_x").string());
+  const auto r =
+      run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+          " --variant no-such-case --out " + (fs::temp_directory_path() / "demfem_x").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("valid: case-1"), std::string::npos) << r.out;
 }
 
 TEST(Cli, RunUnknownSolverIsBadInput) {
-  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
-                     " --solver lattice --out " + (fs::temp_directory_path() / "demfem_x").string());
+  const auto r =
+      run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+          " --solver lattice --out " + (fs::temp_directory_path() / "demfem_x").string());
   EXPECT_EQ(r.code, 2);
 }
 

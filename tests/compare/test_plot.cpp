@@ -39,7 +39,7 @@ TEST(RunningMean, IsCentredAndExactOnLinearData) {
   for (int i = 0; i < 20; ++i) y.push_back(2.0 * i);
   const auto m = compare::running_mean(y, 5);
   for (int i = 2; i < 18; ++i) EXPECT_DOUBLE_EQ(m[i], y[i]); // mean of a line over a centred window
-  EXPECT_DOUBLE_EQ(m[0], (0.0 + 2.0 + 4.0) / 3.0);          // clipped at the start
+  EXPECT_DOUBLE_EQ(m[0], (0.0 + 2.0 + 4.0) / 3.0);           // clipped at the start
 }
 
 TEST(RunningMean, RemovesAPeriodicPart) {
@@ -74,9 +74,11 @@ TEST(Plot, ParticleSnapshotWithChains) {
     p.radius.push_back(0.1);
     p.flags.push_back(0);
   }
-  std::vector<dem::ContactView> c{{0, 1, 0.1, 0.1, 5.0, 1.0, false}, {1, 2, 0.3, 0.1, -2.0, 0.0, true}};
+  std::vector<dem::ContactView> c{{0, 1, 0.1, 0.1, 5.0, 1.0, false},
+                                  {1, 2, 0.3, 0.1, -2.0, 0.0, true}};
   std::vector<dem::BoundaryView> b{{"base", {-0.2, 0.6}, {0.0, 0.0}, false, false}};
   std::string err;
-  ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0}, d / "s.png", &err)) << err;
+  ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0}, d / "s.png", &err))
+      << err;
   EXPECT_TRUE(is_png(d / "s.png"));
 }

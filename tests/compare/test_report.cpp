@@ -46,9 +46,10 @@ TEST(Report, ComparesSeriesWithTheSameNameAcrossSolvers) {
   const auto& m = r.compared[0];
   EXPECT_EQ(m.name, "wall.thrust [N]");
   EXPECT_DOUBLE_EQ(m.max_abs_dem, 200.0);
-  EXPECT_NEAR(m.first_divergence_time, 1.0, 1e-9);            // the step
-  EXPECT_NEAR(m.rms_difference, 100.0 * std::sqrt(101.0 / 201.0), 1e-6); // 101 of 201 samples differ by 100
-  EXPECT_NEAR(m.late_mean_dem, 200.0, 1e-9);       // last third of [0, 2] s is all after the step
+  EXPECT_NEAR(m.first_divergence_time, 1.0, 1e-9); // the step
+  EXPECT_NEAR(m.rms_difference, 100.0 * std::sqrt(101.0 / 201.0),
+              1e-6);                         // 101 of 201 samples differ by 100
+  EXPECT_NEAR(m.late_mean_dem, 200.0, 1e-9); // last third of [0, 2] s is all after the step
   EXPECT_NEAR(m.late_mean_continuum, 100.0, 1e-9);
   EXPECT_TRUE(fs::exists(r.html));
   ASSERT_EQ(r.profile_figures.size(), 1u);

@@ -45,7 +45,8 @@ int main(int argc, char** argv) {
       const double x = std::atof(ra[i][j].c_str()), y = std::atof(rb[i][j].c_str());
       // per column scale: relative to the column's largest magnitude
       double cs = 0.0;
-      for (std::size_t k = 1; k < ra.size(); ++k) cs = std::max(cs, std::abs(std::atof(ra[k][j].c_str())));
+      for (std::size_t k = 1; k < ra.size(); ++k)
+        cs = std::max(cs, std::abs(std::atof(ra[k][j].c_str())));
       if (std::abs(x - y) > tol * std::max(cs, 1e-300)) {
         std::fprintf(stderr, "line %d column %zu: %s vs %s\n", line + 1, j + 1, ra[i][j].c_str(),
                      rb[i][j].c_str());

@@ -93,8 +93,9 @@ TEST(ContinuumDynamic, LysmerBaseAbsorbsShearPulse) {
     while (m.time() < t_end) ASSERT_TRUE(m.dynamic_step(dt).converged) << m.log();
     left[absorbing] = m.elastic_energy() / e0;
   }
-  std::printf("shear pulse: energy left after %.0f m of travel: fixed base %.4f, Lysmer base %.4f\n",
-              40.0, left[0], left[1]);
+  std::printf(
+      "shear pulse: energy left after %.0f m of travel: fixed base %.4f, Lysmer base %.4f\n", 40.0,
+      left[0], left[1]);
   EXPECT_GT(left[0], 0.9);
   EXPECT_LT(left[1], 0.1);
 }

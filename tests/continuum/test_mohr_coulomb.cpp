@@ -57,8 +57,8 @@ void check_admissible(const Parameters& p, const ElasticStrain& tr) {
   }
   if (r.region != Return::Elastic) {
     // on the surface: the main plane or the cut-off is active
-    const double f = std::max(mc_yield(p, s[0], s[2]),
-                              p.tension_cutoff >= 0 ? s[0] - p.tension_cutoff : -1e300);
+    const double f =
+        std::max(mc_yield(p, s[0], s[2]), p.tension_cutoff >= 0 ? s[0] - p.tension_cutoff : -1e300);
     EXPECT_NEAR(f, 0.0, 1e-8 * scale);
   }
   const Result again = integrate(p, r.elastic);

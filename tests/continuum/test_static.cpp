@@ -1,9 +1,9 @@
 // Static verification problems of the plane-strain solver against closed forms.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <algorithm>
 #include <cstdio>
 #include <vector>
 
@@ -16,7 +16,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-std::vector<double> uniform(double length, int n) { return std::vector<double>(n, length / n); }
+std::vector<double> uniform(double length, int n) {
+  return std::vector<double>(n, length / n);
+}
 
 // sizes growing geometrically from h0 (after a uniform zone of length `fine`) until `length`
 std::vector<double> graded(double fine, double h0, double length, double growth) {
@@ -72,7 +74,8 @@ TEST(ContinuumStatic, GravityColumn) {
     EXPECT_NEAR(s.szz, szz, tol);
     EXPECT_NEAR(s.sxx, sxx, tol);
     EXPECT_NEAR(s.syy, sxx, tol);
-    worst = std::max({worst, std::abs(s.szz - szz) / (rho * g * H), std::abs(s.sxx - sxx) / (rho * g * H)});
+    worst = std::max(
+        {worst, std::abs(s.szz - szz) / (rho * g * H), std::abs(s.sxx - sxx) / (rho * g * H)});
   }
   std::printf("gravity column: dofs=%zu max |error|/(ρgH) = %.2e\n", m.n_dofs(), worst);
 }
@@ -157,10 +160,13 @@ double footing_limit_pressure(int degree, int refinement, double growth) {
     newton += st.newton_iterations;
     linear += st.linear_iterations;
     q = -m.reaction(0).fz / (0.5 * B);
-    if (k % 10 == 0) std::printf("  footing p=%d r=%d settlement/B=%.3f q/c=%.4f\n", degree, refinement, 0.03 * k / steps, q / c);
+    if (k % 10 == 0)
+      std::printf("  footing p=%d r=%d settlement/B=%.3f q/c=%.4f\n", degree, refinement,
+                  0.03 * k / steps, q / c);
   }
   const double exact = (2.0 + kPi) * c;
-  std::printf("footing p=%d r=%d: dofs=%zu q/c=%.4f (exact %.4f) rel.err=%.3e newton=%d linear=%d wall=%.2fs\n",
+  std::printf("footing p=%d r=%d: dofs=%zu q/c=%.4f (exact %.4f) rel.err=%.3e newton=%d linear=%d "
+              "wall=%.2fs\n",
               degree, refinement, m.n_dofs(), q / c, exact / c, (q - exact) / exact, newton, linear,
               seconds_since(t0));
   return q / c;
@@ -213,7 +219,9 @@ TEST(ContinuumStatic, RankineActiveThrust) {
     const StepStats st = m.static_step(double(k) / steps);
     ASSERT_TRUE(st.converged) << "step " << k << "\n" << m.log();
     newton += st.newton_iterations;
-    if (k % 5 == 0) std::printf("  rankine wall displacement/H=%.4f thrust=%.1f N/m\n", 0.004 * k / steps, m.reaction(0).fx);
+    if (k % 5 == 0)
+      std::printf("  rankine wall displacement/H=%.4f thrust=%.1f N/m\n", 0.004 * k / steps,
+                  m.reaction(0).fx);
     if (k == steps / 2) half = m.reaction(0).fx;
   }
   const double thrust = m.reaction(0).fx;

@@ -11,7 +11,9 @@ using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
 
 namespace {
-std::vector<double> uniform(double length, int n) { return std::vector<double>(static_cast<std::size_t>(n), length / n); }
+std::vector<double> uniform(double length, int n) {
+  return std::vector<double>(static_cast<std::size_t>(n), length / n);
+}
 
 Region rigid_region(const std::string& name, std::vector<Point> outline, Point pivot) {
   Region r;
@@ -58,12 +60,13 @@ TEST(ContinuumStructures, FixedRigidWallAtRestThrust) {
               m.n_dofs(), r.fx, r.fz, P0, r.moment, -P0 * H / 3, tr.fx);
   EXPECT_NEAR(r.fx, P0, 0.005 * P0);
   EXPECT_NEAR(r.moment, -P0 * H / 3, 0.01 * P0 * H / 3); // clockwise about the base
-  EXPECT_NEAR(tr.fx, r.fx, 0.01 * P0);                    // traction integral = nodal reaction
+  EXPECT_NEAR(tr.fx, r.fx, 0.01 * P0);                   // traction integral = nodal reaction
   const double h = H / bins;
   for (int b = 0; b < bins; ++b) {
     const double depth = H - (b + 0.5) * h;
     // 5 % of the base pressure: the corner where the fixed base meets the wall concentrates stress
-    EXPECT_NEAR(p[static_cast<std::size_t>(b)], k0 * rho * g * depth, 0.05 * k0 * rho * g * H) << "bin " << b;
+    EXPECT_NEAR(p[static_cast<std::size_t>(b)], k0 * rho * g * depth, 0.05 * k0 * rho * g * H)
+        << "bin " << b;
   }
   const auto mo = m.region_motion(0);
   EXPECT_EQ(mo.ux, 0.0);
@@ -89,7 +92,8 @@ TEST(ContinuumStructures, FreeAndPrescribedRigidFooting) {
     pb.soil.poisson = 0.3;
     pb.soil.plastic = false;
     pb.gravity = 0.0;
-    Region f = rigid_region("footing", {{-0.5 * B, D}, {0.5 * B, D}, {0.5 * B, D + 1}, {-0.5 * B, D + 1}}, {0, D});
+    Region f = rigid_region(
+        "footing", {{-0.5 * B, D}, {0.5 * B, D}, {0.5 * B, D + 1}, {-0.5 * B, D + 1}}, {0, D});
     f.dead_weight = false;
     f.force_z = demfem::scene::TimeFunction::constant(-F);
     f.moment = demfem::scene::TimeFunction::constant(Mo);

@@ -31,13 +31,17 @@ EngineConfig base_config() {
   return c;
 }
 
-double disk_mass(const EngineConfig& c, double r) { return c.density * kPi * r * r * c.thickness; }
+double disk_mass(const EngineConfig& c, double r) {
+  return c.density * kPi * r * r * c.thickness;
+}
 
 // Uniform deviate in [0, 1) from a fixed-seed engine (portable across standard libraries).
-double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+double uniform(std::mt19937_64& g) {
+  return static_cast<double>(g() >> 11) * 0x1.0p-53;
+}
 
 struct Collision {
-  double duration = 0.0; // time in contact [s]
+  double duration = 0.0;     // time in contact [s]
   double v1 = 0.0, v2 = 0.0; // x velocities after separation
 };
 
@@ -231,7 +235,8 @@ TEST(DemConservation, ContactForcesSumToZero) {
 }
 
 // Angular momentum L = Σ m (x v_z − z v_x) + I ω is conserved in a frictional, gravity-free,
-// oblique collision of spinning disks (relative change ≤ 1e-10), and friction acted (spins changed).
+// oblique collision of spinning disks (relative change ≤ 1e-10), and friction acted (spins
+// changed).
 TEST(DemConservation, AngularMomentumInFrictionalCollision) {
   auto c = base_config();
   Engine e(c);
@@ -269,8 +274,8 @@ TEST(DemConservation, ElasticEnergyDriftBelowOnePermille) {
   e.add_wall({{0, 0}, {L, 0}, {L, L}, {0, L}, {0, 0}}, "box");
   std::mt19937_64 g(3);
   for (int k = 0; k < 36; ++k)
-    e.add_particle(r - 0.0005 + a * (k % 6), r - 0.0005 + a * (k / 6), r,
-                   0.02 * (uniform(g) - 0.5), 0.02 * (uniform(g) - 0.5));
+    e.add_particle(r - 0.0005 + a * (k % 6), r - 0.0005 + a * (k / 6), r, 0.02 * (uniform(g) - 0.5),
+                   0.02 * (uniform(g) - 0.5));
   e.set_dt(e.auto_dt());
   const long steps = 100000, win = 2000;
   double first = 0, last = 0;
@@ -352,7 +357,7 @@ TEST(DemStatics, SettledBedCarriesWeightAndFooting) {
               -st.uz, rb);
   EXPECT_NEAR(sf, fw, 0.005 * fw);
   EXPECT_LT(std::abs(vz / static_cast<double>(n)), 1e-3); // at rest on average (it vibrates
-  EXPECT_LT(-st.uz, 0.05);                                  // elastically on the bed)
+  EXPECT_LT(-st.uz, 0.05);                                // elastically on the bed)
   EXPECT_NEAR(rb, weight + fw, 0.005 * (weight + fw));
   EXPECT_GT(e.stats().structure_updates, 0);
 }

@@ -115,8 +115,7 @@ bool no_tmp_files(const fs::path& dir) {
   return true;
 }
 
-template <class T>
-bool bit_equal(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T> bool bit_equal(const std::vector<T>& a, const std::vector<T>& b) {
   return a.size() == b.size() &&
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
@@ -539,9 +538,8 @@ TEST_F(IoTest, CheckpointRefusesInconsistentParticles) {
 
 TEST_F(IoTest, DamagedCheckpointsGiveClearErrors) {
   const fs::path good = dir_ / "good.bin";
-  io::write_checkpoint(good, tricky_particles(), {.time = 2.0, .step = 10, .dt = 1e-5,
-                                                  .label = "x"},
-                       blob(64));
+  io::write_checkpoint(good, tricky_particles(),
+                       {.time = 2.0, .step = 10, .dt = 1e-5, .label = "x"}, blob(64));
   const std::vector<char> bytes = read_bytes(good);
   ASSERT_GT(bytes.size(), 200u);
   const fs::path bad = dir_ / "bad.bin";
@@ -568,8 +566,8 @@ TEST_F(IoTest, DamagedCheckpointsGiveClearErrors) {
   expect_read_error(bad, "other byte order");
 
   // Truncation anywhere after the fixed header is reported as such.
-  for (const std::size_t len : {std::size_t{12}, std::size_t{20}, std::size_t{60},
-                                bytes.size() / 2, bytes.size() - 9, bytes.size() - 1}) {
+  for (const std::size_t len : {std::size_t{12}, std::size_t{20}, std::size_t{60}, bytes.size() / 2,
+                                bytes.size() - 9, bytes.size() - 1}) {
     SCOPED_TRACE(::testing::Message() << "truncated to " << len << " of " << bytes.size());
     write_bytes(bad, std::vector<char>(bytes.begin(), bytes.begin() + static_cast<long>(len)));
     expect_read_error(bad, "truncated");

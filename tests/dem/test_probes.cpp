@@ -71,7 +71,8 @@ std::string pid(std::uint32_t id) {
 // A free particle under base shaking (no gravity, no contacts) from rest: body force
 // m·A·sin(2πft) gives a = A sin(2πft), so
 //   v(t) = ∫₀ᵗ A sin(2πfs) ds = A (1 − cos 2πft)/(2πf),
-//   x(t) = ∫₀ᵗ v ds = A t/(2πf) − A sin(2πft)/(2πf)²   (d/dt of the second term: −A cos(2πft)/(2πf)).
+//   x(t) = ∫₀ᵗ v ds = A t/(2πf) − A sin(2πft)/(2πf)²   (d/dt of the second term: −A
+//   cos(2πft)/(2πf)).
 // Symplectic Euler sums a(t_n)Δt from the left: |v_n − v(t_n)| ≤ ½Δt|a(t_n) − a(0)| + O(Δt²) ≤ AΔt;
 // x_n = Σ v_k Δt, whose first-order error cancels against that of v: |x_n − x(t_n)| ≤ AΔt·t_n
 // is a loose bound. A wrong sign, factor 2π or phase gives errors of order A/(2πf)² ≫ these.
@@ -108,8 +109,8 @@ TEST(DemLoads, BaseShakingBodyForceOnAFreeParticle) {
     EXPECT_LT(max_dv, A * dt) << dir;
     EXPECT_LT(max_dx, A * dt) << dir;
     // Energy bookkeeping: the body force's work is counted over each step's displacement,
-    // W = Σ m a_n v_{n+1} Δt, while ½m v_{n+1}² − ½m v_n² = m a_n Δt (v_n + v_{n+1})/2, so from rest
-    // W − KE = ½ m Σ a_n² Δt² exactly (symplectic Euler's O(Δt) kinetic-energy lag).
+    // W = Σ m a_n v_{n+1} Δt, while ½m v_{n+1}² − ½m v_n² = m a_n Δt (v_n + v_{n+1})/2, so from
+    // rest W − KE = ½ m Σ a_n² Δt² exactly (symplectic Euler's O(Δt) kinetic-energy lag).
     const auto b = e.energy();
     const double m = e.particles().mass[0];
     EXPECT_NEAR(b.external_work - b.kinetic, 0.5 * m * sum_a2_dt2, 1e-9 * b.kinetic) << dir;
@@ -117,14 +118,13 @@ TEST(DemLoads, BaseShakingBodyForceOnAFreeParticle) {
   }
 }
 
-// On the settled box (settle_box.toml without its footing, frictionless side walls): the wall thrust on the left wall
-// equals the integral of its pressure profile, Σ p_k h t (both sum the normal contact forces on
-// the wall; frictionless: no shear part); the surface profile lies within one particle diameter of
-// the bed top from the disks' area at a random-packing fraction, and equals the highest particle
-// tops of the final state; the loci follow the tagged particles.
+// On the settled box (settle_box.toml without its footing, frictionless side walls): the wall
+// thrust on the left wall equals the integral of its pressure profile, Σ p_k h t (both sum the
+// normal contact forces on the wall; frictionless: no shear part); the surface profile lies within
+// one particle diameter of the bed top from the disks' area at a random-packing fraction, and
+// equals the highest particle tops of the final state; the loci follow the tagged particles.
 TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
-  const auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
   auto sc = file.base;
   const int bins = 12;
   scene::Probe pp;
@@ -141,7 +141,8 @@ TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
   lp.points = {{0.1, 0.05}, {0.9, 0.4}};
   sc.probes.push_back(lp);
   sc.output.vtk = false;
-  sc.structures.clear(); // no footing: a flat bed top (the footing makes the bed heave at the walls)
+  sc.structures
+      .clear(); // no footing: a flat bed top (the footing makes the bed heave at the walls)
   // The scene drops a square lattice straight down, which stacks the disks in vertical columns
   // (no thrust on the walls, tops at the column heights). Random initial velocities (±0.5 m/s,
   // fixed seed) make a random bed instead.
@@ -165,7 +166,7 @@ TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
   double integral = 0.0;
   for (int k = 1; k <= bins; ++k) integral += pres.last[static_cast<std::size_t>(k)] * h * t;
   const double thrust = column(walls, "left.thrust [N]");
-  EXPECT_GT(thrust, 10.0); // the bed pushes on the wall
+  EXPECT_GT(thrust, 10.0);                      // the bed pushes on the wall
   EXPECT_NEAR(thrust, integral, 1e-5 * thrust); // contact forces are stored as float
   // The pressure acts only below the bed top.
   for (int k = 5; k <= bins; ++k) EXPECT_EQ(pres.last[static_cast<std::size_t>(k)], 0.0) << k;

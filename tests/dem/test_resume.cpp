@@ -35,8 +35,7 @@ std::string slurp(const std::filesystem::path& f) {
 // The settle-box scene (120 disks, friction, cundall-rebound, a free footing, recorded base
 // wall) with a set-friction event at 0.12 s, pressure-profile, loci and coordination probes.
 scene::Scene resume_scene(double duration) {
-  const auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
   auto sc = file.base;
   sc.info.duration = duration;
   sc.output.interval = 0.1;
@@ -61,15 +60,13 @@ scene::Scene resume_scene(double duration) {
   return sc;
 }
 
-const char* kCsvFiles[] = {"energy.csv",       "structures.csv", "walls.csv",
-                           "pressure_left.csv", "surface.csv",    "loci.csv",
-                           "coordination.csv"};
+const char* kCsvFiles[] = {"energy.csv",  "structures.csv", "walls.csv",       "pressure_left.csv",
+                           "surface.csv", "loci.csv",       "coordination.csv"};
 
 void expect_same_particles(const dem::Particles& a, const dem::Particles& b) {
   ASSERT_EQ(a.size(), b.size());
   auto same = [](const auto& u, const auto& v) {
-    return u.size() == v.size() &&
-           std::memcmp(u.data(), v.data(), u.size() * sizeof(u[0])) == 0;
+    return u.size() == v.size() && std::memcmp(u.data(), v.data(), u.size() * sizeof(u[0])) == 0;
   };
   EXPECT_TRUE(same(a.x, b.x));
   EXPECT_TRUE(same(a.z, b.z));
@@ -263,7 +260,7 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
     EXPECT_FALSE(e.failed()) << e.failure();
     std::vector<dem::ContactView> cv;
     e.contacts(cv);
-    EXPECT_GT(cv.size(), 30u);        // the pair loop is exercised: contacts now,
+    EXPECT_GT(cv.size(), 30u);          // the pair loop is exercised: contacts now,
     EXPECT_GT(e.energy().rebound, 1.0); // and many collisions before
     EXPECT_EQ(e.threads_in_use(), threads);
     return std::pair{e.particles(), e.energy().friction};

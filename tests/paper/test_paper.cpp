@@ -20,7 +20,9 @@ using namespace demfem;
 
 namespace {
 
-fs::path case_file(const std::string& name) { return fs::path(DEMFEM_SOURCE_DIR) / "cases" / name; }
+fs::path case_file(const std::string& name) {
+  return fs::path(DEMFEM_SOURCE_DIR) / "cases" / name;
+}
 
 fs::path fresh_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("demfem_test_paper_" + name);
@@ -36,7 +38,9 @@ scene::Scene load(const std::string& file, const std::string& variant = "") {
   return s;
 }
 
-bool long_enabled() { return std::getenv("DEMFEM_LONG") != nullptr; }
+bool long_enabled() {
+  return std::getenv("DEMFEM_LONG") != nullptr;
+}
 
 } // namespace
 
@@ -67,7 +71,8 @@ TEST(Packing, PlacementHasNoOverlapAndStaysInTheFill) {
     EXPECT_LE(p.x[i] + p.radius[i], 8.0);
     EXPECT_GE(p.z[i] - p.radius[i], 0.0);
     for (std::size_t j = i + 1; j < p.size(); ++j)
-      ASSERT_GE(std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]), p.radius[i] + p.radius[j]) << i << " " << j;
+      ASSERT_GE(std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]), p.radius[i] + p.radius[j])
+          << i << " " << j;
   }
 }
 
@@ -136,8 +141,8 @@ TEST(PaperPile, PenetrationDeepensWithTheLoad) {
   double mid = 0.0;
   for (std::size_t i = 0; i < time.size(); ++i)
     if (time[i] <= 3.0) mid = settle[i];
-  EXPECT_GT(settle.back(), mid);   // deeper at 6 s than at 3 s
-  EXPECT_GT(settle.back(), 0.05);  // it penetrated (downward positive)
+  EXPECT_GT(settle.back(), mid);  // deeper at 6 s than at 3 s
+  EXPECT_GT(settle.back(), 0.05); // it penetrated (downward positive)
 }
 
 // Ontake, 12 s: with the basal friction gone the mass runs down at tens of m/s.

@@ -122,10 +122,9 @@ TEST(SceneLoad, VariantsAreResolvedSeparately) {
 }
 
 TEST(SceneLoad, VariantCanAddressArrayElementsByName) {
-  const auto f = parse_scene(
-      mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
-             R"(set = { "structure.wall.to" = [8, 5.0] })"),
-      "test.toml");
+  const auto f = parse_scene(mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
+                                    R"(set = { "structure.wall.to" = [8, 5.0] })"),
+                             "test.toml");
   EXPECT_NEAR(f.select("case-2").structures[0].height, 5.0, 1e-12);
 }
 
@@ -144,19 +143,18 @@ TEST(SceneLoad, TomlSyntaxErrorPointsAtLine) {
   expect_error(mutate("kn = 1.0e6", "kn = = 1.0e6"), 13, "TOML syntax");
 }
 TEST(SceneLoad, WrongType) {
-  expect_error(mutate("kn = 1.0e6", "kn = \"stiff\""), 13, "expected a number, got the string \"stiff\"",
-               "soil.dem.kn");
+  expect_error(mutate("kn = 1.0e6", "kn = \"stiff\""), 13,
+               "expected a number, got the string \"stiff\"", "soil.dem.kn");
 }
 TEST(SceneLoad, UnknownKey) {
-  expect_error(mutate("ks = 3.0e5", "ks = 3.0e5\nkss = 1"), 15, "unknown key; valid keys here:",
-               "soil.dem.kss");
+  expect_error(mutate("ks = 3.0e5", "ks = 3.0e5\nkss = 1"), 15,
+               "unknown key; valid keys here:", "soil.dem.kss");
 }
 TEST(SceneLoad, UnknownTopLevelTable) {
   expect_error(kValid + "\n[solver]\nx = 1\n", 0, "unknown key", "solver");
 }
 TEST(SceneLoad, NegativeRadius) {
-  expect_error(mutate("uniform = [0.04, 0.075]", "uniform = [-0.04, 0.075]"), 11,
-               "0 < min ≤ max");
+  expect_error(mutate("uniform = [0.04, 0.075]", "uniform = [-0.04, 0.075]"), 11, "0 < min ≤ max");
 }
 TEST(SceneLoad, RadiusMinAboveMax) {
   expect_error(mutate("uniform = [0.04, 0.075]", "uniform = [0.08, 0.075]"), 11, "0 < min ≤ max");

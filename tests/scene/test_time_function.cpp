@@ -8,7 +8,9 @@
 using demfem::scene::TimeFunction;
 constexpr double kPi = std::numbers::pi;
 
-TEST(TimeFunction, Constant) { EXPECT_DOUBLE_EQ(TimeFunction::constant(3.5)(123.0), 3.5); }
+TEST(TimeFunction, Constant) {
+  EXPECT_DOUBLE_EQ(TimeFunction::constant(3.5)(123.0), 3.5);
+}
 
 TEST(TimeFunction, RampIsZeroBeforeStartThenLinear) {
   const auto f = TimeFunction::ramp(2.0, 1.0, 0.5); // 1 + 2 (t − 0.5)⁺
@@ -39,8 +41,7 @@ TEST(TimeFunction, SineIsZeroBeforeStartAndAfterStop) {
 
 TEST(TimeFunction, TSineIsPaperEquation51) {
   const auto f = TimeFunction::t_sine(5.0e3, kPi); // F = 5e3 · t · sin(πt), case 1-A
-  for (double t : {0.0, 0.5, 1.5, 7.25})
-    EXPECT_NEAR(f(t), 5.0e3 * t * std::sin(kPi * t), 1e-9);
+  for (double t : {0.0, 0.5, 1.5, 7.25}) EXPECT_NEAR(f(t), 5.0e3 * t * std::sin(kPi * t), 1e-9);
   EXPECT_NEAR(f(1.5), -7.5e3, 1e-9);
 }
 

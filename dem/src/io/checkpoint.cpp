@@ -30,8 +30,7 @@ std::uint64_t fnv1a(std::uint64_t h, std::span<const std::byte> bytes) {
 }
 
 // Visits every Particles array with its on-disk name, in table order.
-template <class P, class F>
-void for_each_array(P& p, F&& f) {
+template <class P, class F> void for_each_array(P& p, F&& f) {
   f("x", p.x);
   f("z", p.z);
   f("phi", p.phi);
@@ -64,8 +63,7 @@ public:
       buf_.insert(buf_.end(), b.begin(), b.end());
     }
   }
-  template <class T>
-  void value(const T& v) {
+  template <class T> void value(const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     bytes(std::as_bytes(std::span<const T>(&v, 1)));
   }
@@ -94,14 +92,13 @@ public:
 
   void bytes(void* dst, std::size_t n, const char* what) {
     if (n > data_.size() - pos_) {
-      fail(fmt::format("truncated: {} needs {} bytes at offset {} but the file has {} bytes",
-                       what, n, pos_, data_.size()));
+      fail(fmt::format("truncated: {} needs {} bytes at offset {} but the file has {} bytes", what,
+                       n, pos_, data_.size()));
     }
     if (n > 0) std::memcpy(dst, data_.data() + pos_, n);
     pos_ += n;
   }
-  template <class T>
-  T value(const char* what) {
+  template <class T> T value(const char* what) {
     T v{};
     bytes(&v, sizeof v, what);
     return v;
@@ -187,8 +184,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   Reader r(data, path);
   std::array<char, 8> magic{};
   if (data.size() < magic.size()) {
-    r.fail(fmt::format("not a demfem checkpoint (only {} bytes, no DEMFEMCK header)",
-                       data.size()));
+    r.fail(fmt::format("not a demfem checkpoint (only {} bytes, no DEMFEMCK header)", data.size()));
   }
   r.bytes(magic.data(), magic.size(), "magic");
   if (magic != kMagic) r.fail("not a demfem checkpoint (bad magic, expected \"DEMFEMCK\")");
@@ -259,8 +255,8 @@ void parse_body(Reader& r, Checkpoint& cp) {
       found = true;
       using T = typename std::decay_t<decltype(v)>::value_type;
       if (e.element_size != sizeof(T)) {
-        r.fail(fmt::format("array '{}' has element size {}, expected {}", e.name,
-                           e.element_size, sizeof(T)));
+        r.fail(fmt::format("array '{}' has element size {}, expected {}", e.name, e.element_size,
+                           sizeof(T)));
       }
       if (e.count != n) {
         r.fail(fmt::format("array '{}' has {} elements for {} particles", e.name, e.count, n));
@@ -281,8 +277,7 @@ void parse_body(Reader& r, Checkpoint& cp) {
 
   const auto extra_size = r.value<std::uint64_t>("extra size");
   if (extra_size > r.remaining()) {
-    r.fail(fmt::format("truncated: extra data needs {} bytes at offset {}", extra_size,
-                       r.pos()));
+    r.fail(fmt::format("truncated: extra data needs {} bytes at offset {}", extra_size, r.pos()));
   }
   cp.extra.resize(static_cast<std::size_t>(extra_size));
   r.bytes(cp.extra.data(), cp.extra.size(), "extra data");

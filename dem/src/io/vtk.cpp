@@ -66,13 +66,13 @@ vtkNew<Array> make_array(const char* name, int components, vtkIdType tuples) {
 
 void check_particle_arrays(const Particles& p, const std::filesystem::path& path) {
   const std::size_t n = p.size();
-  const bool same = p.z.size() == n && p.phi.size() == n && p.vx.size() == n &&
-                    p.vz.size() == n && p.omega.size() == n && p.fx.size() == n &&
-                    p.fz.size() == n && p.radius.size() == n && p.id.size() == n &&
-                    p.material.size() == n && p.flags.size() == n;
+  const bool same = p.z.size() == n && p.phi.size() == n && p.vx.size() == n && p.vz.size() == n &&
+                    p.omega.size() == n && p.fx.size() == n && p.fz.size() == n &&
+                    p.radius.size() == n && p.id.size() == n && p.material.size() == n &&
+                    p.flags.size() == n;
   if (!same) {
-    throw IoError(fmt::format("cannot write '{}': the Particles arrays differ in length",
-                              path.string()));
+    throw IoError(
+        fmt::format("cannot write '{}': the Particles arrays differ in length", path.string()));
   }
 }
 
@@ -153,8 +153,8 @@ void write_particles_vtp(const std::filesystem::path& path, const Particles& p) 
 void write_force_chains_vtp(const std::filesystem::path& path, const Particles& p,
                             std::span<const ContactView> contacts) {
   if (p.z.size() != p.size()) {
-    throw IoError(fmt::format("cannot write '{}': the Particles arrays differ in length",
-                              path.string()));
+    throw IoError(
+        fmt::format("cannot write '{}': the Particles arrays differ in length", path.string()));
   }
   const std::size_t np = p.size();
   vtkIdType n = 0;

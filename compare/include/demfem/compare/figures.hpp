@@ -28,6 +28,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const std::filesystem::p
 // Largest |v| over every particles_*.vtp snapshot under dir (0 when none can be read).
 // Only particles whose centre is at or above zmin count (blocks falling out through an opened wall
 // are not debris on the section).
-[[nodiscard]] double peak_snapshot_speed(const std::filesystem::path& vtk_dir, double zmin = -1e300);
+[[nodiscard]] double peak_snapshot_speed(const std::filesystem::path& vtk_dir,
+                                         double zmin = -1e300);
 
 } // namespace demfem::compare

@@ -25,8 +25,8 @@ struct CsvTable {
 struct Series {
   std::string label;
   std::vector<double> x, y;
-  std::string style = "lines";   // gnuplot style: lines, points, linespoints
-  std::string extra;             // appended to the plot clause, e.g. "dt 2 lw 2"
+  std::string style = "lines"; // gnuplot style: lines, points, linespoints
+  std::string extra;           // appended to the plot clause, e.g. "dt 2 lw 2"
 };
 
 struct PlotSpec {
@@ -34,7 +34,7 @@ struct PlotSpec {
   std::string xlabel;
   std::string ylabel;
   std::vector<Series> series;
-  bool equal_axes = false;       // same scale on x and y (profiles, loci)
+  bool equal_axes = false; // same scale on x and y (profiles, loci)
   int width = 1000;
   int height = 600;
 };
@@ -47,7 +47,7 @@ bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* e
 struct SnapshotSpec {
   std::string title;
   bool force_chains = true;
-  double chain_width_max = 4.0;  // line width of the largest normal force
+  double chain_width_max = 4.0; // line width of the largest normal force
 };
 
 // Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|

@@ -10,9 +10,9 @@
 namespace demfem::continuum {
 
 struct RunOptions {
-  std::filesystem::path out_dir;   // run directory; continuum outputs go to out_dir/"continuum"
-  int refinement = -1;             // -1 = the scene's
-  int degree = -1;                 // -1 = the scene's
+  std::filesystem::path out_dir; // run directory; continuum outputs go to out_dir/"continuum"
+  int refinement = -1;           // -1 = the scene's
+  int degree = -1;               // -1 = the scene's
   scene::ProgressFn progress;
 };
 

@@ -35,33 +35,33 @@ enum ContactHistoryFlag : std::uint8_t {
 
 // Persistent per-pair state, kept across neighbour rebuilds.
 struct ContactHistory {
-  double ft = 0.0;         // shear spring force e_s [N]
-  float fn = 0.0f;         // last normal force (output, energy) [N]
-  std::uint8_t flags = 0;  // ContactHistoryFlag
+  double ft = 0.0;        // shear spring force e_s [N]
+  float fn = 0.0f;        // last normal force (output, energy) [N]
+  std::uint8_t flags = 0; // ContactHistoryFlag
 };
 
 // Geometry and kinematics of one contact in one step.
 struct ContactInput {
-  double delta;  // overlap [m]
-  double vn;     // approach speed [m/s]
-  double vs;     // slip speed [m/s]
-  double m_eff;  // m_i m_j/(m_i + m_j), or m_i against a boundary [kg]
-  double r_eff;  // r_i r_j/(r_i + r_j), or r_i against a boundary [m]
-  double mu_s;   // static friction
-  double mu_d;   // dynamic friction
-  double dt;     // [s]
+  double delta; // overlap [m]
+  double vn;    // approach speed [m/s]
+  double vs;    // slip speed [m/s]
+  double m_eff; // m_i m_j/(m_i + m_j), or m_i against a boundary [kg]
+  double r_eff; // r_i r_j/(r_i + r_j), or r_i against a boundary [m]
+  double mu_s;  // static friction
+  double mu_d;  // dynamic friction
+  double dt;    // [s]
 };
 
 struct ContactResult {
-  double fn = 0.0;          // normal force incl. dashpot, compression positive [N]
-  double ft = 0.0;          // shear force [N]
-  double impulse = 0.0;     // extra normal force acting for this one step (rebound impulse/Δt) [N]
-  double e_friction = 0.0;  // energy dissipated by friction in this step [J]
-  double e_damping = 0.0;   // energy dissipated by dashpots in this step [J]
-  double e_rebound = 0.0;   // energy dissipated by the rebound rule in this step [J]
-  double e_normal = 0.0;    // normal spring energy after the step [J]
-  double e_shear = 0.0;     // shear spring energy after the step [J]
-  bool touching = false;    // false: the history was reset (contact ended)
+  double fn = 0.0;         // normal force incl. dashpot, compression positive [N]
+  double ft = 0.0;         // shear force [N]
+  double impulse = 0.0;    // extra normal force acting for this one step (rebound impulse/Δt) [N]
+  double e_friction = 0.0; // energy dissipated by friction in this step [J]
+  double e_damping = 0.0;  // energy dissipated by dashpots in this step [J]
+  double e_rebound = 0.0;  // energy dissipated by the rebound rule in this step [J]
+  double e_normal = 0.0;   // normal spring energy after the step [J]
+  double e_shear = 0.0;    // shear spring energy after the step [J]
+  bool touching = false;   // false: the history was reset (contact ended)
 };
 
 namespace detail {
@@ -88,12 +88,13 @@ namespace detail {
 // Hertz–Mindlin (f ∝ δ^{3/2}, zero stiffness at touch) keeps f(δ).
 inline double linear_spring_force(double delta, double vn, double dt, double kn, double m_eff) {
   if (!(delta > 0.0)) return 0.0;
-  const double f_closed = kn * delta;      // eq. 2.6
-  const double A = dt * dt / m_eff;        // δ_{n+1} decrease per unit force
-  const double d_prev = delta - vn * dt;   // overlap one step ago
+  const double f_closed = kn * delta;    // eq. 2.6
+  const double A = dt * dt / m_eff;      // δ_{n+1} decrease per unit force
+  const double d_prev = delta - vn * dt; // overlap one step ago
   const double d_next = delta + vn * dt - f_closed * A;
   if (d_prev >= 0.0 && d_next >= 0.0) return f_closed;
-  if (d_prev < 0.0) { // touch inside the last step (vn > 0): f (2 v_n Δt − f A) = K δ (δ + v_n Δt − f A)
+  if (d_prev <
+      0.0) { // touch inside the last step (vn > 0): f (2 v_n Δt − f A) = K δ (δ + v_n Δt − f A)
     const double b = 2.0 * vn * dt + kn * delta * A, c = kn * delta * (delta + vn * dt);
     const double disc = b * b - 4.0 * A * c;
     if (disc >= 0.0 && b > 0.0) {
@@ -187,9 +188,9 @@ struct CundallRebound {
     }
     // eq. 2.6 (e_n = K_n δ), energy-consistent at touch and release (see above); a bond in
     // tension keeps the plain K_n δ.
-    const double fn = bonded ? p.kn * in.delta
-                             : detail::linear_spring_force(in.delta, vn_spring, in.dt, p.kn,
-                                                           in.m_eff);
+    const double fn = bonded
+                          ? p.kn * in.delta
+                          : detail::linear_spring_force(in.delta, vn_spring, in.dt, p.kn, in.m_eff);
     const double ft_trial = h.ft - p.ks * in.vs * in.dt; // eq. 2.9 (e_s ← e_s + K_s Δu_s)
     h.ft = detail::coulomb(ft_trial, fn, in.mu_s, in.mu_d, p.ks, h.flags, r.e_friction);
     h.fn = static_cast<float>(fn);
@@ -220,9 +221,10 @@ struct CundallDashpot {
       return r;
     }
     h.flags |= kHistActive;
-    const double en = detail::linear_spring_force(in.delta, in.vn, in.dt, p.kn, in.m_eff); // eq. 2.6
-    const double dn = p.eta_n * in.vn;           // eq. 2.7: d_n = η_n Δu_n/Δt
-    const double fn = std::max(0.0, en + dn);    // no tension (eq. 2.8)
+    const double en =
+        detail::linear_spring_force(in.delta, in.vn, in.dt, p.kn, in.m_eff); // eq. 2.6
+    const double dn = p.eta_n * in.vn;                   // eq. 2.7: d_n = η_n Δu_n/Δt
+    const double fn = std::max(0.0, en + dn);            // no tension (eq. 2.8)
     const double ft_trial = h.ft - p.ks * in.vs * in.dt; // eq. 2.9
     h.ft = detail::coulomb(ft_trial, en, in.mu_s, in.mu_d, p.ks, h.flags, r.e_friction);
     const double ds = (h.flags & kHistSliding) ? 0.0 : -p.eta_s * in.vs; // eq. 2.10, 2.13
@@ -258,7 +260,8 @@ struct LinearRestitution {
       return r;
     }
     h.flags |= kHistActive;
-    const double en = detail::linear_spring_force(in.delta, in.vn, in.dt, p.kn, in.m_eff); // eq. 2.6
+    const double en =
+        detail::linear_spring_force(in.delta, in.vn, in.dt, p.kn, in.m_eff); // eq. 2.6
     const double cn = 2.0 * p.zeta * std::sqrt(in.m_eff * p.kn); // critical-damping fraction ζ
     const double fn = std::max(0.0, en + cn * in.vn);
     const double ft_trial = h.ft - p.ks * in.vs * in.dt;

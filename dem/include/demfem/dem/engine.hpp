@@ -32,7 +32,7 @@ struct Material {
 
 struct EngineConfig {
   scene::ContactLaw law = scene::ContactLaw::CundallRebound;
-  double kn = 1.0e6, ks = 3.0e5;           // [N/m]
+  double kn = 1.0e6, ks = 3.0e5; // [N/m]
   double rebound = 0.1, rebound_speed = 1.0;
   bool tension = false;
   double tensile_strength = 0.0;
@@ -41,8 +41,8 @@ struct EngineConfig {
   double young = 7.0e10, poisson = 0.25;
   double damping_c = 0.0, damping_d = 0.0; // global damping (eqs. 2.1, 2.2) [1/s]
   double density = 2650.0, thickness = 1.0;
-  double gravity = 9.81;                   // along −z [m/s²]
-  double max_overlap = 0.5;                // blow-up: δ > max_overlap · r
+  double gravity = 9.81;    // along −z [m/s²]
+  double max_overlap = 0.5; // blow-up: δ > max_overlap · r
   double dt_safety = 0.05;
   std::vector<Material> materials{Material{}}; // index 0: the soil
   // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
@@ -50,8 +50,8 @@ struct EngineConfig {
   char shaking_direction = 'x';
   scene::TimeFunction shaking_acceleration;
   // Neighbour search
-  double skin_factor = 0.3;   // Verlet skin = skin_factor · r_min
-  int reorder_every = 25;     // space-filling-curve reordering every … neighbour rebuilds (0 = never)
+  double skin_factor = 0.3; // Verlet skin = skin_factor · r_min
+  int reorder_every = 25; // space-filling-curve reordering every … neighbour rebuilds (0 = never)
   // Threads (OpenMP) for the force loop and the integration: 0 = OpenMP default. Results are
   // bit-identical between runs at the same count, and equal to round-off across counts.
   int threads = 1;
@@ -65,32 +65,32 @@ struct EngineConfig {
 // counter-clockwise positive (the paper's foundation θ is clockwise positive: θ_paper = −rotation).
 struct StructureState {
   std::string name;
-  double mass = 0.0, inertia = 0.0;        // inertia about the pivot [kg·m²]
-  double px0 = 0.0, pz0 = 0.0;             // initial pivot [m]
-  double ux = 0.0, uz = 0.0, rot = 0.0;    // pivot displacement [m], rotation [rad]
-  double vx = 0.0, vz = 0.0, omega = 0.0;  // [m/s], [rad/s]
-  double cx_local = 0.0, cz_local = 0.0;   // centroid relative to the pivot, unrotated [m]
+  double mass = 0.0, inertia = 0.0;       // inertia about the pivot [kg·m²]
+  double px0 = 0.0, pz0 = 0.0;            // initial pivot [m]
+  double ux = 0.0, uz = 0.0, rot = 0.0;   // pivot displacement [m], rotation [rad]
+  double vx = 0.0, vz = 0.0, omega = 0.0; // [m/s], [rad/s]
+  double cx_local = 0.0, cz_local = 0.0;  // centroid relative to the pivot, unrotated [m]
   // Soil (particle) reaction on the structure in the last step: force and moment about the pivot.
   double soil_fx = 0.0, soil_fz = 0.0, soil_moment = 0.0;
   double applied_fx = 0.0, applied_fz = 0.0, applied_moment = 0.0; // external loads (about pivot)
-  scene::Structure spec;                   // modes, time functions, load point
+  scene::Structure spec; // modes, time functions, load point
   std::uint32_t first_vertex = 0, vertex_count = 0;
-  std::uint32_t boundary = 0;              // index into the boundary list
+  std::uint32_t boundary = 0; // index into the boundary list
 };
 
 // Energy budget (probe "energy"). Closure: kinetic + rotational + potential + springs +
 // dissipated − external_work = constant (the value at the first call of energy()).
 struct EnergyBudget {
-  double kinetic = 0.0;          // ½ m v², particles and free structures [J]
-  double rotational = 0.0;       // ½ I ω² [J]
-  double potential = 0.0;        // gravity, m g z (relative to the start) [J]
-  double spring_normal = 0.0;    // [J]
-  double spring_shear = 0.0;     // [J]
-  double friction = 0.0;         // dissipated by sliding, cumulative [J]
-  double damping = 0.0;          // dissipated by dashpots and global damping, cumulative [J]
-  double rebound = 0.0;          // dissipated by the rebound rule, cumulative [J]
-  double external_work = 0.0;    // shaking, structure loads, prescribed motions, cumulative [J]
-  double gravity_work = 0.0;     // −(potential change) [J]
+  double kinetic = 0.0;       // ½ m v², particles and free structures [J]
+  double rotational = 0.0;    // ½ I ω² [J]
+  double potential = 0.0;     // gravity, m g z (relative to the start) [J]
+  double spring_normal = 0.0; // [J]
+  double spring_shear = 0.0;  // [J]
+  double friction = 0.0;      // dissipated by sliding, cumulative [J]
+  double damping = 0.0;       // dissipated by dashpots and global damping, cumulative [J]
+  double rebound = 0.0;       // dissipated by the rebound rule, cumulative [J]
+  double external_work = 0.0; // shaking, structure loads, prescribed motions, cumulative [J]
+  double gravity_work = 0.0;  // −(potential change) [J]
   [[nodiscard]] double total() const {
     return kinetic + rotational + potential + spring_normal + spring_shear + friction + damping +
            rebound - external_work;
@@ -113,11 +113,11 @@ struct EngineStats {
 struct Boundary {
   std::string name;
   std::uint32_t first_vertex = 0, vertex_count = 0;
-  bool closed = false;      // structures: closed polygon, one-sided edges (outward normal)
-  bool active = true;       // false once opened
-  int structure = -1;       // index into structures() or −1 for a wall
+  bool closed = false; // structures: closed polygon, one-sided edges (outward normal)
+  bool active = true;  // false once opened
+  int structure = -1;  // index into structures() or −1 for a wall
   double mu_s = 0.5, mu_d = 0.2;
-  bool own_friction = false; // false: use the particle's material
+  bool own_friction = false;                 // false: use the particle's material
   double reaction_x = 0.0, reaction_z = 0.0; // force of the particles on it, last step [N]
 };
 
@@ -221,8 +221,8 @@ private:
   template <class Law>
   void pair_range(const Law& law, std::size_t i0, std::size_t i1, double* fx, double* fz,
                   double* tq, double* energies, std::uint32_t* fail_pair);
-  void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
-                       double* sums, std::size_t* bad);
+  void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
+                       std::size_t* bad);
 
   EngineConfig config_;
   Particles p_;
@@ -232,10 +232,10 @@ private:
 
   // Boundary geometry: vertex arrays (local = reference, world = current) and features.
   std::vector<Boundary> boundaries_;
-  std::vector<double> bvx_, bvz_, bvx0_, bvz0_;       // world / reference vertices
-  std::vector<double> bvx_ref_, bvz_ref_;             // at the last rebuild
+  std::vector<double> bvx_, bvz_, bvx0_, bvz0_; // world / reference vertices
+  std::vector<double> bvx_ref_, bvz_ref_;       // at the last rebuild
   struct Feature {
-    std::uint32_t boundary, v0, v1; // v1 == v0: a vertex feature
+    std::uint32_t boundary, v0, v1;    // v1 == v0: a vertex feature
     std::int32_t adj0 = -1, adj1 = -1; // vertex features: adjacent segment features
   };
   std::vector<Feature> features_;

@@ -98,10 +98,10 @@ private:
 inline constexpr std::uint32_t kCheckpointFormatVersion = 1;
 
 struct CheckpointMeta {
-  double time = 0.0;       // simulated time [s]
-  std::int64_t step = 0;   // steps taken
-  double dt = 0.0;         // time step in use [s]
-  std::string label;       // free text, e.g. scene label / digest so a resume can refuse a mismatch
+  double time = 0.0;     // simulated time [s]
+  std::int64_t step = 0; // steps taken
+  double dt = 0.0;       // time step in use [s]
+  std::string label;     // free text, e.g. scene label / digest so a resume can refuse a mismatch
 };
 
 struct Checkpoint {

@@ -62,17 +62,17 @@ private:
                                                  const std::filesystem::path& out_dir);
 
 struct PackResult {
-  Particles particles;             // at rest, velocities zeroed, ids 0…count−1 in placement order
-  std::filesystem::path path;      // the checkpoint
+  Particles particles;        // at rest, velocities zeroed, ids 0…count−1 in placement order
+  std::filesystem::path path; // the checkpoint
   std::string key;
   bool from_cache = false;
-  double deposition_time = 0.0;    // simulated [s]
+  double deposition_time = 0.0; // simulated [s]
   long long steps = 0;
-  double ke_ratio = 0.0;           // kinetic / released potential energy at the end
+  double ke_ratio = 0.0; // kinetic / released potential energy at the end
   double wall_seconds = 0.0;
-  int layers = 1;                  // copies of the fill used for placement
-  bool converged = false;          // ke_ratio reached before max_time
-  double surface_max = 0.0;        // highest particle top after deposition [m]
+  int layers = 1;           // copies of the fill used for placement
+  bool converged = false;   // ke_ratio reached before max_time
+  double surface_max = 0.0; // highest particle top after deposition [m]
   // Particle–particle contact history at the end of deposition (shear springs, sliding and bond
   // flags; Engine::save_contact_history without boundaries, whose features differ between the
   // deposition and the run). Empty for explicit particles and packings cached without it.

@@ -11,18 +11,18 @@
 namespace demfem::dem {
 
 struct RunOptions {
-  std::filesystem::path out_dir;   // run directory (created); DEM outputs go to out_dir/"dem"
-  bool resume = false;             // continue from out_dir/dem/checkpoint.ckpt (bit for bit)
-  int threads = 0;                 // 0 = OpenMP default
+  std::filesystem::path out_dir; // run directory (created); DEM outputs go to out_dir/"dem"
+  bool resume = false;           // continue from out_dir/dem/checkpoint.ckpt (bit for bit)
+  int threads = 0;               // 0 = OpenMP default
   // When it becomes true the loop writes out_dir/dem/checkpoint.ckpt and returns ok = false
   // with "interrupted at t = … s; continue with --resume". May be null.
   std::atomic<bool>* interrupt = nullptr;
-  scene::ProgressFn progress;      // may be empty
+  scene::ProgressFn progress; // may be empty
 };
 
 struct RunSummary {
   bool ok = false;
-  std::string message;             // failure cause (blow-up: step, time, particle, cause)
+  std::string message; // failure cause (blow-up: step, time, particle, cause)
   long long steps = 0;
   double simulated_time = 0.0;
   double wall_seconds = 0.0;

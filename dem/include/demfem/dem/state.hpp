@@ -17,17 +17,17 @@ enum ParticleFlag : std::uint32_t {
 
 // Disks of unit-thickness mass m = ρπr²·t, inertia I = ½mr² (PFC2D convention, paper.md §1).
 struct Particles {
-  std::vector<double> x, z;          // centre [m]
-  std::vector<double> phi;           // rotation, counter-clockwise positive [rad]
-  std::vector<double> vx, vz;        // velocity [m/s]
-  std::vector<double> omega;         // angular velocity, counter-clockwise positive [rad/s]
-  std::vector<double> fx, fz;        // resultant force of the current step [N]
-  std::vector<double> torque;        // resultant moment, counter-clockwise positive [N·m]
-  std::vector<double> radius;        // [m]
-  std::vector<double> mass;          // [kg]
-  std::vector<double> inv_mass;      // 1/m [1/kg]
-  std::vector<double> inv_inertia;   // 1/I [1/(kg·m²)]
-  std::vector<std::uint32_t> id;     // stable id (survives reordering)
+  std::vector<double> x, z;            // centre [m]
+  std::vector<double> phi;             // rotation, counter-clockwise positive [rad]
+  std::vector<double> vx, vz;          // velocity [m/s]
+  std::vector<double> omega;           // angular velocity, counter-clockwise positive [rad/s]
+  std::vector<double> fx, fz;          // resultant force of the current step [N]
+  std::vector<double> torque;          // resultant moment, counter-clockwise positive [N·m]
+  std::vector<double> radius;          // [m]
+  std::vector<double> mass;            // [kg]
+  std::vector<double> inv_mass;        // 1/m [1/kg]
+  std::vector<double> inv_inertia;     // 1/I [1/(kg·m²)]
+  std::vector<std::uint32_t> id;       // stable id (survives reordering)
   std::vector<std::uint16_t> material; // index into the friction table (events change it)
   std::vector<std::uint32_t> flags;
 
@@ -39,18 +39,18 @@ struct Particles {
 struct ContactView {
   std::uint32_t i = 0;
   std::int64_t j = 0;
-  double cx = 0.0, cz = 0.0;   // contact point [m]
-  double fn = 0.0;             // normal force, compression positive [N]
-  double fs = 0.0;             // shear force [N]
-  bool tensile = false;        // fn < 0 (tension option on)
+  double cx = 0.0, cz = 0.0; // contact point [m]
+  double fn = 0.0;           // normal force, compression positive [N]
+  double fs = 0.0;           // shear force [N]
+  bool tensile = false;      // fn < 0 (tension option on)
 };
 
 // A boundary outline for output: line walls, polylines and rigid structure outlines.
 struct BoundaryView {
   std::string name;
-  std::vector<double> x, z;    // vertices in order
-  bool closed = false;         // rigid structures are closed polygons
-  bool open = false;           // an opened wall segment (no longer acts)
+  std::vector<double> x, z; // vertices in order
+  bool closed = false;      // rigid structures are closed polygons
+  bool open = false;        // an opened wall segment (no longer acts)
 };
 
 } // namespace demfem::dem

@@ -49,8 +49,8 @@ enum class ProbeKind {
   Coordination
 };
 inline constexpr std::array<const char*, 7> kProbeKindNames = {
-    "energy", "structure", "wall-thrust", "pressure-profile", "surface-profile", "loci",
-    "coordination"};
+    "energy",          "structure", "wall-thrust", "pressure-profile",
+    "surface-profile", "loci",      "coordination"};
 
 enum class EventAction { SetFriction, OpenWall };
 inline constexpr std::array<const char*, 2> kEventActionNames = {"set-friction", "open-wall"};
@@ -60,50 +60,51 @@ struct Info {
   std::string name;
   std::string description;
   std::vector<Solver> solvers{Solver::Dem};
-  double duration = 1.0;   // simulated time [s]
-  unsigned long seed = 1;  // packing and any randomness
+  double duration = 1.0;  // simulated time [s]
+  unsigned long seed = 1; // packing and any randomness
 };
 
 struct RadiusDistribution {
   enum class Kind { Uniform, Equal, Table };
   Kind kind = Kind::Uniform;
-  double min = 0.0; // uniform: lower bound; equal: the radius
-  double max = 0.0; // uniform: upper bound; equal: the radius
+  double min = 0.0;                             // uniform: lower bound; equal: the radius
+  double max = 0.0;                             // uniform: upper bound; equal: the radius
   std::vector<std::pair<double, double>> table; // (radius, relative frequency)
 };
 
 struct Packing {
-  double ke_ratio = 1e-4;   // stop depositing when kinetic energy < ke_ratio · released potential
-  double max_time = 20.0;   // give up depositing after this simulated time [s]
-  double damping = 0.0;     // extra global damping ratio during deposition only
-  std::string cache;        // directory for reusable packings ("" = <out>/packing)
+  double ke_ratio = 1e-4; // stop depositing when kinetic energy < ke_ratio · released potential
+  double max_time = 20.0; // give up depositing after this simulated time [s]
+  double damping = 0.0;   // extra global damping ratio during deposition only
+  std::string cache;      // directory for reusable packings ("" = <out>/packing)
 };
 
 struct DemSoil {
   int count = 0;
   RadiusDistribution radius;
-  double density = 2650.0;           // [kg/m³]
-  double thickness = 1.0;            // out-of-plane thickness: m = ρπr²·t, I = ½mr² (PFC2D)
+  double density = 2650.0; // [kg/m³]
+  double thickness = 1.0;  // out-of-plane thickness: m = ρπr²·t, I = ½mr² (PFC2D)
   ContactLaw law = ContactLaw::CundallRebound;
-  double kn = 1.0e6;                 // normal spring [N/m] (paper §2.1.2)
-  double ks = 3.0e5;                 // shear spring [N/m]
-  double mu_static = 0.5;            // μ_s, sticking limit
-  double mu_dynamic = 0.2;           // μ_D, while sliding
-  double rebound = 0.1;              // K, rebound coefficient (paper §2.1.2 iv)
-  double rebound_speed = 1.0;        // V_0 [m/s]
-  bool tension = false;              // allow tensile normal force (pile case 4)
-  double tensile_strength = 0.0;     // [N], bond breaks beyond it
-  double eta_n = 0.0;                // normal dashpot [N·s/m] (cundall-dashpot)
-  double eta_s = 0.0;                // shear dashpot [N·s/m]
-  double restitution = 0.5;          // linear-restitution
-  double young = 7.0e10;             // hertz-mindlin [Pa]
-  double poisson = 0.25;             // hertz-mindlin
-  double damping_c = 0.0;            // global translational damping C (eq. 2.1) [1/s, per mass]
-  double damping_d = 0.0;            // global rotational damping D (eq. 2.2) [1/s, per inertia]
-  double dt = 0.0;                   // 0 = automatic
-  double dt_safety = 0.05;           // Δt = safety · 2√(m_min/k_max) = 0.1√(m_min/k_max): ≈ 22 steps per contact
-  double max_overlap = 0.5;          // blow-up: overlap beyond this fraction of the radius
-  Polygon fill;                      // region filled by packing (default: the domain polygon)
+  double kn = 1.0e6;             // normal spring [N/m] (paper §2.1.2)
+  double ks = 3.0e5;             // shear spring [N/m]
+  double mu_static = 0.5;        // μ_s, sticking limit
+  double mu_dynamic = 0.2;       // μ_D, while sliding
+  double rebound = 0.1;          // K, rebound coefficient (paper §2.1.2 iv)
+  double rebound_speed = 1.0;    // V_0 [m/s]
+  bool tension = false;          // allow tensile normal force (pile case 4)
+  double tensile_strength = 0.0; // [N], bond breaks beyond it
+  double eta_n = 0.0;            // normal dashpot [N·s/m] (cundall-dashpot)
+  double eta_s = 0.0;            // shear dashpot [N·s/m]
+  double restitution = 0.5;      // linear-restitution
+  double young = 7.0e10;         // hertz-mindlin [Pa]
+  double poisson = 0.25;         // hertz-mindlin
+  double damping_c = 0.0;        // global translational damping C (eq. 2.1) [1/s, per mass]
+  double damping_d = 0.0;        // global rotational damping D (eq. 2.2) [1/s, per inertia]
+  double dt = 0.0;               // 0 = automatic
+  double dt_safety =
+      0.05; // Δt = safety · 2√(m_min/k_max) = 0.1√(m_min/k_max): ≈ 22 steps per contact
+  double max_overlap = 0.5; // blow-up: overlap beyond this fraction of the radius
+  Polygon fill;             // region filled by packing (default: the domain polygon)
   Packing packing;
   // Explicit particles [x, z, r, vx, vz, ω] (verification scenes); when given, no packing is
   // generated and count must equal their number.
@@ -112,29 +113,29 @@ struct DemSoil {
 
 struct ContinuumSoil {
   ContinuumModel model = ContinuumModel::MohrCoulomb;
-  double young = 3.0e7;              // [Pa]
+  double young = 3.0e7; // [Pa]
   double poisson = 0.3;
-  double friction_angle = 0.5236;    // [rad] (file: degrees)
-  double cohesion = 0.0;             // [Pa]
-  double dilation_angle = 0.0;       // [rad] (file: degrees)
-  double tension_cutoff = 0.0;       // [Pa]
-  double density = 1700.0;           // [kg/m³]
-  double k0 = -1.0;                  // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
+  double friction_angle = 0.5236; // [rad] (file: degrees)
+  double cohesion = 0.0;          // [Pa]
+  double dilation_angle = 0.0;    // [rad] (file: degrees)
+  double tension_cutoff = 0.0;    // [Pa]
+  double density = 1700.0;        // [kg/m³]
+  double k0 = -1.0;               // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
 };
 
 struct ContinuumOptions {
   int refinement = 3;
   int degree = 2;
-  double dt = 0.0;                   // dynamic step [s] (0 = automatic)
+  double dt = 0.0; // dynamic step [s] (0 = automatic)
   double newmark_beta = 0.25;
   double newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0;
   double rayleigh_beta = 0.0;
-  bool absorbing = false;            // Lysmer dashpots on the sides and base
-  std::string linear_solver = "cg-amg"; // cg-amg | gmres-amg | direct
-  std::string interface = "tied";       // tied | frictional
+  bool absorbing = false;                   // Lysmer dashpots on the sides and base
+  std::string linear_solver = "cg-amg";     // cg-amg | gmres-amg | direct
+  std::string interface = "tied";           // tied | frictional
   double interface_friction_angle = 0.3491; // [rad]
-  int load_steps = 20;               // static procedure
+  int load_steps = 20;                      // static procedure
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
 };
@@ -147,80 +148,80 @@ struct Soil {
 struct Wall {
   std::string name;
   Polyline points;
-  std::optional<double> mu_static;   // default: the soil's
+  std::optional<double> mu_static; // default: the soil's
   std::optional<double> mu_dynamic;
-  std::optional<double> opens_at;    // removed at this time [s] (Ontake river hole)
-  bool record = false;               // write its reaction history
+  std::optional<double> opens_at; // removed at this time [s] (Ontake river hole)
+  bool record = false;            // write its reaction history
 };
 
 struct Structure {
   std::string name;
   StructureKind kind = StructureKind::Footing;
-  Polygon outline;                   // counter-clockwise
+  Polygon outline; // counter-clockwise
   // When given as a rectangle, its parameters are kept so variants can override them.
   double width = 0.0;
   double height = 0.0;
-  Vec2 base_centre;                  // centre of the base edge
-  double density = 2400.0;           // [kg/m³] with the soil's thickness; or mass
-  double mass = 0.0;                 // [kg] (0 = from density and area)
-  double inertia = 0.0;              // about the pivot [kg·m²] (0 = from the outline)
-  Vec2 pivot;                        // rotation centre (default: base centre, paper §5)
+  Vec2 base_centre;        // centre of the base edge
+  double density = 2400.0; // [kg/m³] with the soil's thickness; or mass
+  double mass = 0.0;       // [kg] (0 = from density and area)
+  double inertia = 0.0;    // about the pivot [kg·m²] (0 = from the outline)
+  Vec2 pivot;              // rotation centre (default: base centre, paper §5)
   DofMode dof_x = DofMode::Fixed;
   DofMode dof_z = DofMode::Fixed;
   DofMode dof_rotation = DofMode::Fixed;
   TimeFunction motion_x, motion_z, motion_rotation; // prescribed displacements [m], [rad]
   TimeFunction force_x, force_z, moment;            // external loads [N], [N·m]
-  Vec2 load_point;                   // where force_x, force_z act (default: top centre)
+  Vec2 load_point; // where force_x, force_z act (default: top centre)
   bool dead_weight = true;
-  std::optional<double> mu_static;   // soil–structure friction (default: the soil's)
+  std::optional<double> mu_static; // soil–structure friction (default: the soil's)
   std::optional<double> mu_dynamic;
-  std::vector<std::string> record;   // thrust, pressure-profile, motion
+  std::vector<std::string> record; // thrust, pressure-profile, motion
 };
 
 struct Shaking {
-  char direction = 'x';              // 'x' or 'z'
-  TimeFunction acceleration;         // A·sin(2πft) [m/s²] applied as body force m·a
+  char direction = 'x';      // 'x' or 'z'
+  TimeFunction acceleration; // A·sin(2πft) [m/s²] applied as body force m·a
 };
 
 struct Load {
-  double gravity = 9.81;             // [m/s²] along −z
+  double gravity = 9.81; // [m/s²] along −z
   std::optional<Shaking> shaking;
 };
 
 struct Group {
   std::string name;
-  Polygon region;                    // particles whose centre is inside at the time of use
+  Polygon region; // particles whose centre is inside at the time of use
 };
 
 struct Event {
   double time = 0.0;
   EventAction action = EventAction::SetFriction;
-  std::string group;                 // set-friction
-  std::string wall;                  // open-wall
+  std::string group; // set-friction
+  std::string wall;  // open-wall
   double mu_static = 0.0;
   double mu_dynamic = 0.0;
 };
 
 struct Probe {
   ProbeKind kind = ProbeKind::Energy;
-  std::string target;                // structure or wall name where relevant
-  double interval = 0.0;             // [s] (0 = output.probe_interval)
-  int bins = 20;                     // pressure and surface profiles
-  std::vector<Vec2> points;          // loci: the particles nearest to these points are traced
+  std::string target;       // structure or wall name where relevant
+  double interval = 0.0;    // [s] (0 = output.probe_interval)
+  int bins = 20;            // pressure and surface profiles
+  std::vector<Vec2> points; // loci: the particles nearest to these points are traced
 };
 
 struct Output {
-  double interval = 0.5;             // snapshots (.vtp/.vtu) every … [s]
-  double probe_interval = 0.01;      // time series every … [s]
+  double interval = 0.5;        // snapshots (.vtp/.vtu) every … [s]
+  double probe_interval = 0.01; // time series every … [s]
   bool vtk = true;
   bool force_chains = true;
   bool figures = true;
-  double checkpoint_interval = 0.0;  // [s] (0 = at the end and on interrupt only)
+  double checkpoint_interval = 0.0; // [s] (0 = at the end and on interrupt only)
 };
 
 struct Scene {
-  std::string source_file;           // where it was read from
-  std::string variant;               // "" for the base scene
+  std::string source_file; // where it was read from
+  std::string variant;     // "" for the base scene
   Info info;
   Polygon domain;
   Soil soil;
@@ -234,16 +235,18 @@ struct Scene {
   ContinuumOptions continuum;
 
   [[nodiscard]] bool uses(Solver s) const;
-  [[nodiscard]] std::string label() const { return variant.empty() ? info.name : info.name + "/" + variant; }
+  [[nodiscard]] std::string label() const {
+    return variant.empty() ? info.name : info.name + "/" + variant;
+  }
   [[nodiscard]] const Structure* structure(const std::string& name) const;
   [[nodiscard]] const Wall* wall(const std::string& name) const;
   [[nodiscard]] const Group* group(const std::string& name) const;
 };
 
 // ---- geometry helpers used by validation and both solvers --------------------------------------
-[[nodiscard]] double signed_area(const Polygon& p);          // > 0 when counter-clockwise
+[[nodiscard]] double signed_area(const Polygon& p); // > 0 when counter-clockwise
 [[nodiscard]] bool self_intersects(const Polygon& p);
-[[nodiscard]] bool contains(const Polygon& p, Vec2 q);      // even–odd rule
+[[nodiscard]] bool contains(const Polygon& p, Vec2 q); // even–odd rule
 [[nodiscard]] Vec2 centroid(const Polygon& p);
 
 template <std::size_t N>
