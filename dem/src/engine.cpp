@@ -19,6 +19,28 @@ namespace demfem::dem {
 
 namespace {
 
+// Active pairs (owner i < partner j) with their contact history, stored as the CSR neighbour list
+// (sorted by owner, then partner) that rebuild() merges with the new candidates.
+void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
+                     const std::vector<std::uint32_t>& pj, const std::vector<ContactHistory>& ph,
+                     std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& partner,
+                     std::vector<ContactHistory>& hist) {
+  std::vector<std::uint32_t> ord(pi.size());
+  std::iota(ord.begin(), ord.end(), 0u);
+  std::sort(ord.begin(), ord.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return pi[x] != pi[y] ? pi[x] < pi[y] : pj[x] < pj[y];
+  });
+  start.assign(n + 1, 0);
+  partner.resize(ord.size());
+  hist.resize(ord.size());
+  for (std::size_t k = 0; k < ord.size(); ++k) {
+    ++start[pi[ord[k]] + 1];
+    partner[k] = pj[ord[k]];
+    hist[k] = ph[ord[k]];
+  }
+  for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+}
+
 constexpr double kPi = 3.14159265358979323846;
 
 template <class T> void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
@@ -365,20 +387,7 @@ void Engine::reorder() {
         ph.push_back(nbr_hist_[k]);
       }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
-  std::vector<std::uint32_t> ord(pi.size());
-  std::iota(ord.begin(), ord.end(), 0u);
-  std::sort(ord.begin(), ord.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return pi[a] != pi[b] ? pi[a] < pi[b] : pj[a] < pj[b];
-  });
-  nbr_start_.assign(n + 1, 0);
-  nbr_j_.resize(ord.size());
-  nbr_hist_.resize(ord.size());
-  for (std::size_t k = 0; k < ord.size(); ++k) {
-    ++nbr_start_[pi[ord[k]] + 1];
-    nbr_j_[k] = pj[ord[k]];
-    nbr_hist_[k] = ph[ord[k]];
-  }
-  for (std::size_t i = 0; i < n; ++i) nbr_start_[i + 1] += nbr_start_[i];
+  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
   for (auto& bi : bnd_i_) bi = new_of[bi];
   {
     std::vector<std::uint32_t> o(bnd_i_.size());
@@ -1452,20 +1461,8 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
     pj.push_back(v);
     ph.push_back(h[k]);
   }
-  std::vector<std::uint32_t> ord(pi.size());
-  std::iota(ord.begin(), ord.end(), 0u);
-  std::sort(ord.begin(), ord.end(), [&](std::uint32_t x, std::uint32_t y) {
-    return pi[x] != pi[y] ? pi[x] < pi[y] : pj[x] < pj[y];
-  });
-  nbr_start_.assign(n + 1, 0);
-  nbr_j_.resize(ord.size());
-  nbr_hist_.resize(ord.size());
-  for (std::size_t k = 0; k < ord.size(); ++k) {
-    ++nbr_start_[pi[ord[k]] + 1];
-    nbr_j_[k] = pj[ord[k]];
-    nbr_hist_[k] = ph[ord[k]];
-  }
-  for (std::size_t i = 0; i < n; ++i) nbr_start_[i + 1] += nbr_start_[i];
+  // Store as a CSR list holding only the active pairs; rebuild() merges it.
+  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
   bnd_i_.clear();
   bnd_f_.clear();
   bnd_hist_.clear();
