@@ -233,6 +233,33 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     sum["walls"] = jw;
   }
 
+  // ---- force distribution along each recorded wall: pressure per bin, bin 0 at the bottom -------
+  for (const auto& wall : scene.structures) {
+    const auto pr = try_csv(dem / ("pressure_" + wall.name + ".csv"), out);
+    if (pr.rows.empty() || pr.columns.size() < 2) continue;
+    const auto t = pr.column("time");
+    const std::size_t nb = pr.columns.size() - 1;
+    const double ts = scene.load.shaking ? scene.load.shaking->acceleration.start : 0.0;
+    const double tend = t.empty() ? 0.0 : t.back();
+    Series before{"at rest (mean before shaking)", {}, {}, "linespoints", "lw 2 pt 7"};
+    Series during{"shaking (time mean)", {}, {}, "linespoints", "lw 2 pt 5"};
+    Series last{"last snapshot", {}, {}, "lines", "dt 2"};
+    for (std::size_t b = 0; b < nb; ++b) {
+      const auto y = pr.column(strip_unit(pr.columns[b + 1]));
+      const double h = (static_cast<double>(b) + 0.5) / static_cast<double>(nb) * wall.height;
+      before.x.push_back(ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts) : mean_between(t, y, 0.0, 0.1));
+      during.x.push_back(mean_between(t, y, ts, tend));
+      last.x.push_back(y.empty() ? std::nan("") : y.back());
+      before.y.push_back(h);
+      during.y.push_back(h);
+      last.y.push_back(h);
+    }
+    draw(spec_of(fmt::format("{}: pressure along the wall — {}", wall.name, scene.label()),
+                 "normal pressure [Pa] (compression positive)", "height above the wall base [m]",
+                 {before, during, last}),
+         fig / (wall.name + "_pressure_profile.png"), out);
+  }
+
   // ---- surface profile: initial vs final, subsidence ------------------------------------------
   const auto sf = try_csv(dem / "surface.csv", out);
   if (sf.rows.size() >= 2) {
