@@ -247,7 +247,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     for (std::size_t b = 0; b < nb; ++b) {
       const auto y = pr.column(strip_unit(pr.columns[b + 1]));
       const double h = (static_cast<double>(b) + 0.5) / static_cast<double>(nb) * wall.height;
-      before.x.push_back(ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts) : mean_between(t, y, 0.0, 0.1));
+      before.x.push_back(ts > 0.2 ? mean_between(t, y, 0.5 * ts, ts)
+                                  : mean_between(t, y, 0.0, 0.1));
       during.x.push_back(mean_between(t, y, ts, tend));
       last.x.push_back(y.empty() ? std::nan("") : y.back());
       before.y.push_back(h);
@@ -389,6 +390,16 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         }
         bv.push_back(b);
       }
+      for (const auto& body : scene.structures) { // outlines where the scene puts them (initial)
+        dem::BoundaryView b;
+        b.name = body.name;
+        b.closed = true;
+        for (const auto& q : body.outline) {
+          b.x.push_back(q.x);
+          b.z.push_back(q.z);
+        }
+        bv.push_back(b);
+      }
       SnapshotSpec ss;
       ss.title = fmt::format("end of run (t = {:.3g} s), colour = speed, chains = K_n·δ — {}",
                              ck.meta.time, scene.label());
@@ -397,6 +408,15 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         out.figures.push_back(fig / "snapshot_final.png");
       else
         out.problems.push_back("snapshot_final: " + err);
+      // Velocity field at the end of the run (the paper's Figs. 3.6 and 6.x).
+      SnapshotSpec vs = ss;
+      vs.velocity_arrows = true;
+      vs.title = fmt::format("velocity field at t = {:.3g} s (arrows ∝ velocity) — {}",
+                             ck.meta.time, scene.label());
+      if (plot_particles(p, cv, bv, vs, fig / "velocity_field_final.png", &err))
+        out.figures.push_back(fig / "velocity_field_final.png");
+      else
+        out.problems.push_back("velocity_field_final: " + err);
     } catch (const std::exception& e) {
       out.problems.push_back(std::string("final.ckpt: ") + e.what());
     }

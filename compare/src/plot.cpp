@@ -210,6 +210,17 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
     d << "NaN NaN\n";
   }
   if (!(xmax > xmin)) xmin = 0, xmax = 1;
+  const fs::path vdat = stem.string() + ".velocity.dat";
+  if (spec.velocity_arrows) {
+    std::ofstream d(vdat);
+    d.precision(8);
+    const double scale = vmax > 0.0 ? 0.04 * (xmax - xmin) / vmax : 0.0; // metres per (m/s)
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
+      d << p.x[i] << " " << p.z[i] << " " << p.vx[i] * scale << " " << p.vz[i] * scale << "\n";
+    }
+    d << "NaN NaN NaN NaN\n";
+  }
   if (!(zmax > zmin)) zmin = 0, zmax = 1;
   const double aspect = (zmax - zmin) / (xmax - xmin);
   const int w = 1200;
@@ -233,7 +244,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   g << "set style fill solid 0.85 noborder\nset key off\n";
   std::string cl =
       fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
-  for (int block = 0; spec.force_chains && block < 2 * kClasses; ++block) {
+  for (int block = 0; spec.force_chains && !spec.velocity_arrows && block < 2 * kClasses; ++block) {
     if (!has_block[block]) continue;
     const bool tension = block >= kClasses;
     const double lw = 0.4 + spec.chain_width_max * ((block % kClasses) + 1) / kClasses;
@@ -242,6 +253,10 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
         quote(cdat.filename().string()), block, lw, tension ? "dt 2" : "",
         tension ? "#7b3294" : "#222222");
   }
+  if (spec.velocity_arrows)
+    cl += fmt::format(", \\\n  {} using 1:2:3:4 with vectors head filled size screen 0.006,20 "
+                      "lw 1 lc rgb '#111111'",
+                      quote(vdat.filename().string()));
   cl += fmt::format(", \\\n  {} using 1:2 with lines lw 3 lc rgb '#000000'",
                     quote(bdat.filename().string()));
   g << "plot " << cl << "\n";

@@ -48,6 +48,8 @@ struct SnapshotSpec {
   std::string title;
   bool force_chains = true;
   double chain_width_max = 4.0; // line width of the largest normal force
+  bool velocity_arrows = false; // velocity field: an arrow per particle, the fastest 4 % of the
+                                // picture's width long (drawn instead of force chains)
 };
 
 // Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|
