@@ -1,5 +1,7 @@
 #include "demfem/dem/engine.hpp"
 
+#include <optional>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -141,24 +143,33 @@ std::uint32_t Engine::add_particle(double x, double z, double r, double vx, doub
   return p_.id.back();
 }
 
-int Engine::add_wall(const std::vector<scene::Vec2>& points, const std::string& name,
-                     const double* mu_s, const double* mu_d) {
+// A boundary's vertices appended to the vertex arrays (world = reference at creation) and its
+// own friction when the scene gives one (default: the soil's, μ_D capped by μ_s).
+Boundary Engine::new_boundary(const std::string& name, const std::vector<scene::Vec2>& points,
+                              std::optional<double> mu_s, std::optional<double> mu_d) {
   Boundary b;
   b.name = name;
   b.first_vertex = static_cast<std::uint32_t>(bvx_.size());
   b.vertex_count = static_cast<std::uint32_t>(points.size());
   if (mu_s || mu_d) {
     b.own_friction = true;
-    b.mu_s = mu_s ? *mu_s : config_.materials[0].mu_s;
-    b.mu_d = mu_d ? *mu_d : std::min(b.mu_s, config_.materials[0].mu_d);
+    b.mu_s = mu_s.value_or(config_.materials[0].mu_s);
+    b.mu_d = mu_d.value_or(std::min(b.mu_s, config_.materials[0].mu_d));
   }
-  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
   for (const auto& q : points) {
     bvx_.push_back(q.x);
     bvz_.push_back(q.z);
     bvx0_.push_back(q.x);
     bvz0_.push_back(q.z);
   }
+  return b;
+}
+
+int Engine::add_wall(const std::vector<scene::Vec2>& points, const std::string& name,
+                     const double* mu_s, const double* mu_d) {
+  Boundary b = new_boundary(name, points, mu_s ? std::optional<double>(*mu_s) : std::nullopt,
+                            mu_d ? std::optional<double>(*mu_d) : std::nullopt);
+  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
   // Segments, then vertices with their adjacent segments.
   const std::uint32_t n = b.vertex_count;
   const auto seg0 = static_cast<std::int32_t>(features_.size());
@@ -209,24 +220,10 @@ int Engine::add_structure(const scene::Structure& s) {
   st.inertia = s.inertia > 0.0 ? s.inertia : (area > 0.0 ? st.mass / area * polar : 0.0);
 
   // Outline as a closed boundary with one-sided (outward) edges.
-  Boundary b;
-  b.name = s.name;
+  Boundary b = new_boundary(s.name, P, s.mu_static, s.mu_dynamic);
   b.closed = true;
-  b.first_vertex = static_cast<std::uint32_t>(bvx_.size());
-  b.vertex_count = static_cast<std::uint32_t>(P.size());
   b.structure = static_cast<int>(structures_.size());
-  if (s.mu_static || s.mu_dynamic) {
-    b.own_friction = true;
-    b.mu_s = s.mu_static.value_or(config_.materials[0].mu_s);
-    b.mu_d = s.mu_dynamic.value_or(std::min(b.mu_s, config_.materials[0].mu_d));
-  }
   const auto bi = static_cast<std::uint32_t>(boundaries_.size());
-  for (const auto& q : P) {
-    bvx_.push_back(q.x);
-    bvz_.push_back(q.z);
-    bvx0_.push_back(q.x);
-    bvz0_.push_back(q.z);
-  }
   const std::uint32_t n = b.vertex_count;
   const auto seg0 = static_cast<std::int32_t>(features_.size());
   for (std::uint32_t k = 0; k < n; ++k)

@@ -15,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -218,6 +219,8 @@ private:
   void update_boundary_vertices();
   void check_rebuild();
   void compute_mass(std::uint32_t i);
+  Boundary new_boundary(const std::string& name, const std::vector<scene::Vec2>& points,
+                        std::optional<double> mu_s, std::optional<double> mu_d);
   template <class Law>
   void pair_range(const Law& law, std::size_t i0, std::size_t i1, double* fx, double* fz,
                   double* tq, double* energies, std::uint32_t* fail_pair);
