@@ -1,12 +1,11 @@
 #include "demfem/dem/engine.hpp"
 
-#include <optional>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
