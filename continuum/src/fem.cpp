@@ -28,7 +28,10 @@
 #include <deal.II/numerics/data_out.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -96,6 +99,7 @@ struct QpState {
   mc::Vec3 stress{{0, 0, 0}};
   double syy = 0.0;
   double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
+  bool plastic = false;           // the return of the last evaluation was plastic
 };
 
 } // namespace
@@ -156,6 +160,85 @@ struct Model::Impl {
   }
 
   unsigned nq() const { return quad.size(); }
+
+  // Strain–displacement rows B_i(q) = (εxx, εzz, γxz) of shape function i at quadrature point q
+  // of the cell in `fv`, stored at [q·n + i]. With B-bar (Hughes 1980, "Generalization of
+  // selective integration procedures to anisotropic and nonlinear media"), the in-plane
+  // volumetric part θ_i = div φ_i is replaced by its L2 projection θ̄_i onto the polynomials of
+  // total degree p − 1 on the cell (Q2/P1 for p = 2; the mean dilatation for p = 1), in the
+  // plane-strain form ε̄ = ε + ½(θ̄ − θ)(1, 1, 0): the deviatoric part is kept, εyy stays 0.
+  struct CellB {
+    unsigned n = 0, nq = 0;
+    std::vector<std::array<double, 3>> rows; // [q·n + i]
+    std::vector<double> proj;                // θ̄(q) = Σ_q' proj[q·nq + q'] θ(q') (B-bar only)
+    [[nodiscard]] const std::array<double, 3>& operator()(unsigned i, unsigned q) const {
+      return rows[q * n + i];
+    }
+  };
+  void cell_b(const FEValues<2>& fv, CellB& b) const {
+    b.n = fe.n_dofs_per_cell();
+    b.nq = nq();
+    b.rows.resize(std::size_t(b.n) * b.nq);
+    for (unsigned q = 0; q < b.nq; ++q)
+      for (unsigned i = 0; i < b.n; ++i) {
+        const unsigned ci = fe.system_to_component_index(i).first;
+        const auto g = fv.shape_grad(i, q);
+        b.rows[q * b.n + i] = {{ci == 0 ? g[0] : 0.0, ci == 1 ? g[1] : 0.0, ci == 0 ? g[1] : g[0]}};
+      }
+    b.proj.clear();
+    if (!pb.bbar) return;
+    // monomials ξ^a ζ^c (a + c ≤ p − 1) in cell-scaled coordinates about the cell's centroid
+    const unsigned deg = static_cast<unsigned>(std::max(1, pb.degree)) - 1;
+    const auto& cell = fv.get_cell();
+    const auto ctr = cell->center();
+    const double h = cell->diameter();
+    std::vector<std::pair<unsigned, unsigned>> mono;
+    for (unsigned a = 0; a <= deg; ++a)
+      for (unsigned c = 0; a + c <= deg; ++c) mono.emplace_back(a, c);
+    const unsigned m = static_cast<unsigned>(mono.size());
+    FullMatrix<double> P(b.nq, m), G(m, m), Ginv(m, m);
+    for (unsigned q = 0; q < b.nq; ++q) {
+      const auto x = fv.quadrature_point(q);
+      const double xi = (x[0] - ctr[0]) / h, ze = (x[1] - ctr[1]) / h;
+      for (unsigned k = 0; k < m; ++k)
+        P(q, k) = std::pow(xi, mono[k].first) * std::pow(ze, mono[k].second);
+    }
+    for (unsigned k = 0; k < m; ++k)
+      for (unsigned l = 0; l < m; ++l) {
+        double s = 0;
+        for (unsigned q = 0; q < b.nq; ++q) s += P(q, k) * P(q, l) * fv.JxW(q);
+        G(k, l) = s;
+      }
+    Ginv.invert(G);
+    // proj = P G⁻¹ Pᵀ W (L2 projection onto span{P_k} evaluated at the quadrature points)
+    b.proj.assign(std::size_t(b.nq) * b.nq, 0.0);
+    for (unsigned q = 0; q < b.nq; ++q)
+      for (unsigned r = 0; r < b.nq; ++r) {
+        double s = 0;
+        for (unsigned k = 0; k < m; ++k)
+          for (unsigned l = 0; l < m; ++l) s += P(q, k) * Ginv(k, l) * P(r, l);
+        b.proj[q * b.nq + r] = s * fv.JxW(r);
+      }
+    std::vector<double> div(b.nq);
+    for (unsigned i = 0; i < b.n; ++i) {
+      for (unsigned q = 0; q < b.nq; ++q) div[q] = b.rows[q * b.n + i][0] + b.rows[q * b.n + i][1];
+      for (unsigned q = 0; q < b.nq; ++q) {
+        double bar = 0;
+        for (unsigned r = 0; r < b.nq; ++r) bar += b.proj[q * b.nq + r] * div[r];
+        const double corr = 0.5 * (bar - div[q]);
+        b.rows[q * b.n + i][0] += corr;
+        b.rows[q * b.n + i][1] += corr;
+      }
+    }
+  }
+  // ε̄ at every quadrature point of the cell from the nodal values `local` (Σ_i u_i B̄_i(q)).
+  static void cell_strain(const CellB& b, const dealii::Vector<double>& local,
+                          std::vector<mc::Vec3>& eps) {
+    eps.assign(b.nq, mc::Vec3{{0.0, 0.0, 0.0}});
+    for (unsigned q = 0; q < b.nq; ++q)
+      for (unsigned i = 0; i < b.n; ++i)
+        for (int k = 0; k < 3; ++k) eps[q][k] += local[i] * b(i, q)[k];
+  }
 
   void build_mesh() {
     const Mesh& m = pb.mesh;
@@ -503,10 +586,12 @@ struct Model::Impl {
 
   // Consistent mass matrix and initial elastic stiffness (for Rayleigh damping).
   void assemble_mass_and_elastic() {
-    FEValues<2> fv(mapping, fe, quad, update_values | update_gradients | update_JxW_values);
+    FEValues<2> fv(mapping, fe, quad,
+                   update_values | update_gradients | update_quadrature_points | update_JxW_values);
     const unsigned n = fe.n_dofs_per_cell();
     FullMatrix<double> cm(n, n), ck(n, n);
     std::vector<types::global_dof_index> ld(n);
+    CellB cb;
     M = 0;
     K0 = 0;
     for (const auto& cell : dof.active_cell_iterators()) {
@@ -516,18 +601,15 @@ struct Model::Impl {
       ck = 0;
       const auto C = mc::elastic_tangent(mat[cell->material_id()]);
       const double r = rho[cell->material_id()];
+      cell_b(fv, cb);
       for (unsigned q = 0; q < nq(); ++q) {
         for (unsigned i = 0; i < n; ++i) {
           const unsigned ci = fe.system_to_component_index(i).first;
-          const auto gi = fv.shape_grad(i, q);
-          const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
-                                ci == 0 ? gi[1] : gi[0]};
+          const auto& Bi = cb(i, q);
           for (unsigned j = 0; j < n; ++j) {
             const unsigned cj = fe.system_to_component_index(j).first;
             if (ci == cj) cm(i, j) += r * fv.shape_value(i, q) * fv.shape_value(j, q) * fv.JxW(q);
-            const auto gj = fv.shape_grad(j, q);
-            const double Bj[3] = {cj == 0 ? gj[0] : 0.0, cj == 1 ? gj[1] : 0.0,
-                                  cj == 0 ? gj[1] : gj[0]};
+            const auto& Bj = cb(j, q);
             double s = 0;
             for (int a = 0; a < 3; ++a)
               for (int b = 0; b < 3; ++b) s += Bi[a] * C[a][b] * Bj[b];
@@ -598,6 +680,17 @@ struct Model::Impl {
     bz = Fz / g.area + Mt * (x - g.xc) / g.J;
   }
 
+  bool predictor_tangent = false; // first Newton iteration: yielding points keep a plastic tangent
+  std::array<long, 9> returns{}; // quadrature points per mc::Return region in the last assembly
+  [[nodiscard]] std::string return_counts() const {
+    static const char* names[9] = {"el", "main", "edgeL", "edgeR", "apex",
+                                   "t",  "t+main", "t+edge", "t+apex"};
+    std::string s;
+    for (std::size_t k = 0; k < returns.size(); ++k)
+      if (returns[k] > 0) s += std::string(" ") + names[k] + "=" + std::to_string(returns[k]);
+    return s;
+  }
+
   // Residual (f_internal − fext, raw) and, if `matrix`, the tangent; the linear system (K, rhs =
   // −R) goes through `cons`. Trial states are updated.
   void assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
@@ -607,12 +700,14 @@ struct Model::Impl {
     FEFaceValues<2> ffv(mapping, fe, face_quad,
                         update_values | update_quadrature_points | update_normal_vectors |
                             update_JxW_values);
-    const FEValuesExtractors::Vector disp(0);
     const unsigned n = fe.n_dofs_per_cell();
     FullMatrix<double> ck(n, n);
     dealii::Vector<double> cr(n), cf(n), crhs(n);
     std::vector<types::global_dof_index> ld(n);
-    std::vector<SymmetricTensor<2, 2>> eps(nq());
+    std::vector<mc::Vec3> eps(nq());
+    dealii::Vector<double> local(n);
+    CellB cb;
+    returns.fill(0);
     if (matrix) K = 0;
     rhs = 0;
     res = 0;
@@ -622,7 +717,9 @@ struct Model::Impl {
     for (const auto& cell : dof.active_cell_iterators()) {
       if (!cell->is_locally_owned()) continue;
       fv.reinit(cell);
-      fv[disp].get_function_symmetric_gradients(u_ghost, eps);
+      cell_b(fv, cb);
+      cell->get_dof_values(u_ghost, local);
+      cell_strain(cb, local, eps);
       ck = 0;
       cr = 0;
       cf = 0;
@@ -632,10 +729,11 @@ struct Model::Impl {
       for (unsigned q = 0; q < nq(); ++q) {
         const QpState& c0 = committed[base + q];
         QpState& s = trial[base + q];
-        const mc::Vec3 e = {{eps[q][0][0], eps[q][1][1], 2.0 * eps[q][0][1]}};
+        const mc::Vec3& e = eps[q];
         mc::ElasticStrain tr = c0.ee;
         for (int k = 0; k < 3; ++k) tr.in_plane[k] += e[k] - c0.eps[k];
-        mc::Result r = mc::integrate(P, tr);
+        mc::Result r = mc::integrate(P, tr, predictor_tangent && c0.plastic);
+        ++returns[static_cast<std::size_t>(r.region)];
         if (r.region == mc::Return::Apex || r.region == mc::Return::TensionApex) {
           // the consistent apex tangent is zero (perfect plasticity); a whole element at the apex
           // would make K singular, so 1e-4 of the elastic tangent is kept there (affects the
@@ -645,6 +743,7 @@ struct Model::Impl {
             for (int bb = 0; bb < 3; ++bb) r.tangent[a][bb] = 1e-4 * De[a][bb];
         }
         s.ee = r.elastic;
+        s.plastic = r.region != mc::Return::Elastic;
         s.eps = e;
         s.stress = r.stress;
         s.syy = r.stress_yy;
@@ -666,9 +765,7 @@ struct Model::Impl {
         const double w = fv.JxW(q);
         for (unsigned i = 0; i < n; ++i) {
           const unsigned ci = fe.system_to_component_index(i).first;
-          const auto gi = fv.shape_grad(i, q);
-          const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
-                                ci == 0 ? gi[1] : gi[0]};
+          const auto& Bi = cb(i, q);
           cf(i) += (Bi[0] * r.stress[0] + Bi[1] * r.stress[1] + Bi[2] * r.stress[2]) * w;
           cr(i) -= fv.shape_value(i, q) * b[ci] * w;
           if (!matrix) continue;
@@ -676,10 +773,7 @@ struct Model::Impl {
           for (int a = 0; a < 3; ++a)
             for (int bb = 0; bb < 3; ++bb) BiC[bb] += Bi[a] * r.tangent[a][bb];
           for (unsigned j = 0; j < n; ++j) {
-            const unsigned cj = fe.system_to_component_index(j).first;
-            const auto gj = fv.shape_grad(j, q);
-            const double Bj[3] = {cj == 0 ? gj[0] : 0.0, cj == 1 ? gj[1] : 0.0,
-                                  cj == 0 ? gj[1] : gj[0]};
+            const auto& Bj = cb(j, q);
             ck(i, j) += (BiC[0] * Bj[0] + BiC[1] * Bj[1] + BiC[2] * Bj[2]) * w;
           }
         }
@@ -791,6 +885,8 @@ struct Model::Impl {
   }
 
   static constexpr double stagnation_tolerance = 1e-5;
+  // DEMFEM_NEWTON_TRACE=1: every step's Newton history (residual, return regions, line-search α)
+  const bool trace_newton = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
   // Newton iteration to equilibrium at (lambda, gfactor) [and time t when dynamic].
   StepStats newton(bool dynamic) {
     StepStats st;
@@ -823,16 +919,19 @@ struct Model::Impl {
     std::ostringstream trace;
     for (int it = 0; it <= pb.newton_max_iterations; ++it) {
       const AffineConstraints<double>& cons = it == 0 ? inh : hom;
+      predictor_tangent = it == 0;
       assemble(true, cons, dynamic);
+      predictor_tangent = false;
       if (dynamic) add_dynamic(true);
       // residual of the condensed system (periodic constraints fold rows): −rhs on free dofs
       const double rn = it == 0 ? free_norm(res) : rhs.l2_norm();
       ref = std::max({ref, f_internal.l2_norm(), res.l2_norm()});
       st.residual = ref > 0 ? rn / ref : rn;
-      trace << "  it " << it << " |R|/ref=" << st.residual << "\n";
+      trace << "  it " << it << " |R|/ref=" << st.residual << return_counts();
       if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
         st.converged = true;
         st.newton_iterations = it;
+        if (trace_newton) std::fprintf(stderr, "newton t=%g λ=%g\n%s\n", t, lambda, trace.str().c_str());
         return st;
       }
       if (it == pb.newton_max_iterations) break;
@@ -880,6 +979,7 @@ struct Model::Impl {
         u = u0;
         u.add(best_alpha, du);
       }
+      trace << " α=" << best_alpha << "\n";
     }
     log << "newton failed: λ=" << lambda << " g=" << gfactor << " t=" << t
         << " residual=" << st.residual << "\n"
@@ -1155,6 +1255,7 @@ Reaction Model::soil_reaction(std::size_t region) const {
   const auto& usp = m.fe.get_unit_support_points();
   std::vector<types::global_dof_index> ld(n);
   dealii::Vector<double> re(n);
+  Impl::CellB cb;
   Reaction out;
   std::vector<char> is_reg;
   if (R.is_dof.empty()) { // elastic region: its cells' dofs
@@ -1173,6 +1274,7 @@ Reaction Model::soil_reaction(std::size_t region) const {
     for (auto i : ld) touches = touches || mark[i];
     if (!touches) continue;
     fv.reinit(cell);
+    m.cell_b(fv, cb);
     re = 0;
     const mc::Parameters& P = m.mat[0];
     const double rho = m.rho[0];
@@ -1190,19 +1292,14 @@ Reaction Model::soil_reaction(std::size_t region) const {
           const unsigned cj = m.fe.system_to_component_index(j).first;
           vq[cj] += vg(ld[j]) * fv.shape_value(j, q);
           aq[cj] += ag(ld[j]) * fv.shape_value(j, q);
-          const auto gj = fv.shape_grad(j, q);
-          ev[0] += cj == 0 ? vg(ld[j]) * gj[0] : 0.0;
-          ev[1] += cj == 1 ? vg(ld[j]) * gj[1] : 0.0;
-          ev[2] += vg(ld[j]) * (cj == 0 ? gj[1] : gj[0]);
+          for (int k = 0; k < 3; ++k) ev[k] += vg(ld[j]) * cb(j, q)[k];
         }
       double sv[3] = {0, 0, 0}; // β C ε̇ (stiffness-proportional Rayleigh damping stress)
       for (int a = 0; a < 3; ++a)
         for (int c = 0; c < 3; ++c) sv[a] += m.pb.rayleigh_beta * C[a][c] * ev[c];
       for (unsigned i = 0; i < n; ++i) {
         const unsigned ci = m.fe.system_to_component_index(i).first;
-        const auto gi = fv.shape_grad(i, q);
-        const double Bi[3] = {ci == 0 ? gi[0] : 0.0, ci == 1 ? gi[1] : 0.0,
-                              ci == 0 ? gi[1] : gi[0]};
+        const auto& Bi = cb(i, q);
         double r = 0;
         for (int a = 0; a < 3; ++a) r += Bi[a] * (st.stress[a] + sv[a]);
         // residual: internal − body + ρ(a + α v) (Newmark inertia, mass-proportional damping)

@@ -96,6 +96,9 @@ struct Reaction {
 struct Problem {
   Mesh mesh;
   int degree = 2;
+  // B-bar (Hughes 1980): volumetric strain projected onto P(degree − 1) per cell, so that
+  // isochoric plastic flow (φ = ψ = 0) and near-incompressible soil do not lock
+  bool bbar = true;
   mc::Parameters soil;
   double density = 1700.0;
   std::vector<Region> regions; // material id k+1

@@ -108,7 +108,7 @@ double mc_yield(const Parameters& p, double s1, double s3) {
   return (s1 - s3) + (s1 + s3) * sp - 2.0 * p.cohesion * std::cos(p.friction);
 }
 
-Result integrate(const Parameters& p, const ElasticStrain& trial) {
+Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_predictor) {
   Result res;
   const double lam = p.lame(), G = p.shear_modulus();
   const Spectral sp = spectral(trial.in_plane[0], trial.in_plane[1], 0.5 * trial.in_plane[2]);
@@ -149,6 +149,17 @@ Result integrate(const Parameters& p, const ElasticStrain& trial) {
     const double tol = 1e-10 * scale;
     bool yielded = phi(0, s) > tol;
     if (tension && phi(3, s) > tol) yielded = true;
+    if (!yielded && plastic_predictor && phi(0, s) > -1e-6 * scale) {
+      // on the main plane: dσ/dσtr = I − DN aᵀ/(a·DN) (continuum elastoplastic tangent, Δγ = 0)
+      const Surface& f = surf[0];
+      const double trn = f.n[0] + f.n[1] + f.n[2];
+      double DN[3];
+      for (int i = 0; i < 3; ++i) DN[i] = lam * trn + 2 * G * f.n[static_cast<std::size_t>(i)];
+      const double aDN = f.a[0] * DN[0] + f.a[1] * DN[1] + f.a[2] * DN[2];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          dsdst[i][j] = ((i == j) ? 1.0 : 0.0) - DN[i] * f.a[static_cast<std::size_t>(j)] / aDN;
+    }
     if (yielded) {
       // D N_k in principal space: D = λ 1⊗1 + 2G I
       double DN[6][3];

@@ -72,6 +72,11 @@ ElasticStrain elastic_strain_from_stress(const Parameters& p, const Vec3& stress
 // generalised to non-associated flow and a tension cut-off by solving the linear multi-surface
 // closest-point system of each candidate active set (all surfaces are planes in principal space).
 // trial: elastic trial strain εe_n + Δε (Δεyy = 0 in plane strain).
-Result integrate(const Parameters& p, const ElasticStrain& trial);
+// plastic_predictor: a trial stress on the Mohr–Coulomb main plane (|Φ| within 1e-6 of the stress
+// scale, not beyond it) keeps its stress but gets the elastoplastic (continuum) tangent of the main
+// plane instead of the elastic one (region stays Elastic). For the first Newton iteration of a
+// step at points that were yielding at the end of the previous one, where the elastic tangent
+// overshoots (de Souza Neto et al. 2008 §4.1: the tangent of the last converged state).
+Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_predictor = false);
 
 } // namespace demfem::continuum::mc

@@ -92,6 +92,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   for (const auto& p : scene.domain) pb.mesh.domain.push_back({p.x, p.z});
   pb.mesh.refinement = options.refinement >= 0 ? options.refinement : co.refinement;
   pb.degree = options.degree >= 1 ? options.degree : co.degree;
+  pb.bbar = co.bbar;
 
   // ---- materials
   pb.soil.young = soil.young;

@@ -175,6 +175,7 @@ std::string to_toml(const Scene& s) {
     root.insert("continuum",
                 toml::table{{"refinement", o.refinement},
                             {"degree", o.degree},
+                            {"bbar", o.bbar},
                             {"dt", o.dt},
                             {"newmark_beta", o.newmark_beta},
                             {"newmark_gamma", o.newmark_gamma},

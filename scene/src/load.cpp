@@ -579,6 +579,7 @@ ContinuumOptions read_continuum_options(Reader& r) {
   ContinuumOptions o;
   o.refinement = r.integer("refinement", o.refinement, 0, 12);
   o.degree = r.integer("degree", o.degree, 1, 4);
+  o.bbar = r.boolean("bbar", o.bbar);
   o.dt = r.non_negative("dt", o.dt);
   o.newmark_beta = r.in_range("newmark_beta", o.newmark_beta, 0.0, 0.5);
   o.newmark_gamma = r.in_range("newmark_gamma", o.newmark_gamma, 0.0, 1.0);
@@ -593,11 +594,11 @@ ContinuumOptions read_continuum_options(Reader& r) {
   if (o.interface != "tied" && o.interface != "frictional")
     r.error("interface",
             fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
-  o.interface_friction_angle = r.in_range("interface_friction_angle", 20.0, 0.0, 89.0) * kDeg;
+  o.interface_friction_angle = r.in_range("interface_friction_angle", o.interface_friction_angle / kDeg, 0.0, 89.0) * kDeg;
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
   o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);
-  r.finish({"refinement", "degree", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
+  r.finish({"refinement", "degree", "bbar", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
             "rayleigh_beta", "absorbing", "linear_solver", "interface", "interface_friction_angle",
             "load_steps", "newton_tolerance", "newton_max_iterations"});
   return o;
