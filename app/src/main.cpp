@@ -110,6 +110,7 @@ struct SolverOutcome {
   bool ok = false;
   bool bad_input = false; // the solver refused the scene (SceneError)
   std::string message;
+  std::string note; // a successful run that ended early (e.g. a model validity limit)
 };
 
 // Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum).
@@ -147,6 +148,8 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       r.ran = true;
       r.ok = x.ok;
       r.message = x.message;
+      r.note = x.note;
+      if (!x.note.empty()) spdlog::warn("{}: continuum: {}", s.label(), x.note);
 #else
       r.message = "the continuum solver is not in this build (-DDEMFEM_WITH_CONTINUUM=OFF)";
 #endif
@@ -255,6 +258,7 @@ int cmd_compare(const RunArgs& a) {
       }
       if (r.ok) {
         any_ok = true;
+        if (!r.note.empty()) ro.notes.push_back(fmt::format("The {} run {}.", name, r.note));
       } else {
         ro.notes.push_back(
             fmt::format("The {} solver {}: {}", name, r.ran ? "failed" : "did not run", r.message));

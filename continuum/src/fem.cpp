@@ -139,12 +139,16 @@ struct Model::Impl {
   Vec u_ghost;
   std::vector<QpState> committed, trial;
   std::vector<mc::Parameters> mat; // by material id
+  std::vector<char> iface_cell;    // by active cell index: soil cell of the interface layer
+  mc::Parameters iface_mat;
   std::vector<double> rho;
   struct RegionGeom {
     double area = 0, xc = 0, zc = 0, J = 0;
   };
   std::vector<RegionGeom> geom;
-  double lambda = 0.0, gfactor = 0.0;
+  // load factors: tractions/patches/structure loads, gravity, and the structures' own weight (the
+  // K0 procedure starts with the soil's weight on and brings the structures' in by steps)
+  double lambda = 0.0, gfactor = 0.0, sfactor = 1.0;
   double t = 0.0;
   bool dyn_init = false;
   double xmin = 0, xmax = 0, zmin = 0, zmax = 0;
@@ -312,6 +316,25 @@ struct Model::Impl {
     owned = dof.locally_owned_dofs();
     DoFTools::extract_locally_relevant_dofs(dof, relevant);
 
+    // frictional interface: the soil cells sharing a face with a rigid region form a thin
+    // Mohr–Coulomb layer of the interface's strength (one cell thick at the current refinement)
+    iface_cell.assign(tria.n_active_cells(), 0);
+    if (pb.interface_friction >= 0.0) {
+      iface_mat = pb.soil;
+      iface_mat.plastic = true;
+      iface_mat.friction = pb.interface_friction;
+      iface_mat.cohesion = pb.interface_cohesion;
+      iface_mat.dilation = 0.0;
+      iface_mat.tension_cutoff = pb.soil.plastic ? pb.soil.tension_cutoff : -1.0;
+      for (const auto& cell : tria.active_cell_iterators()) {
+        if (cell->material_id() != 0) continue;
+        for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+          if (cell->face(f)->at_boundary()) continue;
+          const auto id = cell->neighbor(f)->material_id();
+          if (id > 0 && pb.regions[id - 1].rigid) iface_cell[cell->active_cell_index()] = 1;
+        }
+      }
+    }
     // materials
     mat.assign(pb.regions.size() + 1, pb.soil);
     rho.assign(pb.regions.size() + 1, pb.density);
@@ -724,7 +747,7 @@ struct Model::Impl {
       cr = 0;
       cf = 0;
       const auto id = cell->material_id();
-      const mc::Parameters& P = mat[id];
+      const mc::Parameters& P = iface_cell[cell->active_cell_index()] ? iface_mat : mat[id];
       const std::size_t base = cell->active_cell_index() * nq();
       for (unsigned q = 0; q < nq(); ++q) {
         const QpState& c0 = committed[base + q];
@@ -754,7 +777,8 @@ struct Model::Impl {
         // body force: gravity along −z, base shaking ρ·a(t), structure loads
         const auto xq = fv.quadrature_point(q);
         const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
-        double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor : 0.0};
+        double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0)
+                                   : 0.0};
         if (pb.shaking_component >= 0) b[pb.shaking_component] += rho[id] * shake;
         if (id > 0) {
           double bx = 0, bz = 0;
@@ -887,6 +911,7 @@ struct Model::Impl {
   static constexpr double stagnation_tolerance = 1e-5;
   // DEMFEM_NEWTON_TRACE=1: every step's Newton history (residual, return regions, line-search α)
   const bool trace_newton = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
+  const bool check_tangent = std::getenv("DEMFEM_TANGENT_CHECK") != nullptr;
   // Newton iteration to equilibrium at (lambda, gfactor) [and time t when dynamic].
   StepStats newton(bool dynamic) {
     StepStats st;
@@ -943,6 +968,37 @@ struct Model::Impl {
       }
       cons.distribute(du);
       if (!std::isfinite(du.l2_norm())) break;
+      if (check_tangent && it > 0) { // directional derivative of R along du vs K du = −R
+        const Vec u0(u), r0(rhs);
+        double rel[3];
+        int k = 0;
+        for (double h : {1e-3, 1e-5, 1e-7}) {
+          Vec rp(rhs), rm(rhs);
+          u = u0;
+          u.add(h, du);
+          assemble(false, hom, dynamic);
+          if (dynamic) add_dynamic(false);
+          rp = rhs;
+          u = u0;
+          u.add(-h, du);
+          assemble(false, hom, dynamic);
+          if (dynamic) add_dynamic(false);
+          rm = rhs;
+          // rhs = −R and K du = −R: a consistent K gives (rhs(u + h du) − rhs(u − h du))/(2h) =
+          // −dR[du] = −K du = R = −r0
+          rp -= rm;
+          rp *= 1.0 / (2 * h);
+          rp += r0;
+          rel[k++] = rp.l2_norm() / r0.l2_norm();
+        }
+        std::fprintf(stderr,
+                     "tangent check t=%g λ=%g it=%d: |dR[du] + R|/|R| = %.3e %.3e %.3e (h = 1e-3, "
+                     "1e-5, 1e-7 of the Newton step)\n",
+                     t, lambda, it, rel[0], rel[1], rel[2]);
+        u = u0;
+        assemble(true, hom, dynamic);
+        if (dynamic) add_dynamic(true);
+      }
       // backtracking line search on the free residual norm
       const Vec u0(u);
       double alpha = 1.0, best = 0.0, best_alpha = 1.0;
@@ -981,7 +1037,8 @@ struct Model::Impl {
       }
       trace << " α=" << best_alpha << "\n";
     }
-    log << "newton failed: λ=" << lambda << " g=" << gfactor << " t=" << t
+    log << "newton failed: λ=" << lambda << " g=" << gfactor << " structures' weight=" << sfactor
+        << " t=" << t
         << " residual=" << st.residual << "\n"
         << trace.str();
     st.converged = false;
@@ -992,11 +1049,12 @@ struct Model::Impl {
   void commit() { committed = trial; }
 
   // static load stepping with step cutting
-  StepStats static_to(double lam, double gf, int depth = 0) {
+  StepStats static_to(double lam, double gf, int depth = 0, double sf = 1.0) {
     const Vec u_save(u);
-    const double lam0 = lambda, gf0 = gfactor;
+    const double lam0 = lambda, gf0 = gfactor, sf0 = sfactor;
     lambda = lam;
     gfactor = gf;
+    sfactor = sf;
     StepStats st = newton(false);
     if (st.converged) {
       commit();
@@ -1007,12 +1065,13 @@ struct Model::Impl {
     u = u_save;
     lambda = lam0;
     gfactor = gf0;
+    sfactor = sf0;
     trial = committed;
     if (depth >= 8) return st;
     log << "step cut at λ=" << lam << "\n";
-    StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1);
+    StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1, 0.5 * (sf0 + sf));
     if (!a.converged) return a;
-    StepStats b = static_to(lam, gf, depth + 1);
+    StepStats b = static_to(lam, gf, depth + 1, sf);
     b.cuts = a.cuts + b.cuts + 1;
     b.newton_iterations += a.newton_iterations;
     b.linear_iterations += a.linear_iterations;
@@ -1114,7 +1173,19 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       }
     }
     m.trial = m.committed;
-    total = m.static_to(m.lambda, 1.0);
+    // the soil's weight balances the K0 stresses (up to the correction); the structures' weight
+    // comes in over `steps` load steps
+    m.gfactor = 1.0;
+    const bool structures = !m.pb.regions.empty();
+    steps = structures ? std::max(1, steps) : 1;
+    for (int k = 1; k <= steps; ++k) {
+      m.sfactor = structures ? double(k - 1) / steps : 1.0;
+      StepStats st = m.static_to(m.lambda, 1.0, 0, structures ? double(k) / steps : 1.0);
+      total.newton_iterations += st.newton_iterations;
+      total.linear_iterations += st.linear_iterations;
+      total.converged = st.converged;
+      if (!st.converged) break;
+    }
   } else {
     steps = std::max(1, steps);
     for (int k = 1; k <= steps; ++k) {
@@ -1492,7 +1563,8 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
       acc[6] += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w;
     }
     for (int k = 0; k < 7; ++k) cd[k][c] = float(acc[k] / a);
-    cd[7][c] = float(cell->material_id());
+    // material: 0 soil, k structure k, n_regions + 1 the interface layer
+    cd[7][c] = m.iface_cell[c] ? float(m.pb.regions.size() + 1) : float(cell->material_id());
     cd[8][c] = float(cell->subdomain_id());
   }
   DataOut<2> out;

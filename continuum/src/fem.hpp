@@ -102,6 +102,11 @@ struct Problem {
   mc::Parameters soil;
   double density = 1700.0;
   std::vector<Region> regions; // material id k+1
+  // Soil–structure interface. < 0: tied (the soil next to a structure is ordinary soil). ≥ 0:
+  // frictional: the soil cells sharing a face with a rigid region form a thin Mohr–Coulomb layer
+  // with this friction angle [rad], `interface_cohesion` and no dilation (one cell thick).
+  double interface_friction = -1.0;
+  double interface_cohesion = 0.0;
   double gravity = 9.81;       // along −z
   Bc left = Bc::Roller, right = Bc::Roller, bottom = Bc::Fixed, top = Bc::Free;
   bool fix_z_everywhere = false; // pure horizontal kinematics (shear column)

@@ -7,7 +7,10 @@
 //   the domain and all structures are removed (stair-stepped inclined boundaries);
 // - structures are rigid bodies tied to the soil: every dof of their cells follows the pivot's
 //   (ux, uz, θ), each fixed, free or prescribed as the scene says; their external force/moment
-//   histories act as body forces with the same resultant and moment;
+//   histories act as body forces with the same resultant and moment; with
+//   continuum.interface = "frictional" the soil cells touching a structure form a thin
+//   Mohr–Coulomb layer of wall friction δ (continuum.interface_friction_angle);
+// - soil: the domain polygon below soil.continuum.surface when given;
 // - boundaries: sides on rollers, base fixed.
 #include "demfem/continuum/run.hpp"
 
@@ -18,6 +21,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <set>
 
 #include "fem.hpp"
@@ -51,6 +55,22 @@ double top_of(const scene::Polygon& poly, double x, double fallback) {
   return top > -1e299 ? top : fallback;
 }
 
+// The part of `poly` below z = level (Sutherland & Hodgman 1974, one clipping edge).
+scene::Polygon clip_below(const scene::Polygon& poly, double level) {
+  scene::Polygon out;
+  for (std::size_t i = 0; i < poly.size(); ++i) {
+    const auto& a = poly[i];
+    const auto& b = poly[(i + 1) % poly.size()];
+    const bool ain = a.z <= level, bin = b.z <= level;
+    if (ain) out.push_back(a);
+    if (ain != bin) {
+      const double f = (level - a.z) / (b.z - a.z);
+      out.push_back({a.x + f * (b.x - a.x), level});
+    }
+  }
+  return out;
+}
+
 } // namespace
 
 RunSummary run(const scene::Scene& scene, const RunOptions& options) {
@@ -68,6 +88,17 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   const bool root = fem::MpiScope::rank() == 0;
   const scene::ContinuumSoil& soil = *scene.soil.continuum;
   const scene::ContinuumOptions& co = scene.continuum;
+  // the continuum soil: the domain polygon, below the ground surface when one is given
+  scene::Polygon domain = scene.domain;
+  if (soil.surface) {
+    domain = clip_below(scene.domain, *soil.surface);
+    if (domain.size() < 3 || std::abs(scene::signed_area(domain)) <= 0.0) {
+      summary.message = fmt::format("soil.continuum.surface = {} m leaves no soil in the domain "
+                                    "polygon; give a height above its lowest point",
+                                    *soil.surface);
+      return summary;
+    }
+  }
 
   fem::Problem pb;
   // ---- mesh
@@ -82,6 +113,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     zmax = std::max(zmax, p.z);
   };
   for (const auto& p : scene.domain) add(p);
+  for (const auto& p : domain) add(p);
   for (const auto& s : scene.structures)
     for (const auto& p : s.outline) add(p);
   const double h0 = std::min(xmax - xmin, zmax - zmin) / 4.0;
@@ -89,7 +121,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   pb.mesh.z0 = zmin;
   pb.mesh.dx = steps_through(xs, h0);
   pb.mesh.dz = steps_through(zs, h0);
-  for (const auto& p : scene.domain) pb.mesh.domain.push_back({p.x, p.z});
+  for (const auto& p : domain) pb.mesh.domain.push_back({p.x, p.z});
   pb.mesh.refinement = options.refinement >= 0 ? options.refinement : co.refinement;
   pb.degree = options.degree >= 1 ? options.degree : co.degree;
   pb.bbar = co.bbar;
@@ -129,6 +161,22 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     }
     r.dead_weight = s.dead_weight;
     pb.regions.push_back(r);
+  }
+  // ---- soil–structure interface
+  if (co.interface == "frictional") {
+    // Thin-layer interface: a layer with friction angle φ_l and ψ = 0 fails in simple shear at
+    // τ/σn = sin φ_l (Davis 1968, non-associated flow), so sin φ_l = tan δ gives a wall/base
+    // friction angle δ.
+    const double mu = std::tan(co.interface_friction_angle);
+    if (mu >= 1.0) {
+      summary.message = fmt::format(
+          "continuum.interface_friction_angle = {:.4g}°: the thin-layer interface needs δ < 45° "
+          "(its layer friction angle is asin(tan δ))",
+          co.interface_friction_angle * 180.0 / std::numbers::pi);
+      return summary;
+    }
+    pb.interface_friction = std::asin(mu);
+    pb.interface_cohesion = 0.0;
   }
   // ---- loads and procedures
   pb.gravity = scene.load.gravity;
@@ -306,8 +354,23 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     double next_probe = scene.output.probe_interval, next_out = scene.output.interval;
     long long newton_total = 0, linear_total = 0, cuts_total = 0;
     const auto t_dyn = std::chrono::steady_clock::now();
+    // solver statistics per step (benchmarks: bench/RESULTS.md)
+    std::ofstream stepfile;
+    if (root) {
+      stepfile.open(dir / "steps.csv");
+      stepfile << "step,time [s],newton iterations,linear iterations,step cuts,converged,"
+                  "wall [s]\n";
+    }
     for (long long step = 1; step <= nsteps; ++step) {
+      const auto t_step = std::chrono::steady_clock::now();
       const fem::StepStats st = m.dynamic_step(dt);
+      if (root)
+        stepfile << fmt::format(
+                        "{},{:.6g},{},{},{},{},{:.4f}\n", step, m.time(), st.newton_iterations,
+                        st.linear_iterations, st.cuts, st.converged ? 1 : 0,
+                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step)
+                            .count())
+                 << std::flush;
       newton_total += st.newton_iterations;
       linear_total += st.linear_iterations;
       cuts_total += st.cuts;
@@ -343,6 +406,25 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         options.progress(p);
       }
       summary.steps = step;
+      if (co.max_displacement > 0.0) { // small-strain validity limit
+        std::string over;
+        for (std::size_t k = 0; k < scene.structures.size() && over.empty(); ++k) {
+          const auto mo = m.region_motion(k);
+          if (std::hypot(mo.ux, mo.uz) > co.max_displacement)
+            over = fmt::format("{} moved {:.4g} m", scene.structures[k].name,
+                               std::hypot(mo.ux, mo.uz));
+        }
+        if (!over.empty()) {
+          if (t < next_probe - 1e-9 * dt && step != nsteps) write_probes(t);
+          if (vtk && t < next_out - 1e-9 * dt) m.write_vtu(dir.string(), "continuum", snapshot++);
+          summary.note = fmt::format(
+              "stopped at t = {:.4g} s of {:.4g} s: {} > continuum.max_displacement = {:.4g} m "
+              "(beyond the small-strain model's validity)",
+              t, duration, over, co.max_displacement);
+          if (root) log << summary.note << "\n";
+          break;
+        }
+      }
     }
     if (vtk) m.write_pvd(dir.string(), "continuum");
 
@@ -351,7 +433,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     const int n = 101;
     for (int i = 0; i < n; ++i) {
       const double x = xmin + (xmax - xmin) * i / (n - 1);
-      const double z = top_of(scene.domain, x, zmax) - 1e-9 * (zmax - zmin);
+      const double z = top_of(domain, x, zmax) - 1e-9 * (zmax - zmin);
       profile.emplace_back(x, -m.displacement({x, z}).z);
     }
     if (root) {
@@ -363,12 +445,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
       log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations, {} linear "
                          "iterations, {} step cuts, {:.3f} s wall per step ({:.1f} s)\n",
-                         nsteps, dt, newton_total, linear_total, cuts_total,
-                         wall_dyn / double(nsteps), wall_dyn);
+                         summary.steps, dt, newton_total, linear_total, cuts_total,
+                         wall_dyn / double(std::max(1LL, summary.steps)), wall_dyn);
     }
     summary.ok = true;
     summary.simulated_time = m.time();
-    summary.message = fmt::format("{} steps, {} dofs", nsteps, m.n_dofs());
+    summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
   } catch (const std::exception& e) {
     summary.ok = false;
     summary.message = std::string("continuum solver failed: ") + e.what();

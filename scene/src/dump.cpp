@@ -167,6 +167,8 @@ std::string to_toml(const Scene& s) {
                                          {"tension_cutoff", c->tension_cutoff},
                                          {"density", c->density},
                                          {"k0", c->k0}});
+    if (c->surface)
+      soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
   }
   if (!soil.empty()) root.insert("soil", soil);
 
@@ -187,7 +189,8 @@ std::string to_toml(const Scene& s) {
                             {"interface_friction_angle", deg(o.interface_friction_angle)},
                             {"load_steps", o.load_steps},
                             {"newton_tolerance", o.newton_tolerance},
-                            {"newton_max_iterations", o.newton_max_iterations}});
+                            {"newton_max_iterations", o.newton_max_iterations},
+                            {"max_displacement", o.max_displacement}});
   }
 
   if (!s.walls.empty()) {

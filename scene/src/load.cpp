@@ -570,8 +570,9 @@ ContinuumSoil read_continuum_soil(Reader& r) {
   s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
+  s.surface = r.opt_number("surface");
   r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "tension_cutoff", "density", "k0"});
+            "tension_cutoff", "density", "k0", "surface"});
   return s;
 }
 
@@ -598,9 +599,10 @@ ContinuumOptions read_continuum_options(Reader& r) {
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
   o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);
+  o.max_displacement = r.non_negative("max_displacement", o.max_displacement);
   r.finish({"refinement", "degree", "bbar", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
             "rayleigh_beta", "absorbing", "linear_solver", "interface", "interface_friction_angle",
-            "load_steps", "newton_tolerance", "newton_max_iterations"});
+            "load_steps", "newton_tolerance", "newton_max_iterations", "max_displacement"});
   return o;
 }
 

@@ -123,3 +123,54 @@ TEST(ContinuumStructures, FreeAndPrescribedRigidFooting) {
     }
   }
 }
+
+// Rigid block on a thin frictional interface layer (continuum.interface = "frictional", δ = 20°)
+// over a fixed base, pushed sideways by a growing force H under its own weight N: the layer
+// fails in simple shear at H/N = tan δ (layer φ_l = asin(tan δ), ψ = 0: τ/σn = sin φ_l, Davis
+// 1968), within 5 %. The rollers at the layer's ends add an end resistance that halves when the
+// layer doubles: 40 cells +5.5 %, 80 cells +2.6 % (Richardson: 0.363 for an endless layer). The
+// same block on a tied (ordinary, elastic) layer carries the largest force of the ramp.
+TEST(ContinuumStructures, FrictionalInterfaceSlidingLimit) {
+  const double B = 8.0, t = 0.1, hb = 0.5, delta = 20.0 * 3.14159265358979323846 / 180.0;
+  const double rho_b = 2.0e4, g = 9.81, N = rho_b * g * B * hb;
+  for (int frictional = 1; frictional >= 0; --frictional) {
+    Problem pb;
+    pb.mesh.x0 = 0.0;
+    pb.mesh.z0 = -t;
+    pb.mesh.dx = uniform(B, 80);
+    pb.mesh.dz = {t, hb};
+    pb.mesh.domain = {{0, -t}, {B, -t}, {B, 0}, {0, 0}};
+    pb.mesh.refinement = 0;
+    pb.soil.young = 1.0e8;
+    pb.soil.poisson = 0.3;
+    pb.soil.plastic = false; // only the interface layer can yield
+    pb.density = 1.0;        // weightless layer: σn = N/B
+    pb.gravity = g;
+    pb.left = pb.right = Bc::Roller; // lateral confinement (a free cohesionless end cannot stand)
+    if (frictional) pb.interface_friction = std::asin(std::tan(delta));
+    Region blk = rigid_region("block", {{0, 0}, {B, 0}, {B, hb}, {0, hb}}, {0.5 * B, 0});
+    blk.density = rho_b;
+    blk.mode[2] = Region::Mode::Fixed;
+    blk.force_x = demfem::scene::TimeFunction::constant(0.5 * N); // × load factor λ
+    pb.regions.push_back(blk);
+    Model m(pb);
+    ASSERT_TRUE(m.initialise_gravity(false, 0.0, 1).converged) << m.log();
+    double last = 0.0;
+    for (int k = 1; k <= 40; ++k) {
+      const double lam = 0.025 * k; // H/N up to 0.5
+      if (!m.static_step(lam).converged) break;
+      last = lam;
+    }
+    // the force the layer carries at the last converged state (step cutting may have advanced
+    // part of the failed step)
+    const double ratio = std::abs(m.soil_reaction(0).fx) / N;
+    std::printf("interface (%s): dofs=%zu carried H/N = %.4f (last full step %.4f, tan δ = %.4f), "
+                "block moved %.3e m\n",
+                frictional ? "frictional" : "tied", m.n_dofs(), ratio, 0.5 * last, std::tan(delta),
+                m.region_motion(0).ux);
+    if (frictional)
+      EXPECT_NEAR(ratio, std::tan(delta), 0.05 * std::tan(delta));
+    else
+      EXPECT_NEAR(ratio, 0.5, 1e-12);
+  }
+}

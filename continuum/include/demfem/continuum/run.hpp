@@ -19,6 +19,7 @@ struct RunOptions {
 struct RunSummary {
   bool ok = false;
   std::string message;
+  std::string note; // e.g. the run stopped early at the small-strain validity limit
   long long steps = 0;
   double simulated_time = 0.0;
   double wall_seconds = 0.0;

@@ -121,6 +121,9 @@ struct ContinuumSoil {
   double tension_cutoff = 0.0;    // [Pa]
   double density = 1700.0;        // [kg/m³]
   double k0 = -1.0;               // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
+  // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
+  // height of the deposited DEM bed); unset: the whole domain polygon
+  std::optional<double> surface;
 };
 
 struct ContinuumOptions {
@@ -139,6 +142,9 @@ struct ContinuumOptions {
   int load_steps = 20;                      // static procedure
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
+  // small-strain validity limit [m]: the run stops (successfully, with a note) when a structure's
+  // pivot has moved further than this; 0 = no limit
+  double max_displacement = 0.0;
 };
 
 struct Soil {
