@@ -704,9 +704,9 @@ struct Model::Impl {
   }
 
   bool predictor_tangent = false; // first Newton iteration: yielding points keep a plastic tangent
-  std::array<long, 9> returns{}; // quadrature points per mc::Return region in the last assembly
+  std::array<long, 9> returns{};  // quadrature points per mc::Return region in the last assembly
   [[nodiscard]] std::string return_counts() const {
-    static const char* names[9] = {"el", "main", "edgeL", "edgeR", "apex",
+    static const char* names[9] = {"el", "main",   "edgeL",  "edgeR", "apex",
                                    "t",  "t+main", "t+edge", "t+apex"};
     std::string s;
     for (std::size_t k = 0; k < returns.size(); ++k)
@@ -777,8 +777,8 @@ struct Model::Impl {
         // body force: gravity along −z, base shaking ρ·a(t), structure loads
         const auto xq = fv.quadrature_point(q);
         const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
-        double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0)
-                                   : 0.0};
+        double b[2] = {0.0,
+                       weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0};
         if (pb.shaking_component >= 0) b[pb.shaking_component] += rho[id] * shake;
         if (id > 0) {
           double bx = 0, bz = 0;
@@ -956,7 +956,8 @@ struct Model::Impl {
       if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
         st.converged = true;
         st.newton_iterations = it;
-        if (trace_newton) std::fprintf(stderr, "newton t=%g λ=%g\n%s\n", t, lambda, trace.str().c_str());
+        if (trace_newton)
+          std::fprintf(stderr, "newton t=%g λ=%g\n%s\n", t, lambda, trace.str().c_str());
         return st;
       }
       if (it == pb.newton_max_iterations) break;
@@ -1038,8 +1039,7 @@ struct Model::Impl {
       trace << " α=" << best_alpha << "\n";
     }
     log << "newton failed: λ=" << lambda << " g=" << gfactor << " structures' weight=" << sfactor
-        << " t=" << t
-        << " residual=" << st.residual << "\n"
+        << " t=" << t << " residual=" << st.residual << "\n"
         << trace.str();
     st.converged = false;
     st.newton_iterations = pb.newton_max_iterations;

@@ -107,7 +107,7 @@ struct Problem {
   // with this friction angle [rad], `interface_cohesion` and no dilation (one cell thick).
   double interface_friction = -1.0;
   double interface_cohesion = 0.0;
-  double gravity = 9.81;       // along −z
+  double gravity = 9.81; // along −z
   Bc left = Bc::Roller, right = Bc::Roller, bottom = Bc::Fixed, top = Bc::Free;
   bool fix_z_everywhere = false; // pure horizontal kinematics (shear column)
   std::vector<Traction> tractions;

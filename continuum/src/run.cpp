@@ -365,12 +365,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       const auto t_step = std::chrono::steady_clock::now();
       const fem::StepStats st = m.dynamic_step(dt);
       if (root)
-        stepfile << fmt::format(
-                        "{},{:.6g},{},{},{},{},{:.4f}\n", step, m.time(), st.newton_iterations,
-                        st.linear_iterations, st.cuts, st.converged ? 1 : 0,
-                        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step)
-                            .count())
-                 << std::flush;
+        stepfile
+            << fmt::format(
+                   "{},{:.6g},{},{},{},{},{:.4f}\n", step, m.time(), st.newton_iterations,
+                   st.linear_iterations, st.cuts, st.converged ? 1 : 0,
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count())
+            << std::flush;
       newton_total += st.newton_iterations;
       linear_total += st.linear_iterations;
       cuts_total += st.cuts;

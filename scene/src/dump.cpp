@@ -167,8 +167,7 @@ std::string to_toml(const Scene& s) {
                                          {"tension_cutoff", c->tension_cutoff},
                                          {"density", c->density},
                                          {"k0", c->k0}});
-    if (c->surface)
-      soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
+    if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
   }
   if (!soil.empty()) root.insert("soil", soil);
 

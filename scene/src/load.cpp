@@ -595,7 +595,8 @@ ContinuumOptions read_continuum_options(Reader& r) {
   if (o.interface != "tied" && o.interface != "frictional")
     r.error("interface",
             fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
-  o.interface_friction_angle = r.in_range("interface_friction_angle", o.interface_friction_angle / kDeg, 0.0, 89.0) * kDeg;
+  o.interface_friction_angle =
+      r.in_range("interface_friction_angle", o.interface_friction_angle / kDeg, 0.0, 89.0) * kDeg;
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
   o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);

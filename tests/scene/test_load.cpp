@@ -225,6 +225,26 @@ TEST(SceneLoad, UnknownShakingDirection) {
 TEST(SceneLoad, PoissonOutOfRange) {
   expect_error(mutate("young = 3.0e7", "young = 3.0e7\npoisson = 0.5"), 21, "must be in [-1, 0.5)");
 }
+TEST(SceneLoad, NegativeMaxDisplacement) {
+  expect_error(
+      mutate("friction_angle = 30", "friction_angle = 30\n\n[continuum]\nmax_displacement = -1"),
+      24, "must be ≥ 0, got -1", "continuum.max_displacement");
+}
+TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
+  const std::string text = mutate(
+      "friction_angle = 30",
+      "friction_angle = 30\nsurface = 5.0\n\n[continuum]\nbbar = false\nmax_displacement = 0.5");
+  const SceneFile f = parse_scene(text, "surface.toml");
+  ASSERT_TRUE(f.base.soil.continuum.has_value());
+  EXPECT_DOUBLE_EQ(*f.base.soil.continuum->surface, 5.0);
+  EXPECT_FALSE(f.base.continuum.bbar);
+  EXPECT_DOUBLE_EQ(f.base.continuum.max_displacement, 0.5);
+  // and they survive the resolved-scene round trip
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  EXPECT_DOUBLE_EQ(*again.base.soil.continuum->surface, 5.0);
+  EXPECT_FALSE(again.base.continuum.bbar);
+  EXPECT_DOUBLE_EQ(again.base.continuum.max_displacement, 0.5);
+}
 TEST(SceneLoad, UnknownStructureKind) {
   expect_error(mutate("kind = \"wall\"", "kind = \"dam\""), 25, "valid: pile, footing, wall");
 }

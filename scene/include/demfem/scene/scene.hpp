@@ -130,7 +130,7 @@ struct ContinuumOptions {
   int refinement = 3;
   int degree = 2;
   bool bbar = true; // B-bar: volumetric strain projected onto P(degree−1) per cell (no locking)
-  double dt = 0.0; // dynamic step [s] (0 = automatic)
+  double dt = 0.0;  // dynamic step [s] (0 = automatic)
   double newmark_beta = 0.25;
   double newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0;
