@@ -1174,18 +1174,10 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
     }
     m.trial = m.committed;
     // the soil's weight balances the K0 stresses (up to the correction); the structures' weight
-    // comes in over `steps` load steps
+    // comes in with it, and in halves (step cutting) if Newton does not converge at once
     m.gfactor = 1.0;
-    const bool structures = !m.pb.regions.empty();
-    steps = structures ? std::max(1, steps) : 1;
-    for (int k = 1; k <= steps; ++k) {
-      m.sfactor = structures ? double(k - 1) / steps : 1.0;
-      StepStats st = m.static_to(m.lambda, 1.0, 0, structures ? double(k) / steps : 1.0);
-      total.newton_iterations += st.newton_iterations;
-      total.linear_iterations += st.linear_iterations;
-      total.converged = st.converged;
-      if (!st.converged) break;
-    }
+    m.sfactor = m.pb.regions.empty() ? 1.0 : 0.0;
+    total = m.static_to(m.lambda, 1.0, 0, 1.0);
   } else {
     steps = std::max(1, steps);
     for (int k = 1; k <= steps; ++k) {
