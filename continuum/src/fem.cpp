@@ -1173,11 +1173,14 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       }
     }
     m.trial = m.committed;
-    // the soil's weight balances the K0 stresses (up to the correction); the structures' weight
-    // comes in with it, and in halves (step cutting) if Newton does not converge at once
+    // the soil's weight balances the K0 stresses (up to the correction); the structures are
+    // weightless here and their weight acts from the first dynamic step on, as in the DEM scenes,
+    // where a structure is held while the bed is deposited and released at t = 0 (so settlements
+    // include the settlement under the structure's own weight)
     m.gfactor = 1.0;
-    m.sfactor = m.pb.regions.empty() ? 1.0 : 0.0;
-    total = m.static_to(m.lambda, 1.0, 0, 1.0);
+    m.sfactor = 0.0;
+    total = m.static_to(m.lambda, 1.0, 0, 0.0);
+    m.sfactor = 1.0;
   } else {
     steps = std::max(1, steps);
     for (int k = 1; k <= steps; ++k) {

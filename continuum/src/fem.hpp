@@ -151,8 +151,10 @@ public:
   [[nodiscard]] std::size_t n_cells() const;
 
   // Geostatic stresses. use_k0: σzz = −ρ g depth (depth below the domain top at that x),
-  // σxx = σyy = K0 σzz, followed by an equilibrium correction; otherwise gravity is switched on
-  // in `steps` load steps. Displacements are reset to zero afterwards; stresses are kept.
+  // σxx = σyy = K0 σzz, followed by an equilibrium correction with the regions weightless (their
+  // weight acts in the steps that follow: a structure released at t = 0, as in the DEM scenes);
+  // otherwise gravity (regions included) is switched on in `steps` load steps. Displacements are
+  // reset to zero afterwards; stresses are kept.
   StepStats initialise_gravity(bool use_k0, double k0, int steps);
   // Static equilibrium at load factor `lambda` (tractions and patches scale with it; gravity is
   // on when it was initialised). Newton with line search; the increment is halved on failure.

@@ -161,9 +161,9 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
 }
 
 #ifdef DEMFEM_TEST_CONTINUUM
-// The pile-penetration scene with the continuum solver (coarse: refinement 1, ≈ 6 s): it runs,
-// stops at the small-strain validity limit with a note (exit 0), and writes the pile's probes
-// under the DEM's names with the settlement growing as the load grows.
+// The pile-penetration scene with the continuum solver (coarse: refinement 1): it runs, stops at
+// the small-strain validity limit with a note (exit 0), and writes the pile's probes under the
+// DEM's names. The pile's weight acts from t = 0 (released as in the DEM), so it settles at once.
 TEST(Cli, PileScenePlungesInTheContinuumAndStopsAtTheValidityLimit) {
   const fs::path out = fs::temp_directory_path() / ("demfem_pile_" + std::to_string(::getpid()));
   fs::remove_all(out);
@@ -174,25 +174,22 @@ TEST(Cli, PileScenePlungesInTheContinuumAndStopsAtTheValidityLimit) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("continuum.max_displacement"), std::string::npos) << r.out;
   std::ifstream csv(out / "continuum" / "structures.csv");
-  std::string header, line, last;
+  std::string header, line;
   std::getline(csv, header);
   EXPECT_NE(header.find("pile.settlement [m]"), std::string::npos) << header;
   int rows = 0;
-  double prev = -1.0, first_after_start = 0.0;
-  bool monotone = true;
+  double last = 0.0, at_half_second = 0.0;
   while (std::getline(csv, line)) {
     const auto c1 = line.find(',');
-    const double s = std::stod(line.substr(c1 + 1, line.find(',', c1 + 1) - c1 - 1));
-    if (rows == 10) first_after_start = s;
-    // no rebound under a monotone ramp (beyond the first steps' mm-size elastic transient)
-    monotone = monotone && s >= prev - 5e-3;
-    prev = s;
+    const double t = std::stod(line.substr(0, c1));
+    last = std::stod(line.substr(c1 + 1, line.find(',', c1 + 1) - c1 - 1));
+    if (t <= 0.5 + 1e-9) at_half_second = last;
     ++rows;
   }
   EXPECT_GT(rows, 50);
-  EXPECT_TRUE(monotone);
-  EXPECT_GT(prev, 1.0); // stopped just past the 1 m limit
-  EXPECT_LT(first_after_start, 0.5 * prev);
+  EXPECT_GT(at_half_second, 0.05); // under its own weight
+  EXPECT_GT(last, 1.0);            // stopped just past the 1 m limit
+  EXPECT_LT(last, 1.2);
   fs::remove_all(out);
 }
 #endif
