@@ -909,6 +909,7 @@ struct Model::Impl {
   }
 
   static constexpr double stagnation_tolerance = 1e-5;
+  static constexpr int max_nondescent = 3;
   // DEMFEM_NEWTON_TRACE=1: every step's Newton history (residual, return regions, line-search α)
   const bool trace_newton = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
   const bool check_tangent = std::getenv("DEMFEM_TANGENT_CHECK") != nullptr;
@@ -941,6 +942,7 @@ struct Model::Impl {
     inh.close();
     const bool sym = symmetric_tangent();
     double ref = 0.0;
+    int nondescent = 0;
     std::ostringstream trace;
     for (int it = 0; it <= pb.newton_max_iterations; ++it) {
       const AffineConstraints<double>& cons = it == 0 ? inh : hom;
@@ -1030,7 +1032,12 @@ struct Model::Impl {
           st.newton_iterations = it;
           return st;
         }
-        break;
+        // non-monotone escape: take the full Newton step anyway (a kink of the return map, not a
+        // wrong direction, usually blocks descent); give up after `max_nondescent` such steps
+        if (++nondescent > max_nondescent) break;
+        u.add(1.0, du);
+        trace << " α=1 (no descent)\n";
+        continue;
       }
       if (it > 0 && alpha != best_alpha) {
         u = u0;
