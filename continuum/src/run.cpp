@@ -359,7 +359,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (root) {
       stepfile.open(dir / "steps.csv");
       stepfile << "step,time [s],newton iterations,linear iterations,step cuts,converged,"
-                  "wall [s]\n";
+                  "relative residual,wall [s]\n";
     }
     for (long long step = 1; step <= nsteps; ++step) {
       const auto t_step = std::chrono::steady_clock::now();
@@ -367,8 +367,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       if (root)
         stepfile
             << fmt::format(
-                   "{},{:.6g},{},{},{},{},{:.4f}\n", step, m.time(), st.newton_iterations,
-                   st.linear_iterations, st.cuts, st.converged ? 1 : 0,
+                   "{},{:.6g},{},{},{},{},{:.3e},{:.4f}\n", step, m.time(), st.newton_iterations,
+                   st.linear_iterations, st.cuts, st.converged ? 1 : 0, st.residual,
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count())
             << std::flush;
       newton_total += st.newton_iterations;
