@@ -203,8 +203,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     std::ofstream log;
     if (root) {
       log.open(dir / "log.txt");
-      log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}\n",
-                         scene.label(), m.n_cells(), m.n_dofs(), pb.degree, pb.mesh.refinement);
+      log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}, "
+                         "linear solver {}\n",
+                         scene.label(), m.n_cells(), m.n_dofs(), pb.degree, pb.mesh.refinement,
+                         pb.linear_solver)
+          << std::flush; // kept if the run is killed
       if (co.absorbing)
         log << "absorbing: Lysmer dashpots on the left, right and bottom boundaries (components "
                "not constrained there: the vertical on the roller sides, none on the fixed base)\n";
@@ -215,6 +218,13 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       summary.message = "gravity initialisation did not converge\n" + m.log();
       return summary;
     }
+    if (root)
+      log << fmt::format(
+                 "setup and K0 initialisation: {:.2f} s wall ({} Newton, {} linear "
+                 "iterations)\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(),
+                 g.newton_iterations, g.linear_iterations)
+          << std::flush;
 
     // ---- time loop
     const double duration = scene.info.duration;
