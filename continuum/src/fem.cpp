@@ -146,8 +146,8 @@ struct Model::Impl {
     double area = 0, xc = 0, zc = 0, J = 0;
   };
   std::vector<RegionGeom> geom;
-  // load factors: tractions/patches/structure loads, gravity, and the structures' own weight (the
-  // K0 procedure starts with the soil's weight on and brings the structures' in by steps)
+  // load factors: tractions/patches/structure loads, gravity, and the structures' own weight (0
+  // during the K0 correction: the structures are released at t = 0)
   double lambda = 0.0, gfactor = 0.0, sfactor = 1.0;
   double t = 0.0;
   bool dyn_init = false;
@@ -174,7 +174,6 @@ struct Model::Impl {
   struct CellB {
     unsigned n = 0, nq = 0;
     std::vector<std::array<double, 3>> rows; // [q·n + i]
-    std::vector<double> proj;                // θ̄(q) = Σ_q' proj[q·nq + q'] θ(q') (B-bar only)
     [[nodiscard]] const std::array<double, 3>& operator()(unsigned i, unsigned q) const {
       return rows[q * n + i];
     }
@@ -189,7 +188,6 @@ struct Model::Impl {
         const auto g = fv.shape_grad(i, q);
         b.rows[q * b.n + i] = {{ci == 0 ? g[0] : 0.0, ci == 1 ? g[1] : 0.0, ci == 0 ? g[1] : g[0]}};
       }
-    b.proj.clear();
     if (!pb.bbar) return;
     // monomials ξ^a ζ^c (a + c ≤ p − 1) in cell-scaled coordinates about the cell's centroid
     const unsigned deg = static_cast<unsigned>(std::max(1, pb.degree)) - 1;
@@ -214,21 +212,22 @@ struct Model::Impl {
         G(k, l) = s;
       }
     Ginv.invert(G);
-    // proj = P G⁻¹ Pᵀ W (L2 projection onto span{P_k} evaluated at the quadrature points)
-    b.proj.assign(std::size_t(b.nq) * b.nq, 0.0);
+    // θ̄(q) = Σ_r proj[q·nq + r] θ(r), proj = P G⁻¹ Pᵀ W (L2 projection onto span{P_k} at the
+    // quadrature points)
+    std::vector<double> proj(std::size_t(b.nq) * b.nq, 0.0);
     for (unsigned q = 0; q < b.nq; ++q)
       for (unsigned r = 0; r < b.nq; ++r) {
         double s = 0;
         for (unsigned k = 0; k < m; ++k)
           for (unsigned l = 0; l < m; ++l) s += P(q, k) * Ginv(k, l) * P(r, l);
-        b.proj[q * b.nq + r] = s * fv.JxW(r);
+        proj[q * b.nq + r] = s * fv.JxW(r);
       }
     std::vector<double> div(b.nq);
     for (unsigned i = 0; i < b.n; ++i) {
       for (unsigned q = 0; q < b.nq; ++q) div[q] = b.rows[q * b.n + i][0] + b.rows[q * b.n + i][1];
       for (unsigned q = 0; q < b.nq; ++q) {
         double bar = 0;
-        for (unsigned r = 0; r < b.nq; ++r) bar += b.proj[q * b.nq + r] * div[r];
+        for (unsigned r = 0; r < b.nq; ++r) bar += proj[q * b.nq + r] * div[r];
         const double corr = 0.5 * (bar - div[q]);
         b.rows[q * b.n + i][0] += corr;
         b.rows[q * b.n + i][1] += corr;
@@ -979,18 +978,16 @@ struct Model::Impl {
         const Vec u0(u), r0(rhs);
         double rel[3];
         int k = 0;
+        auto rhs_at = [&](double s) { // rhs at u0 + s du
+          u = u0;
+          u.add(s, du);
+          assemble(false, hom, dynamic);
+          if (dynamic) add_dynamic(false);
+          return Vec(rhs);
+        };
         for (double h : {1e-3, 1e-5, 1e-7}) {
-          Vec rp(rhs), rm(rhs);
-          u = u0;
-          u.add(h, du);
-          assemble(false, hom, dynamic);
-          if (dynamic) add_dynamic(false);
-          rp = rhs;
-          u = u0;
-          u.add(-h, du);
-          assemble(false, hom, dynamic);
-          if (dynamic) add_dynamic(false);
-          rm = rhs;
+          Vec rp = rhs_at(h);
+          const Vec rm = rhs_at(-h);
           // rhs = −R and K du = −R: a consistent K gives (rhs(u + h du) − rhs(u − h du))/(2h) =
           // −dR[du] = −K du = R = −r0
           rp -= rm;
@@ -1059,6 +1056,14 @@ struct Model::Impl {
 
   void commit() { committed = trial; }
 
+  // statistics of a step taken as two halves a, b (b's convergence and residual)
+  static StepStats halves(const StepStats& a, StepStats b) {
+    b.cuts += a.cuts + 1;
+    b.newton_iterations += a.newton_iterations;
+    b.linear_iterations += a.linear_iterations;
+    return b;
+  }
+
   // static load stepping with step cutting
   StepStats static_to(double lam, double gf, int depth = 0, double sf = 1.0) {
     const Vec u_save(u);
@@ -1082,11 +1087,7 @@ struct Model::Impl {
     log << "step cut at λ=" << lam << "\n";
     StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1, 0.5 * (sf0 + sf));
     if (!a.converged) return a;
-    StepStats b = static_to(lam, gf, depth + 1, sf);
-    b.cuts = a.cuts + b.cuts + 1;
-    b.newton_iterations += a.newton_iterations;
-    b.linear_iterations += a.linear_iterations;
-    return b;
+    return halves(a, static_to(lam, gf, depth + 1, sf));
   }
 
   // One Newmark step of dt; on a Newton failure the step is undone and taken as two halves
@@ -1118,11 +1119,7 @@ struct Model::Impl {
     log << "dynamic step cut at t=" << t0 << " dt=" << dt << "\n";
     StepStats a = dynamic_to(0.5 * dt, depth + 1);
     if (!a.converged) return a;
-    StepStats b = dynamic_to(0.5 * dt, depth + 1);
-    b.cuts = a.cuts + b.cuts + 1;
-    b.newton_iterations += a.newton_iterations;
-    b.linear_iterations += a.linear_iterations;
-    return b;
+    return halves(a, dynamic_to(0.5 * dt, depth + 1));
   }
 
   double top_at(double x) const {

@@ -420,9 +420,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         std::string over;
         for (std::size_t k = 0; k < scene.structures.size() && over.empty(); ++k) {
           const auto mo = m.region_motion(k);
-          if (std::hypot(mo.ux, mo.uz) > co.max_displacement)
-            over = fmt::format("{} moved {:.4g} m", scene.structures[k].name,
-                               std::hypot(mo.ux, mo.uz));
+          const double moved = std::hypot(mo.ux, mo.uz);
+          if (moved > co.max_displacement)
+            over = fmt::format("{} moved {:.4g} m", scene.structures[k].name, moved);
         }
         if (!over.empty()) {
           if (t < next_probe - 1e-9 * dt && step != nsteps) write_probes(t);
