@@ -86,6 +86,7 @@ EngineConfig make_config(const scene::Scene& scene) {
   c.damping_d = d.damping_d;
   c.density = d.density;
   c.thickness = d.thickness;
+  c.sphere_mass = d.sphere_mass;
   c.max_overlap = d.max_overlap;
   c.dt_safety = d.dt_safety;
   c.materials = {Material{d.mu_static, d.mu_dynamic}};
@@ -109,6 +110,13 @@ std::uint16_t Engine::add_material(Material m) {
 
 void Engine::compute_mass(std::uint32_t i) {
   const double r = p_.radius[i];
+  if (config_.sphere_mass) {
+    const double m = config_.density * 4.0 / 3.0 * kPi * r * r * r; // m = ρ(4/3)πr³ (sphere)
+    p_.mass[i] = m;
+    p_.inv_mass[i] = 1.0 / m;
+    p_.inv_inertia[i] = 1.0 / (0.4 * m * r * r); // I = (2/5) m r² (solid sphere)
+    return;
+  }
   const double m = config_.density * kPi * r * r * config_.thickness; // m = ρπr²t (PFC2D)
   p_.mass[i] = m;
   p_.inv_mass[i] = 1.0 / m;

@@ -150,7 +150,10 @@ std::string to_toml(const Scene& s) {
                                                            {"max_time", d->packing.max_time},
                                                            {"damping", d->packing.damping},
                                                            {"cache", d->packing.cache}}}});
-    if (!d->particles.empty()) {
+    if (d->sphere_mass) soil.get_as<toml::table>("dem")->insert("particle_mass", "sphere");
+    if (!d->particles_file.empty()) {
+      soil.get_as<toml::table>("dem")->insert("particles_file", d->particles_file);
+    } else if (!d->particles.empty()) {
       toml::array list;
       for (const auto& q : d->particles)
         list.push_back(toml::array{q[0], q[1], q[2], q[3], q[4], q[5]});

@@ -12,6 +12,8 @@
 #include <fmt/ranges.h>
 #include <toml++/toml.h>
 
+#include "demfem/scene/particles_file.hpp"
+
 namespace demfem::scene {
 
 std::string Diagnostic::format() const {
@@ -466,7 +468,8 @@ RadiusDistribution read_radius(Reader& parent) {
 DemSoil read_dem_soil(Reader& r) {
   DemSoil s;
   s.count = r.integer("count", 0, 1, 100'000'000);
-  if (!r.has("count")) r.error_here("missing required key 'count' (number of particles)");
+  if (!r.has("count") && !r.has("particles_file"))
+    r.error_here("missing required key 'count' (number of particles)");
   s.radius = read_radius(r);
   s.density = r.positive("density", s.density);
   s.thickness = r.positive("thickness", s.thickness);
@@ -528,6 +531,36 @@ DemSoil read_dem_soil(Reader& r) {
       r.error("particles",
               fmt::format("count = {} but {} particles are listed", s.count, a->size()));
   }
+  if (const auto pf = r.opt_string("particles_file")) {
+    if (r.has("particles"))
+      r.error("particles_file", "give either 'particles' (inline list) or 'particles_file', not "
+                                "both");
+    std::filesystem::path path(*pf);
+    if (path.is_relative()) path = std::filesystem::path(r.file()).parent_path() / path;
+    std::error_code ec;
+    if (pf->empty() || !std::filesystem::is_regular_file(path, ec)) {
+      r.error("particles_file",
+              fmt::format("cannot open particle file '{}' (resolved relative to the scene "
+                          "file's directory: '{}'); give an existing .csv or .npy file",
+                          *pf, path.string()));
+    } else {
+      s.particles_file = std::filesystem::absolute(path, ec).lexically_normal().string();
+      s.particles = read_particles_file(path, r.key_path("particles_file"), r.diags());
+      if (r.has("count") && !s.particles.empty() &&
+          static_cast<std::size_t>(s.count) != s.particles.size())
+        r.error("count", fmt::format("count = {} but {} holds {} particles; give count = {} or "
+                                     "leave count out",
+                                     s.count, *pf, s.particles.size(), s.particles.size()));
+      if (!r.has("count")) s.count = static_cast<int>(s.particles.size());
+    }
+  }
+  if (const auto pm = r.opt_string("particle_mass")) {
+    if (*pm == "sphere")
+      s.sphere_mass = true;
+    else if (*pm != "disk")
+      r.error("particle_mass",
+              fmt::format("unknown mass convention '{}'; valid: disk, sphere", *pm));
+  }
   r.finish({"count",
             "radius",
             "density",
@@ -553,7 +586,9 @@ DemSoil read_dem_soil(Reader& r) {
             "max_overlap",
             "fill",
             "packing",
-            "particles"});
+            "particles",
+            "particles_file",
+            "particle_mass"});
   return s;
 }
 

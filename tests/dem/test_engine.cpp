@@ -542,3 +542,22 @@ TEST(DemConservation, DiluteElasticGasEnergyDriftBelowHalfPercentAtDefaultDt) {
   ASSERT_FALSE(failed) << why;
   EXPECT_LT(std::abs(drift), 0.005);
 }
+
+// particle_mass = "sphere": m = ρ(4/3)πr³, I = (2/5)mr² (LAMMPS atom_style sphere in 2D); the
+// default disk convention m = ρπr²t, I = ½mr².
+TEST(DemMass, SphereAndDiskConventions) {
+  EngineConfig c;
+  c.density = 2650.0;
+  c.thickness = 0.2;
+  Engine disk(c);
+  disk.add_particle(0.0, 0.0, 0.05);
+  const double md = 2650.0 * M_PI * 0.05 * 0.05 * 0.2;
+  EXPECT_NEAR(disk.particles().mass[0], md, 1e-12 * md);
+  EXPECT_NEAR(1.0 / disk.particles().inv_inertia[0], 0.5 * md * 0.05 * 0.05, 1e-12 * md);
+  c.sphere_mass = true;
+  Engine sph(c);
+  sph.add_particle(0.0, 0.0, 0.05);
+  const double ms = 2650.0 * 4.0 / 3.0 * M_PI * 0.05 * 0.05 * 0.05;
+  EXPECT_NEAR(sph.particles().mass[0], ms, 1e-12 * ms);
+  EXPECT_NEAR(1.0 / sph.particles().inv_inertia[0], 0.4 * ms * 0.05 * 0.05, 1e-12 * ms);
+}

@@ -42,6 +42,9 @@ struct EngineConfig {
   double young = 7.0e10, poisson = 0.25;
   double damping_c = 0.0, damping_d = 0.0; // global damping (eqs. 2.1, 2.2) [1/s]
   double density = 2650.0, thickness = 1.0;
+  // false: disks m = ρπr²t, I = ½mr² (PFC2D); true: spheres m = ρ(4/3)πr³, I = (2/5)mr² (LAMMPS
+  // atom_style sphere in 2D, for the race against LAMMPS)
+  bool sphere_mass = false;
   double gravity = 9.81;    // along −z [m/s²]
   double max_overlap = 0.5; // blow-up: δ > max_overlap · r
   double dt_safety = 0.05;

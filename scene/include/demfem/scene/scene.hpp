@@ -109,6 +109,13 @@ struct DemSoil {
   // Explicit particles [x, z, r, vx, vz, ω] (verification scenes); when given, no packing is
   // generated and count must equal their number.
   std::vector<std::array<double, 6>> particles;
+  // The file the particles were read from (key particles_file, a .csv or .npy path relative to
+  // the scene file; stored resolved). Empty when they are listed inline or packed.
+  std::string particles_file;
+  // Mass convention: false (particle_mass = "disk"): m = ρπr²·thickness, I = ½mr² (PFC2D, the
+  // paper); true ("sphere"): m = ρ(4/3)πr³, I = (2/5)mr², what LAMMPS's atom_style sphere gives
+  // in 2D (used to race LAMMPS on an identical scene).
+  bool sphere_mass = false;
 };
 
 struct ContinuumSoil {

@@ -1,0 +1,166 @@
+// soil.dem.particles_file: particle sets from a .csv or .npy file named in the scene, with the
+// path taken relative to the scene file and every problem located (file:line:col).
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "demfem/scene/load.hpp"
+#include "demfem/scene/particles_file.hpp"
+
+using namespace demfem::scene;
+namespace fs = std::filesystem;
+
+namespace {
+
+class ParticlesFile : public ::testing::Test {
+protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("demfem_pf_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "sub");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  void write(const fs::path& rel, const std::string& text) {
+    std::ofstream(dir_ / rel, std::ios::binary) << text;
+  }
+  // Scene in dir_/sub/scene.toml; dem_keys start on line 9.
+  fs::path scene(const std::string& dem_keys) {
+    write("sub/scene.toml", "[scene]\nname = \"f\"\nsolvers = [\"dem\"]\nduration = 0.1\n"
+                            "[domain]\npolygon = [[0, 0], [8, 0], [8, 5], [0, 5]]\n"
+                            "[soil.dem]\nradius = { equal = 0.1 }\n" +
+                                dem_keys + "\n");
+    return dir_ / "sub" / "scene.toml";
+  }
+  // The diagnostics of loading `path`; empty when it loads.
+  static std::vector<Diagnostic> errors(const fs::path& path) {
+    try {
+      (void)load_scene_file(path);
+    } catch (const SceneError& e) {
+      return e.diagnostics();
+    }
+    return {};
+  }
+  fs::path dir_;
+};
+
+TEST_F(ParticlesFile, CsvRelativeToSceneWithHeaderAndComments) {
+  write("sub/bed.csv", "# three disks\nx,z,r\n0.5, 0.1, 0.1\n\n1.5,0.1,0.12\n2.5,0.3,0.08\n");
+  const auto sf = load_scene_file(scene("particles_file = \"bed.csv\""));
+  const auto& d = *sf.base.soil.dem;
+  ASSERT_EQ(d.particles.size(), 3u);
+  EXPECT_EQ(d.count, 3); // count left out: taken from the file
+  EXPECT_DOUBLE_EQ(d.particles[1][0], 1.5);
+  EXPECT_DOUBLE_EQ(d.particles[1][2], 0.12);
+  EXPECT_DOUBLE_EQ(d.particles[2][3], 0.0); // no velocity columns: at rest
+  EXPECT_TRUE(fs::path(d.particles_file).is_absolute());
+  EXPECT_EQ(fs::path(d.particles_file).filename(), "bed.csv");
+}
+
+TEST_F(ParticlesFile, SixColumnsAndParentDirectory) {
+  write("up.csv", "1,2,0.5,3,4,5\n6,7,0.25,8,9,10\n");
+  const auto sf = load_scene_file(scene("count = 2\nparticles_file = \"../up.csv\""));
+  const auto& p = sf.base.soil.dem->particles;
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_DOUBLE_EQ(p[1][5], 10.0);
+  EXPECT_DOUBLE_EQ(p[0][3], 3.0);
+}
+
+TEST_F(ParticlesFile, MissingFileLocatedAtTheKey) {
+  const auto path = scene("count = 2\nparticles_file = \"nope.csv\"");
+  const auto d = errors(path);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].file, path.string());
+  EXPECT_EQ(d[0].line, 10);
+  EXPECT_EQ(d[0].column, 18);
+  EXPECT_EQ(d[0].key, "soil.dem.particles_file");
+  EXPECT_NE(d[0].message.find("nope.csv"), std::string::npos) << d[0].message;
+}
+
+TEST_F(ParticlesFile, BadRowsLocatedAtFileLineColumn) {
+  write("sub/bad.csv", "x,z,r\n0,0,0.1\n1, zz ,0.1\n2,0,-0.1\n3,0\n");
+  const auto d = errors(scene("particles_file = \"bad.csv\""));
+  ASSERT_EQ(d.size(), 3u);
+  for (const auto& x : d) {
+    EXPECT_EQ(fs::path(x.file).filename(), "bad.csv");
+    EXPECT_EQ(x.key, "soil.dem.particles_file");
+  }
+  EXPECT_EQ(d[0].line, 3);
+  EXPECT_EQ(d[0].column, 4); // "zz"
+  EXPECT_NE(d[0].message.find("'zz'"), std::string::npos) << d[0].message;
+  EXPECT_EQ(d[1].line, 4);
+  EXPECT_EQ(d[1].column, 5); // the radius field
+  EXPECT_NE(d[1].message.find("radius must be > 0"), std::string::npos);
+  EXPECT_EQ(d[2].line, 5);
+  EXPECT_NE(d[2].message.find("got 2"), std::string::npos);
+  EXPECT_EQ(d[0].format().rfind(d[0].file + ":3:4: error: soil.dem.particles_file: ", 0), 0u)
+      << d[0].format();
+}
+
+TEST_F(ParticlesFile, CountMismatchAndBothSources) {
+  write("sub/two.csv", "0,0,0.1\n1,0,0.1\n");
+  auto d = errors(scene("count = 3\nparticles_file = \"two.csv\""));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].key, "soil.dem.count");
+  EXPECT_EQ(d[0].line, 9);
+  d = errors(
+      scene("count = 2\nparticles = [[0, 0, 0.1], [1, 0, 0.1]]\nparticles_file = \"two.csv\""));
+  ASSERT_FALSE(d.empty());
+  EXPECT_NE(d[0].message.find("not both"), std::string::npos);
+  d = errors(scene("particles_file = \"two.txt\""));
+  ASSERT_FALSE(d.empty()); // missing file: located at the key
+  write("sub/two.txt", "0,0,0.1\n");
+  d = errors(scene("particles_file = \"two.txt\""));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_NE(d[0].message.find(".csv or .npy"), std::string::npos);
+}
+
+TEST_F(ParticlesFile, NpyRoundTripIsExact) {
+  std::vector<ParticleRow> rows;
+  for (int i = 0; i < 1000; ++i)
+    rows.push_back({0.1 * i + 1e-17, 1.0 / (i + 3), 0.05 + 1e-4 * (i % 7), 0.3 * i, -0.1, 1.0 / 3});
+  write_particles_file(dir_ / "sub" / "bed.npy", rows);
+  write_particles_file(dir_ / "sub" / "bed.csv", rows);
+  for (const char* name : {"bed.npy", "bed.csv"}) {
+    const auto sf = load_scene_file(scene(std::string("particles_file = \"") + name + "\""));
+    const auto& p = sf.base.soil.dem->particles;
+    ASSERT_EQ(p.size(), rows.size()) << name;
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      for (std::size_t k = 0; k < 6; ++k) ASSERT_EQ(p[i][k], rows[i][k]) << name << " " << i;
+  }
+}
+
+TEST_F(ParticlesFile, NpyWrongShapeOrType) {
+  // (N, 2) float64
+  std::string h = "{'descr': '<f8', 'fortran_order': False, 'shape': (1, 2), }";
+  h.append(128 - 10 - h.size() - 1, ' ');
+  h += '\n';
+  std::string b = std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size()) + '\0' + h +
+                  std::string(16, '\0');
+  write("sub/bad.npy", b);
+  auto d = errors(scene("particles_file = \"bad.npy\""));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_NE(d[0].message.find("shape (N, 3) or (N, 6)"), std::string::npos) << d[0].message;
+  write("sub/bad.npy", "not numpy at all");
+  d = errors(scene("particles_file = \"bad.npy\""));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_NE(d[0].message.find("magic"), std::string::npos);
+}
+
+TEST_F(ParticlesFile, ResolvedSceneKeepsTheFileNotAnInlineList) {
+  write("sub/bed.csv", "0,0,0.1\n1,0,0.1\n");
+  const auto sf =
+      load_scene_file(scene("particles_file = \"bed.csv\"\nparticle_mass = \"sphere\""));
+  const std::string t = to_toml(sf.base);
+  EXPECT_NE(t.find("particles_file"), std::string::npos);
+  EXPECT_EQ(t.find("particles = "), std::string::npos);
+  write("resolved.toml", t); // another directory: the stored path is absolute
+  const auto back = load_scene_file(dir_ / "resolved.toml");
+  EXPECT_EQ(back.base.soil.dem->particles, sf.base.soil.dem->particles);
+  EXPECT_TRUE(back.base.soil.dem->sphere_mass);
+}
+
+} // namespace
