@@ -1,0 +1,99 @@
+// The demfem side of bench/race-lammps.sh: runs a scene file's DEM model for a fixed number of
+// steps the way LAMMPS's timed phase does (no output besides the coordination samples) and
+// prints one line in the format of the shared LAMMPS bench's run.sh:
+//   demfem N=<n> cores=<c> steps=<s> loop_s=<t> particle_steps_per_s=<x> contacts_per_particle=<z>
+// loop_s: wall time of the `steps` steps including the Z samples (like LAMMPS's "Loop time");
+// contacts_per_particle: mean coordination number Z = 2 × (particle–particle contacts with
+// distance ≤ r_i + r_j) / N, wall contacts excluded, averaged over `zn` samples taken every
+// steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
+// Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor]
+// Also prints bytes per particle (engine containers) and the rebuild/force split.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "demfem/dem/engine.hpp"
+#include "demfem/scene/load.hpp"
+
+namespace {
+
+// Z from the engine's touching particle pairs at the current positions.
+double coordination(const demfem::dem::Engine& e, std::vector<demfem::dem::ContactView>& buf) {
+  e.contacts(buf);
+  const auto& p = e.particles();
+  std::size_t c = 0;
+  for (const auto& v : buf) {
+    if (v.j < 0) continue;
+    const auto i = v.i;
+    const auto j = static_cast<std::size_t>(v.j);
+    const double dx = p.x[i] - p.x[j], dz = p.z[i] - p.z[j];
+    const double rs = p.radius[i] + p.radius[j];
+    if (dx * dx + dz * dz <= rs * rs) ++c;
+  }
+  return 2.0 * static_cast<double>(c) / static_cast<double>(p.size());
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  using namespace demfem;
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin]\n");
+    return 2;
+  }
+  const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
+  const int threads = argc > 3 ? std::atoi(argv[3]) : 1;
+  const long zn = argc > 4 ? std::atol(argv[4]) : 10;
+  scene::Scene sc;
+  try {
+    sc = scene::load_scene_file(argv[1]).base;
+  } catch (const scene::SceneError& err) {
+    std::fprintf(stderr, "%s\n", err.what());
+    return 2;
+  }
+  auto cfg = dem::make_config(sc);
+  cfg.threads = threads;
+  if (argc > 5) cfg.skin_factor = std::atof(argv[5]);
+  dem::Engine e(cfg);
+  for (const auto& q : sc.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+  for (const auto& w : sc.walls) e.add_wall(w);
+  e.set_dt(sc.soil.dem->dt > 0.0 ? sc.soil.dem->dt : e.auto_dt());
+  std::vector<dem::ContactView> buf;
+  const double z0 = coordination(e, buf); // no contacts listed before the first step
+  (void)z0;
+  const long every = zn > 0 ? steps / zn : steps + 1;
+  double zsum = 0.0;
+  long nz = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (long s = 1; s <= steps && !e.failed(); ++s) {
+    e.step();
+    if (zn > 0 && s % every == 0) {
+      zsum += coordination(e, buf);
+      ++nz;
+    }
+  }
+  const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto n = e.particles().size();
+  const auto& st = e.stats();
+  std::printf("demfem N=%zu cores=%d steps=%ld loop_s=%.3f particle_steps_per_s=%.4g "
+              "contacts_per_particle=%.3f\n",
+              n, e.threads_in_use(), steps, t, static_cast<double>(n) * steps / t,
+              nz > 0 ? zsum / nz : 0.0);
+  const auto m = e.memory_use();
+  std::fprintf(stderr,
+               "# rebuilds %lld, reorders %lld, pair entries/particle %.2f, rebuild+check %.3f s, "
+               "forces %.3f s, bytes/particle %.1f (particles %.1f, history %.1f, lists %.1f, "
+               "grid %.1f, other %.1f)%s%s\n",
+               st.neighbour_rebuilds, st.reorders,
+               static_cast<double>(st.pair_entries) / static_cast<double>(n), st.rebuild_seconds,
+               st.force_seconds, static_cast<double>(m.total()) / static_cast<double>(n),
+               static_cast<double>(m.particles) / static_cast<double>(n),
+               static_cast<double>(m.contact_history) / static_cast<double>(n),
+               static_cast<double>(m.neighbour_lists) / static_cast<double>(n),
+               static_cast<double>(m.grid) / static_cast<double>(n),
+               static_cast<double>(m.other) / static_cast<double>(n), e.failed() ? " FAILED: " : "",
+               e.failed() ? e.failure().c_str() : "");
+  return e.failed() ? 1 : 0;
+}

@@ -1,0 +1,120 @@
+#!/bin/bash
+# race-lammps.sh -- demfem vs LAMMPS, back to back, on the identical 2D bed (issue 12).
+#
+# Usage:  bench/race-lammps.sh [N ...]        default N list: 10000 100000
+# Environment knobs:
+#   STEPS   timed steps (default 2000; a multiple of 10)
+#   CORES   core counts (default "1 2"): LAMMPS MPI ranks / demfem OpenMP threads
+#   REPS    interleaved repeats per (N, cores) (default 3; N >= 1e6: 1)
+#   BUSY    1: keep the other core busy (stress-ng --cpu 1) during every run (default 0)
+#   LAMMPS_BENCH  the shared LAMMPS bench dir (default ../shared/bench/lammps-bed2d, else
+#                 /work/shared/bench/lammps-bed2d); its run.sh runs LAMMPS
+#   RACE_BIN      demfem's runner (default build/bench/bench_dem_race, else build-dem/…)
+#   WORK    scratch dir (default /tmp/demfem_race): generated scenes, logs
+#
+# The scene: LAMMPS reads tile_settled.data.gz and replicates it N/10000 times along x
+# (bed2d.in MODE timed); demfem reads the same positions, converted once per N by
+# bench/lammps_tile_scene.py into a scene with particles_file = bed_<N>.npy (see that script for
+# the parameter mapping). Each repeat runs LAMMPS and demfem back to back (the order alternates
+# between repeats), so drifting machine load hits both alike; the load average is logged.
+#
+# Output: one line per run (run.sh's format, "lammps …" / "demfem …"), then per (N, cores)
+#   summary N=<n> cores=<c> lammps=<min>/<median>/<max> demfem=<min>/<median>/<max> (particle-steps/s)
+#   ratio N=<n> cores=<c> demfem/lammps=<median ratio>
+#   physics N=<n> cores=<c> Z_lammps=<z> Z_demfem=<z> diff=<%> ok|FAIL   (|diff| <= ZTOL %, default 3)
+# and the exit status is 1 when a physics check failed.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+STEPS=${STEPS:-2000}
+CORES=${CORES:-"1 2"}
+WORK=${WORK:-/tmp/demfem_race}
+BUSY=${BUSY:-0}
+ZTOL=${ZTOL:-3}
+NLIST=${*:-"10000 100000"}
+if [ -z "${LAMMPS_BENCH:-}" ]; then
+  for d in "$ROOT/../shared/bench/lammps-bed2d" /work/shared/bench/lammps-bed2d; do
+    [ -f "$d/run.sh" ] && LAMMPS_BENCH=$(cd "$d" && pwd) && break
+  done
+fi
+[ -f "${LAMMPS_BENCH:-}/run.sh" ] || { echo "race-lammps: no LAMMPS bench (set LAMMPS_BENCH)" >&2; exit 2; }
+if [ -z "${RACE_BIN:-}" ]; then
+  for b in "$ROOT/build/bench/bench_dem_race" "$ROOT/build-dem/bench/bench_dem_race"; do
+    [ -x "$b" ] && RACE_BIN=$b && break
+  done
+fi
+[ -x "${RACE_BIN:-}" ] || { echo "race-lammps: build bench_dem_race first (cmake --build build --target bench_dem_race)" >&2; exit 2; }
+command -v lmp >/dev/null || { echo "race-lammps: no 'lmp' (apt-get install lammps)" >&2; exit 2; }
+mkdir -p "$WORK"
+RES="$WORK/results.txt"
+: >"$RES"
+echo "# race-lammps: $(date -u +%FT%TZ) $(uname -n) nproc=$(nproc) steps=$STEPS busy=$BUSY"
+echo "# demfem: $RACE_BIN ($(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo '?'))"
+lver=$(lmp -h 2>/dev/null | head -5 | grep -m1 -o '[0-9]* [A-Z][a-z]* 20[0-9][0-9].*' || true)
+echo "# lammps: $LAMMPS_BENCH/run.sh (lmp: ${lver:-unknown version})"
+
+stress_pid=
+cleanup() { [ -n "$stress_pid" ] && kill "$stress_pid" 2>/dev/null || true; }
+trap cleanup EXIT
+if [ "$BUSY" = 1 ]; then
+  command -v stress-ng >/dev/null || { echo "race-lammps: BUSY=1 needs stress-ng" >&2; exit 2; }
+  stress-ng --cpu 1 --timeout 0 >/dev/null 2>&1 &
+  stress_pid=$!
+  echo "# other core kept busy: stress-ng --cpu 1 (pid $stress_pid)"
+fi
+
+run_lammps() { # N cores
+  STEPS=$STEPS CORES=$2 REPS=1 WORK="$WORK/lammps" "$LAMMPS_BENCH/run.sh" "$1"
+}
+run_demfem() { # N cores
+  OMP_PROC_BIND=${OMP_PROC_BIND:-false} "$RACE_BIN" "$WORK/race_$1.toml" "$STEPS" "$2" 10 \
+    2>>"$WORK/demfem_stderr.log"
+}
+load() { cut -d' ' -f1 /proc/loadavg; }
+
+for N in $NLIST; do
+  python3 "$ROOT/bench/lammps_tile_scene.py" "$LAMMPS_BENCH/tile_settled.data.gz" "$N" "$STEPS" \
+    "$WORK" >/dev/null
+  if [ -n "${REPS:-}" ]; then reps=$REPS; elif [ "$N" -le 100000 ]; then reps=3; else reps=1; fi
+  for r in $(seq 1 "$reps"); do
+    for c in $CORES; do
+      if [ $((r % 2)) -eq 1 ]; then order="lammps demfem"; else order="demfem lammps"; fi
+      for prog in $order; do
+        l0=$(load)
+        line=$(run_$prog "$N" "$c")
+        echo "$line load=$l0->$(load)"
+        echo "$line req=$N" >>"$RES"
+      done
+    done
+  done
+done
+
+awk -v tol="$ZTOL" '
+  function median(a, n,   i, j, t) { for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++)
+      if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
+    return n % 2 ? a[(n + 1) / 2] : 0.5 * (a[n / 2] + a[n / 2 + 1]) }
+  {
+    prog = $1; n = ""; c = ""; ps = 0; z = 0
+    for (i = 2; i <= NF; i++) { split($i, kv, "=");
+      if (kv[1] == "N") n = kv[2]; else if (kv[1] == "cores") c = kv[2];
+      else if (kv[1] == "particle_steps_per_s") ps = kv[2]; else if (kv[1] == "contacts_per_particle") z = kv[2] }
+    key = n " " c; if (!(key in seen)) { seen[key] = 1; keys[++nk] = key }
+    cnt[prog, key]++; v[prog, key, cnt[prog, key]] = ps; zs[prog, key] += z
+  }
+  END {
+    bad = 0
+    for (k = 1; k <= nk; k++) {
+      key = keys[k]; split(key, nc, " ")
+      for (p = 1; p <= 2; p++) { prog = p == 1 ? "lammps" : "demfem"; m = cnt[prog, key]
+        delete a; mn = 1e300; mx = 0
+        for (i = 1; i <= m; i++) { a[i] = v[prog, key, i]; if (a[i] < mn) mn = a[i]; if (a[i] > mx) mx = a[i] }
+        med[prog] = median(a, m); s[prog] = sprintf("%.3g/%.3g/%.3g", mn, med[prog], mx)
+        zm[prog] = zs[prog, key] / m }
+      printf "summary N=%s cores=%s runs=%d lammps=%s demfem=%s (min/median/max particle-steps/s)\n", nc[1], nc[2], cnt["demfem", key], s["lammps"], s["demfem"]
+      printf "ratio N=%s cores=%s demfem/lammps=%.2f\n", nc[1], nc[2], med["demfem"] / med["lammps"]
+      d = 100 * (zm["demfem"] - zm["lammps"]) / zm["lammps"]; ok = (d <= tol && d >= -tol)
+      if (!ok) bad = 1
+      printf "physics N=%s cores=%s Z_lammps=%.3f Z_demfem=%.3f diff=%+.2f%% %s\n", nc[1], nc[2], zm["lammps"], zm["demfem"], d, ok ? "ok" : "FAIL"
+    }
+    exit bad
+  }' "$RES"
