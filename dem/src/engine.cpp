@@ -43,6 +43,7 @@ void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
 }
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr std::size_t kReorderFirstMin = 4096; // particles: reorder at the first rebuild
 
 template <class T> void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
   std::vector<T> out(v.size());
@@ -427,7 +428,11 @@ void Engine::rebuild() {
   const int T = threads_in_use();
   const auto tcount = static_cast<std::size_t>(T);
   skin_ = config_.skin_factor * r_min_;
-  if (config_.reorder_every > 0 && rebuilds_since_reorder_ >= config_.reorder_every) {
+  // Space-filling-curve order every reorder_every rebuilds, and at the first rebuild of a large
+  // set (its input order may be anything; small sets keep theirs, which tests index by).
+  const bool first_large = stats_.neighbour_rebuilds == 0 && n >= kReorderFirstMin;
+  if (config_.reorder_every > 0 &&
+      (first_large || rebuilds_since_reorder_ >= config_.reorder_every)) {
     reorder();
     rebuilds_since_reorder_ = 0;
   }
