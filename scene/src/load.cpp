@@ -13,6 +13,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/particles_file.hpp"
+#include "validate_internal.hpp"
 
 namespace demfem::scene {
 
@@ -801,6 +802,7 @@ Probe read_probe(Reader& r) {
 }
 
 Scene resolve(const toml::table& root, const std::string& file, std::vector<Diagnostic>& diags) {
+  const std::size_t diags_before = diags.size();
   Scene sc;
   sc.source_file = file;
   Reader top(root, "", file, diags, root.source());
@@ -922,33 +924,48 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
         {"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval"});
   }
 
-  // Cross references.
+  // Cross references, located at the key that names the missing thing.
+  auto at = [&](std::string_view array, std::size_t i, std::string_view key) {
+    const toml::node* n = root[array][i][key].node();
+    if (!n) n = root[array][i].node();
+    return n ? n->source() : root.source();
+  };
   std::set<std::string> names;
-  for (const auto& w : sc.walls)
-    if (!names.insert(w.name).second)
-      top.error_here(fmt::format("duplicate wall/structure name '{}'", w.name));
-  for (const auto& s : sc.structures)
-    if (!names.insert(s.name).second)
-      top.error_here(fmt::format("duplicate wall/structure name '{}'", s.name));
-  for (const auto& e : sc.events) {
+  for (std::size_t i = 0; i < sc.walls.size(); ++i)
+    if (!names.insert(sc.walls[i].name).second)
+      top.error_at(at("wall", i, "name"), fmt::format("wall[{}].name", sc.walls[i].name),
+                   fmt::format("duplicate wall/structure name '{}'", sc.walls[i].name));
+  for (std::size_t i = 0; i < sc.structures.size(); ++i)
+    if (!names.insert(sc.structures[i].name).second)
+      top.error_at(at("structure", i, "name"),
+                   fmt::format("structure[{}].name", sc.structures[i].name),
+                   fmt::format("duplicate wall/structure name '{}'", sc.structures[i].name));
+  for (std::size_t i = 0; i < sc.events.size(); ++i) {
+    const auto& e = sc.events[i];
     if (e.action == EventAction::SetFriction && !sc.group(e.group))
-      top.error_here(fmt::format("event at t = {} names group '{}', which no [[group]] defines",
-                                 e.time, e.group));
+      top.error_at(at("event", i, "group"), fmt::format("event[{}].group", i),
+                   fmt::format("event at t = {} names group '{}', which no [[group]] defines",
+                               e.time, e.group));
     if (e.action == EventAction::OpenWall && !sc.wall(e.wall))
-      top.error_here(fmt::format("event at t = {} names wall '{}', which no [[wall]] defines",
-                                 e.time, e.wall));
+      top.error_at(at("event", i, "wall"), fmt::format("event[{}].wall", i),
+                   fmt::format("event at t = {} names wall '{}', which no [[wall]] defines",
+                               e.time, e.wall));
   }
-  for (const auto& p : sc.probes) {
+  for (std::size_t i = 0; i < sc.probes.size(); ++i) {
+    const auto& p = sc.probes[i];
     const bool needs_target = p.kind == ProbeKind::Structure || p.kind == ProbeKind::WallThrust ||
                               p.kind == ProbeKind::PressureProfile;
     if (needs_target && !sc.structure(p.target) && !sc.wall(p.target))
-      top.error_here(
+      top.error_at(
+          at("probe", i, "target"), fmt::format("probe[{}].target", i),
           fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
                       keyword(kProbeKindNames, p.kind), p.target));
   }
 
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
               "probe", "load", "output", "variant"});
+  // Semantic checks (issue 13) on a scene that read cleanly: what it asks must be possible.
+  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, diags);
   return sc;
 }
 
@@ -993,15 +1010,25 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
       // Array element by index or by the element's 'name'.
       std::size_t idx = a->size();
       if (std::all_of(p.begin(), p.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-        idx = std::stoul(p);
+        // Digits only: an index. Too many digits for any array is simply out of range (no
+        // std::stoul, whose exception text would reach the user).
+        idx = p.size() <= 9 ? static_cast<std::size_t>(std::stoul(p)) : a->size();
       } else {
         for (std::size_t k = 0; k < a->size(); ++k)
           if (const auto* et = (*a)[k].as_table(); et && (*et)["name"].value<std::string>() == p)
             idx = k;
       }
-      if (idx >= a->size())
-        return fmt::format("'{}' has no element '{}' (use an index or the element's name)", walked,
-                           p);
+      if (idx >= a->size()) {
+        std::vector<std::string> names;
+        for (std::size_t k = 0; k < a->size(); ++k)
+          if (const auto* et = (*a)[k].as_table())
+            if (const auto nm = (*et)["name"].value<std::string>()) names.push_back(*nm);
+        const std::string shown = p.size() > 24 ? p.substr(0, 21) + "…" : p;
+        if (a->empty()) return fmt::format("'{}' has no element '{}': it is empty", walked, shown);
+        return fmt::format("'{}' has no element '{}'; valid: an index 0–{}{}{}", walked, shown,
+                           a->size() - 1, names.empty() ? "" : " or a name: ",
+                           fmt::format("{}", fmt::join(names, ", ")));
+      }
       if (last) {
         a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), std::move(value));
         return "";

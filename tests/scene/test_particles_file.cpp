@@ -30,7 +30,7 @@ protected:
   // Scene in dir_/sub/scene.toml; dem_keys start on line 9.
   fs::path scene(const std::string& dem_keys) {
     write("sub/scene.toml", "[scene]\nname = \"f\"\nsolvers = [\"dem\"]\nduration = 0.1\n"
-                            "[domain]\npolygon = [[0, 0], [8, 0], [8, 5], [0, 5]]\n"
+                            "[domain]\npolygon = [[0, 0], [120, 0], [120, 10], [0, 10]]\n"
                             "[soil.dem]\nradius = { equal = 0.1 }\n" +
                                 dem_keys + "\n");
     return dir_ / "sub" / "scene.toml";
