@@ -280,6 +280,7 @@ int cmd_pack(const RunArgs& a) {
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
+  int worst = kOk;
   for (const scene::Scene* s : scenes) {
     if (!s->soil.dem) {
       fmt::print(stderr, "demfem pack: scene '{}' has no [soil.dem]\n", s->label());
@@ -299,13 +300,25 @@ int cmd_pack(const RunArgs& a) {
           r.path.string(), r.deposition_time, r.steps, r.ke_ratio,
           r.converged ? "" : " — stopped at packing.max_time", r.layers, r.wall_seconds,
           r.surface_max);
+      const auto& pk = s->soil.dem->packing;
+      fmt::print("  porosity {:.4f} (void ratio {:.4f}, window z {:.4g}–{:.4g} m), coordination "
+                 "number {:.3f}, rattlers {:.1f} %{}\n",
+                 r.measure.porosity, r.measure.void_ratio, r.measure.z_bottom, r.measure.z_top,
+                 r.measure.coordination, 100.0 * r.measure.rattlers,
+                 pk.target_porosity
+                     ? fmt::format("; target porosity {:.4f} ± {:.4f}: {} (friction × {:.4g} "
+                                   "during deposition, {} deposition(s))",
+                                   *pk.target_porosity, pk.target_tolerance,
+                                   r.target_met ? "met" : "NOT MET", r.friction_scale, r.trials)
+                     : std::string());
+      if (pk.target_porosity && !r.target_met) worst = kRunFailed;
     } catch (const scene::SceneError& e) {
       reporter.finish();
       fmt::print(stderr, "{}\n", e.what());
       return kBadInput;
     }
   }
-  return kOk;
+  return worst;
 }
 
 int cmd_check(const std::string& path, bool quiet) {

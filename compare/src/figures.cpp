@@ -14,7 +14,9 @@
 #include <vtkXMLPolyDataReader.h>
 
 #include "demfem/compare/plot.hpp"
+#include "demfem/compare/series.hpp"
 #include "demfem/dem/io.hpp"
+#include "demfem/dem/pack.hpp"
 
 namespace demfem::compare {
 
@@ -131,6 +133,15 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   if (wall_seconds > 0.0) sum["run_wall_seconds"] = wall_seconds;
   if (steps > 0) sum["steps"] = steps;
   if (scene.soil.dem) sum["particles"] = scene.soil.dem->count;
+  // The initial packing's density and contacts (dem/packing.json, issue 14).
+  {
+    std::ifstream pj(dem / "packing.json");
+    if (pj) try {
+        sum["packing"] = json::parse(pj);
+      } catch (const std::exception& e) {
+        out.problems.push_back(std::string("packing.json: ") + e.what());
+      }
+  }
 
   // ---- structures: settlement, rotation, moment, M–θ loops --------------------------------
   const auto st = try_csv(dem / "structures.csv", out);
@@ -365,6 +376,13 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
           sum["particles_remaining"] = xr.size();
         }
       }
+      // Density at the end of the run (the same window rule as the packing's, issue 14).
+      if (scene.soil.dem) {
+        const auto m = dem::measure_packing(scene, p);
+        sum["packing_final"] = {{"porosity", m.porosity},
+                                {"void_ratio", m.void_ratio},
+                                {"coordination", m.coordination}};
+      }
       // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
       const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
       std::vector<dem::ContactView> cv;
@@ -419,6 +437,17 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         out.problems.push_back("velocity_field_final: " + err);
     } catch (const std::exception& e) {
       out.problems.push_back(std::string("final.ckpt: ") + e.what());
+    }
+  }
+
+  // ---- snapshot series at the paper's times (output.series; series.hpp, issue 14) ------------
+  {
+    const auto ser_out = write_snapshot_series(scene, run_dir);
+    out.figures.insert(out.figures.end(), ser_out.figures.begin(), ser_out.figures.end());
+    out.problems.insert(out.problems.end(), ser_out.problems.begin(), ser_out.problems.end());
+    if (!ser_out.times.empty()) {
+      sum["snapshot_series"]["requested_s"] = ser_out.requested;
+      sum["snapshot_series"]["drawn_s"] = ser_out.times;
     }
   }
 

@@ -5,11 +5,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <numbers>
 #include <numeric>
+#include <unordered_map>
 #include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
@@ -122,6 +126,11 @@ std::string packing_key(const scene::Scene& scene) {
   f.num(d.packing.ke_ratio);
   f.num(d.packing.max_time);
   f.num(d.packing.damping);
+  if (d.packing.target_porosity) { // only when set: packings without a target keep their keys
+    f.str("target");
+    f.num(*d.packing.target_porosity);
+    f.num(d.packing.target_tolerance);
+  }
   f.num(scene.load.gravity);
   f.integer(static_cast<long long>(scene.info.seed));
   for (const auto& w : scene.walls) {
@@ -297,9 +306,9 @@ void sort_by_id(Particles& p) {
 
 std::string stats_text(const PackResult& r) {
   return fmt::format("deposition_time={:.17g};steps={};ke_ratio={:.17g};converged={};layers={};"
-                     "wall_seconds={:.17g}",
+                     "wall_seconds={:.17g};friction_scale={:.17g};trials={};target_met={}",
                      r.deposition_time, r.steps, r.ke_ratio, r.converged ? 1 : 0, r.layers,
-                     r.wall_seconds);
+                     r.wall_seconds, r.friction_scale, r.trials, r.target_met ? 1 : 0);
 }
 
 void parse_stats(const std::string& s, PackResult& r) {
@@ -322,6 +331,12 @@ void parse_stats(const std::string& s, PackResult& r) {
       r.layers = static_cast<int>(v);
     else if (k == "wall_seconds")
       r.wall_seconds = v;
+    else if (k == "friction_scale")
+      r.friction_scale = v;
+    else if (k == "trials")
+      r.trials = static_cast<int>(v);
+    else if (k == "target_met")
+      r.target_met = v != 0.0;
   }
 }
 
@@ -331,7 +346,128 @@ double top_of(const Particles& p) {
   return t;
 }
 
+// Area of the disk (centre height zc, radius r) between heights a < b: F(h) is the area below
+// h − zc, F(h) = r² asin(h/r) + h √(r² − h²) + π r² / 2 (circular segment).
+double disk_band_area(double zc, double r, double a, double b) {
+  auto F = [&](double h) {
+    h = std::clamp(h - zc, -r, r);
+    return r * r * std::asin(h / r) + h * std::sqrt(std::max(0.0, r * r - h * h)) +
+           0.5 * std::numbers::pi * r * r;
+  };
+  return std::max(0.0, F(b) - F(a));
+}
+
+// Area of the polygon between heights a < b (Sutherland–Hodgman clip by two half-planes, then
+// the shoelace formula).
+double polygon_band_area(const scene::Polygon& poly, double a, double b) {
+  auto clip = [](const std::vector<scene::Vec2>& in, double level, bool keep_above) {
+    std::vector<scene::Vec2> out;
+    const std::size_t n = in.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto p = in[k], q = in[(k + 1) % n];
+      const bool pin = keep_above ? p.z >= level : p.z <= level;
+      const bool qin = keep_above ? q.z >= level : q.z <= level;
+      if (pin) out.push_back(p);
+      if (pin != qin) {
+        const double t = (level - p.z) / (q.z - p.z);
+        out.push_back({p.x + t * (q.x - p.x), level});
+      }
+    }
+    return out;
+  };
+  const auto c = clip(clip(poly, a, true), b, false);
+  double s = 0.0;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const auto p = c[k], q = c[(k + 1) % c.size()];
+    s += p.x * q.z - q.x * p.z; // shoelace
+  }
+  return 0.5 * std::abs(s);
+}
+
 } // namespace
+
+PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p) {
+  PackingMeasure m;
+  const auto& d = scene.soil.dem.value();
+  const auto& F = d.fill.empty() ? scene.domain : d.fill;
+  std::vector<std::size_t> live;
+  double rmax = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (!(p.flags.empty() ? false : (p.flags[i] & kFlagRemoved))) {
+      live.push_back(i);
+      rmax = std::max(rmax, p.radius[i]);
+    }
+  if (live.empty() || F.size() < 3) return m;
+  const Box fb = bbox(F);
+  // Surface: 10th percentile of the tops of columns 2 r_max wide.
+  const double cw = 2.0 * rmax;
+  const auto ncol = static_cast<std::size_t>(std::max(1.0, std::ceil((fb.x1 - fb.x0) / cw)));
+  std::vector<double> tops(ncol, -std::numeric_limits<double>::infinity());
+  for (auto i : live) {
+    const auto c = static_cast<std::size_t>(
+        std::clamp((p.x[i] - fb.x0) / cw, 0.0, static_cast<double>(ncol - 1)));
+    tops[c] = std::max(tops[c], p.z[i] + p.radius[i]);
+  }
+  std::erase_if(tops, [](double t) { return !std::isfinite(t); });
+  std::sort(tops.begin(), tops.end());
+  const double surface = tops[tops.size() / 10];
+  m.z_bottom = fb.z0;
+  m.z_top = surface - 2.0 * rmax;
+  if (m.z_top > m.z_bottom) {
+    double avail = polygon_band_area(F, m.z_bottom, m.z_top);
+    for (const auto& st : scene.structures)
+      avail -= polygon_band_area(st.outline, m.z_bottom, m.z_top);
+    double solid = 0.0;
+    for (auto i : live) solid += disk_band_area(p.z[i], p.radius[i], m.z_bottom, m.z_top);
+    if (avail > 0.0) {
+      m.porosity = 1.0 - solid / avail;
+      m.void_ratio = solid > 0.0 ? (avail - solid) / solid : 0.0;
+    }
+  }
+  // Contacts by overlap on a cell grid of size 2 r_max.
+  double x0 = p.x[live[0]], z0 = p.z[live[0]];
+  for (auto i : live) {
+    x0 = std::min(x0, p.x[i]);
+    z0 = std::min(z0, p.z[i]);
+  }
+  const double h = 2.0 * rmax;
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
+  auto cell = [&](std::size_t i) {
+    return std::pair{static_cast<std::int64_t>((p.x[i] - x0) / h),
+                     static_cast<std::int64_t>((p.z[i] - z0) / h)};
+  };
+  auto key = [](std::int64_t a, std::int64_t b) {
+    return (static_cast<std::uint64_t>(a) << 32) ^ static_cast<std::uint64_t>(b & 0xffffffff);
+  };
+  for (auto i : live) {
+    const auto [a, b] = cell(i);
+    grid[key(a, b)].push_back(i);
+  }
+  std::vector<int> touching(p.size(), 0);
+  std::size_t contacts = 0;
+  for (auto i : live) {
+    const auto [a, b] = cell(i);
+    for (std::int64_t da = -1; da <= 1; ++da)
+      for (std::int64_t db = -1; db <= 1; ++db) {
+        const auto it = grid.find(key(a + da, b + db));
+        if (it == grid.end()) continue;
+        for (auto j : it->second) {
+          if (j <= i) continue;
+          const double dist = std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
+          if (dist < p.radius[i] + p.radius[j]) {
+            ++contacts;
+            ++touching[i];
+            ++touching[j];
+          }
+        }
+      }
+  }
+  m.coordination = 2.0 * static_cast<double>(contacts) / static_cast<double>(live.size());
+  std::size_t ratt = 0;
+  for (auto i : live) ratt += touching[i] == 0;
+  m.rattlers = static_cast<double>(ratt) / static_cast<double>(live.size());
+  return m;
+}
 
 Particles place_particles(const scene::Scene& scene, int* layers) {
   const auto pl = place(scene);
@@ -342,14 +478,33 @@ Particles place_particles(const scene::Scene& scene, int* layers) {
   return e.particles();
 }
 
-PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
-                const scene::ProgressFn& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto& d = scene.soil.dem.value();
-  const Placement pl = place(scene);
+namespace {
 
+// One deposition from the placement with both friction coefficients scaled by `scale`; when
+// scale ≠ 1 the scene's friction is restored afterwards and the bed settles again.
+struct Trial {
+  Particles particles;
+  std::vector<std::byte> history;
+  double time = 0.0;
+  long long steps = 0;
+  double ke_ratio = 0.0;
+  bool converged = false;
+  double dt = 0.0;
+  double scale = 1.0;
+  PackingMeasure measure;
+};
+
+Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
+              const scene::ProgressFn& progress, std::chrono::steady_clock::time_point t0,
+              int trial) {
+  const auto& d = scene.soil.dem.value();
   EngineConfig c = make_config(scene);
   c.shaking = false; // deposition under gravity only
+  // Raised (or lowered) friction during the deposition (target density; pack.hpp).
+  for (auto& m : c.materials) {
+    m.mu_s *= scale;
+    m.mu_d *= scale;
+  }
   if (d.packing.damping > 0.0) {
     // Deposition only: global viscous damping (eqs. 2.1, 2.2 with C = D per unit mass/inertia)
     // at ratio ζ = packing.damping of critical for the mean particle on one normal spring:
@@ -389,8 +544,8 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   }
   e.set_dt(d.dt > 0.0 ? d.dt : e.auto_dt());
 
-  PackResult res;
-  res.layers = pl.layers;
+  Trial res;
+  res.scale = scale;
   const double g = scene.load.gravity;
   // Earliest stop: the time for the highest particle to fall to the bottom of the fill.
   // With damping the fall speed is capped at g/C, so the fall takes at least drop·C/g.
@@ -398,36 +553,53 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   const double t_min = g > 0.0 ? std::max(std::sqrt(2.0 * drop / g), drop * c.damping_c / g) : 0.0;
   const long long chunk = 50;
   auto last_report = std::chrono::steady_clock::now();
-  while (true) {
-    e.run_steps(chunk);
-    if (e.failed())
-      throw std::runtime_error(fmt::format("packing of {} failed during deposition at t = {} s "
-                                           "(Δt = {} s): {}",
-                                           scene.label(), e.time(), e.dt(), e.failure()));
-    const auto en = e.energy();
-    const double ke = en.kinetic + en.rotational;
-    res.ke_ratio = en.gravity_work > 0.0 ? ke / en.gravity_work : 1.0;
-    if (e.time() >= t_min && res.ke_ratio < d.packing.ke_ratio) {
-      res.converged = true;
-      break;
+  // Runs until KE < ke_ratio × released PE after t_from, or until t_cap.
+  auto settle = [&](double t_from, double t_cap, const char* stage) {
+    while (true) {
+      e.run_steps(chunk);
+      if (e.failed())
+        throw std::runtime_error(fmt::format("packing of {} failed during deposition at t = {} s "
+                                             "(Δt = {} s, friction × {}): {}",
+                                             scene.label(), e.time(), e.dt(), scale, e.failure()));
+      const auto en = e.energy();
+      const double ke = en.kinetic + en.rotational;
+      res.ke_ratio = en.gravity_work > 0.0 ? ke / en.gravity_work : 1.0;
+      if (e.time() >= t_from && res.ke_ratio < d.packing.ke_ratio) return true;
+      if (e.time() >= t_cap) return false;
+      const auto now = std::chrono::steady_clock::now();
+      if (progress && now - last_report > std::chrono::milliseconds(500)) {
+        last_report = now;
+        scene::Progress pg;
+        pg.stage = trial > 0 ? fmt::format("{} (trial {}, friction × {:.3g})", stage, trial + 1,
+                                           scale)
+                             : std::string(stage);
+        pg.time = e.time();
+        pg.end_time = t_cap;
+        pg.step = e.stats().steps;
+        pg.wall_seconds = std::chrono::duration<double>(now - t0).count();
+        progress(pg);
+      }
     }
-    if (e.time() >= d.packing.max_time) break;
-    const auto now = std::chrono::steady_clock::now();
-    if (progress && now - last_report > std::chrono::milliseconds(500)) {
-      last_report = now;
-      scene::Progress p;
-      p.stage = "pack";
-      p.time = e.time();
-      p.end_time = d.packing.max_time;
-      p.step = e.stats().steps;
-      p.wall_seconds = std::chrono::duration<double>(now - t0).count();
-      progress(p);
-    }
+  };
+  res.converged = settle(t_min, d.packing.max_time, "pack");
+  if (scale != 1.0) {
+    // The scene's friction back, then settle again: at least 20 free-fall times over one largest
+    // diameter, √(2·2r_max/g), for the contacts beyond the restored Coulomb limit to slip.
+    const double rmax = pl.r.empty() ? 0.0 : *std::max_element(pl.r.begin(), pl.r.end());
+    const scene::Polygon all{{fb.x0 - 1e9, fb.z0 - 1e9},
+                             {fb.x1 + 1e9, fb.z0 - 1e9},
+                             {fb.x1 + 1e9, fb.z1 + 1e12},
+                             {fb.x0 - 1e9, fb.z1 + 1e12}};
+    e.set_friction(all, d.mu_static, d.mu_dynamic);
+    const double t_relax = g > 0.0 ? 20.0 * std::sqrt(4.0 * rmax / g) : 0.0;
+    res.converged = settle(e.time() + t_relax, e.time() + d.packing.max_time, "pack (settle)") &&
+                    res.converged;
   }
-  res.deposition_time = e.time();
+  res.time = e.time();
   res.steps = e.stats().steps;
+  res.dt = e.dt();
   res.particles = e.particles();
-  res.contact_history = e.save_contact_history(false);
+  res.history = e.save_contact_history(false);
   sort_by_id(res.particles);
   auto& P = res.particles;
   std::fill(P.vx.begin(), P.vx.end(), 0.0);
@@ -438,6 +610,82 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   std::fill(P.torque.begin(), P.torque.end(), 0.0);
   std::fill(P.phi.begin(), P.phi.end(), 0.0);
   std::fill(P.material.begin(), P.material.end(), std::uint16_t{0});
+  res.measure = measure_packing(scene, P);
+  return res;
+}
+
+} // namespace
+
+PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
+                const scene::ProgressFn& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto& d = scene.soil.dem.value();
+  const Placement pl = place(scene);
+
+  int trials = 0;
+  auto run_trial = [&](double scale) {
+    Trial t = deposit(scene, pl, scale, progress, t0, trials++);
+    if (d.packing.target_porosity)
+      spdlog::info("{}: packing trial {}: friction × {:.4g} during deposition → porosity {:.4f} "
+                   "(target {:.4f})",
+                   scene.label(), trials, scale, t.measure.porosity, *d.packing.target_porosity);
+    return t;
+  };
+  Trial best = run_trial(1.0);
+  bool met = true;
+  if (d.packing.target_porosity) {
+    // Raised-friction deposition (pack.hpp): bracket the friction scale, then bisect.
+    const double target = *d.packing.target_porosity, tol = d.packing.target_tolerance;
+    auto err = [&](const Trial& t) { return t.measure.porosity - target; };
+    auto consider = [&](Trial&& t) {
+      const bool better = std::abs(err(t)) < std::abs(err(best));
+      const double e = err(t);
+      if (better) best = std::move(t);
+      return e;
+    };
+    constexpr double kScaleMax = 16.0;
+    constexpr int kMaxTrials = 10;
+    double lo = 1.0, hi = 1.0; // scales with porosity below / above the target
+    const double e1 = err(best);
+    bool bracketed = std::abs(e1) <= tol;
+    if (!bracketed && e1 < 0.0) { // too dense: raise the friction
+      for (double s = 2.0; s <= kScaleMax && trials < kMaxTrials; s *= 2.0) {
+        const double e = consider(run_trial(s));
+        if (e >= -tol) {
+          hi = s;
+          bracketed = true;
+          break;
+        }
+        lo = s;
+      }
+    } else if (!bracketed) { // too loose: lower the friction (0 = frictionless deposition)
+      hi = 1.0;
+      const double e = consider(run_trial(0.0));
+      lo = 0.0;
+      bracketed = e <= tol;
+    }
+    if (bracketed)
+      while (std::abs(err(best)) > tol && trials < kMaxTrials) {
+        const double mid = 0.5 * (lo + hi);
+        const double e = consider(run_trial(mid));
+        (e < 0.0 ? lo : hi) = mid;
+      }
+    met = std::abs(err(best)) <= tol;
+  }
+
+  PackResult res;
+  res.layers = pl.layers;
+  res.deposition_time = best.time;
+  res.steps = best.steps;
+  res.ke_ratio = best.ke_ratio;
+  res.converged = best.converged;
+  res.particles = std::move(best.particles);
+  res.contact_history = std::move(best.history);
+  res.measure = best.measure;
+  res.friction_scale = best.scale;
+  res.trials = trials;
+  res.target_met = met;
+  auto& P = res.particles;
   res.surface_max = top_of(P);
   res.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   res.key = packing_key(scene);
@@ -446,7 +694,7 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   io::CheckpointMeta meta;
   meta.time = 0.0;
   meta.step = 0;
-  meta.dt = e.dt();
+  meta.dt = best.dt;
   meta.label = "packing " + res.key + " " + scene.info.name;
   // extra: the statistics as text, a NUL byte, the contact history.
   const std::string text = stats_text(res);
@@ -455,14 +703,46 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   extra.push_back(std::byte{0});
   extra.insert(extra.end(), res.contact_history.begin(), res.contact_history.end());
   io::write_checkpoint(res.path, P, meta, extra);
-  try { // a picture of the packing beside the checkpoint, for ParaView
+  try { // a picture of the packing beside the checkpoint, for ParaView, and its statistics
     fs::path vtp = res.path;
     vtp.replace_extension(".vtp");
     io::write_particles_vtp(vtp, P);
+    fs::path js = res.path;
+    js.replace_extension(".json");
+    write_packing_json(res, scene, js);
   } catch (const std::exception&) {
     // optional
   }
   return res;
+}
+
+void write_packing_json(const PackResult& r, const scene::Scene& scene, const fs::path& path) {
+  const auto& d = scene.soil.dem.value();
+  std::string js = "{\n";
+  js += fmt::format("  \"key\": \"{}\",\n", r.key);
+  js += fmt::format("  \"particles\": {},\n", r.particles.size());
+  js += fmt::format("  \"porosity\": {:.6f},\n", r.measure.porosity);
+  js += fmt::format("  \"void_ratio\": {:.6f},\n", r.measure.void_ratio);
+  js += fmt::format("  \"coordination\": {:.4f},\n", r.measure.coordination);
+  js += fmt::format("  \"rattler_fraction\": {:.4f},\n", r.measure.rattlers);
+  js += fmt::format("  \"window_z\": [{:.6g}, {:.6g}],\n", r.measure.z_bottom, r.measure.z_top);
+  if (d.packing.target_porosity) {
+    js += fmt::format("  \"target_porosity\": {:.6f},\n", *d.packing.target_porosity);
+    js += fmt::format("  \"target_tolerance\": {:.6g},\n", d.packing.target_tolerance);
+  }
+  js += fmt::format("  \"target_met\": {},\n", r.target_met ? "true" : "false");
+  js += fmt::format("  \"method\": \"{}\",\n",
+                    d.packing.target_porosity ? "raised-friction deposition, friction reset"
+                                              : "deposition with the scene's friction");
+  js += fmt::format("  \"friction_scale\": {:.6g},\n", r.friction_scale);
+  js += fmt::format("  \"trials\": {},\n", r.trials);
+  js += fmt::format("  \"deposition_time_s\": {:.6g},\n", r.deposition_time);
+  js += fmt::format("  \"ke_ratio\": {:.3e},\n", r.ke_ratio);
+  js += fmt::format("  \"converged\": {},\n", r.converged ? "true" : "false");
+  js += fmt::format("  \"from_cache\": {}\n}}\n", r.from_cache ? "true" : "false");
+  std::ofstream f(path);
+  f << js;
+  if (!f) throw std::runtime_error("could not write " + path.string());
 }
 
 PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
@@ -476,6 +756,7 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
     r.particles = e.particles();
     r.converged = true;
     r.surface_max = top_of(r.particles);
+    r.measure = measure_packing(scene, r.particles);
     return r;
   }
   const fs::path path = packing_path(scene, out_dir);
@@ -495,6 +776,10 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
                     r);
         if (nul != ck.extra.end()) r.contact_history.assign(nul + 1, ck.extra.end());
         r.surface_max = top_of(r.particles);
+        r.measure = measure_packing(scene, r.particles);
+        if (d.packing.target_porosity)
+          r.target_met = std::abs(r.measure.porosity - *d.packing.target_porosity) <=
+                         d.packing.target_tolerance;
         return r;
       }
     } catch (const io::IoError&) {

@@ -18,6 +18,7 @@
 //   surface.csv           surface-profile probe: top of the highest particle per x bin [m]
 //   loci.csv              loci probe: positions of the particles nearest to the given points
 //   coordination.csv      coordination number (2 × particle contacts / particles)
+//   packing.json          the initial packing: porosity, void ratio, coordination number, target
 #include "demfem/dem/run.hpp"
 
 #include <algorithm>
@@ -199,6 +200,20 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
     // The packing's shear springs (ids 0…count−1 match: the particles are added in id order).
     if (!pr.contact_history.empty()) e.load_contact_history(pr.contact_history);
+    // The packing's density and contacts, for the run's summary (issue 14).
+    try {
+      write_packing_json(pr, scene, out / "packing.json");
+    } catch (const std::exception& err) {
+      spdlog::warn("{}", err.what());
+    }
+    spdlog::info("packing: porosity {:.4f} (void ratio {:.4f}), coordination {:.3f}{}",
+                 pr.measure.porosity, pr.measure.void_ratio, pr.measure.coordination,
+                 scene.soil.dem->packing.target_porosity
+                     ? fmt::format(" — target {:.4f} ± {:.4f}{}",
+                                   *scene.soil.dem->packing.target_porosity,
+                                   scene.soil.dem->packing.target_tolerance,
+                                   pr.target_met ? "" : " NOT MET")
+                     : std::string());
   }
 #else
   if (!resume_from && scene.soil.dem->particles.empty()) {

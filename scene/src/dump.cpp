@@ -150,6 +150,18 @@ std::string to_toml(const Scene& s) {
                                                            {"max_time", d->packing.max_time},
                                                            {"damping", d->packing.damping},
                                                            {"cache", d->packing.cache}}}});
+    if (d->packing.target_porosity) { // issue 14: as the file gave it (porosity or void ratio)
+      const double n = *d->packing.target_porosity;
+      toml::table t;
+      if (d->packing.target_as_void_ratio)
+        t.insert("void_ratio", n / (1.0 - n)); // e = n / (1 − n)
+      else
+        t.insert("porosity", n);
+      t.insert("tolerance", d->packing.target_tolerance);
+      soil.get_as<toml::table>("dem")->get_as<toml::table>("packing")->insert("target", t);
+    } else {
+      soil.get_as<toml::table>("dem")->get_as<toml::table>("packing")->insert("target", "none");
+    }
     if (d->sphere_mass) soil.get_as<toml::table>("dem")->insert("particle_mass", "sphere");
     if (!d->particles_file.empty()) {
       soil.get_as<toml::table>("dem")->insert("particles_file", d->particles_file);
@@ -285,6 +297,11 @@ std::string to_toml(const Scene& s) {
                                     {"force_chains", s.output.force_chains},
                                     {"figures", s.output.figures},
                                     {"checkpoint_interval", s.output.checkpoint_interval}});
+  if (!s.output.series.empty()) {
+    toml::array a;
+    for (double t : s.output.series) a.push_back(t);
+    root.get_as<toml::table>("output")->insert("series", a);
+  }
   std::ostringstream os;
   os << "# resolved scene: " << s.label() << " (from " << s.source_file << ")\n";
   os << root << "\n";

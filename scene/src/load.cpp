@@ -506,7 +506,30 @@ DemSoil read_dem_soil(Reader& r) {
     s.packing.max_time = p.positive("max_time", s.packing.max_time);
     s.packing.damping = p.non_negative("damping", s.packing.damping);
     s.packing.cache = p.string("cache", s.packing.cache);
-    p.finish({"ke_ratio", "max_time", "damping", "cache"});
+    if (const toml::node* tn = p.node("target")) {
+      if (const auto* str = tn->as_string()) {
+        if (str->get() != "none")
+          p.error("target", fmt::format("expected \"none\" or a table {{ porosity = n }} / "
+                                        "{{ void_ratio = e }}, got \"{}\"",
+                                        str->get()));
+      } else if (const auto* tt = tn->as_table()) {
+        Reader t(*tt, p.key_path("target"), p.file(), p.diags(), tt->source());
+        if (t.has("porosity") == t.has("void_ratio")) {
+          t.error_here("give exactly one of porosity (0 < n < 1) or void_ratio (e > 0)");
+        } else if (t.has("porosity")) {
+          s.packing.target_porosity = t.in_range("porosity", 0.2, 0.01, 0.9);
+        } else {
+          const double e = t.positive("void_ratio", 0.25);
+          s.packing.target_porosity = e / (1.0 + e); // n = e / (1 + e)
+          s.packing.target_as_void_ratio = true;
+        }
+        s.packing.target_tolerance = t.in_range("tolerance", s.packing.target_tolerance, 1e-4, 0.1);
+        t.finish({"porosity", "void_ratio", "tolerance"});
+      } else {
+        p.error("target", "expected \"none\" or a table { porosity = n } / { void_ratio = e }");
+      }
+    }
+    p.finish({"ke_ratio", "max_time", "damping", "cache", "target"});
   }
   if (const toml::node* n = r.node("particles")) {
     const auto* a = n->as_array();
@@ -920,8 +943,20 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     sc.output.figures = r.boolean("figures", sc.output.figures);
     sc.output.checkpoint_interval =
         r.non_negative("checkpoint_interval", sc.output.checkpoint_interval);
-    r.finish(
-        {"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval"});
+    if (const toml::node* n = r.node("series")) { // snapshot series times [s] (issue 14)
+      const auto* a = n->as_array();
+      bool ok = a != nullptr;
+      for (std::size_t i = 0; ok && i < a->size(); ++i) {
+        const auto v = (*a)[i].value<double>();
+        ok = (*a)[i].is_number() && v && std::isfinite(*v) && *v >= 0.0 &&
+             (sc.output.series.empty() || *v > sc.output.series.back());
+        if (ok) sc.output.series.push_back(*v);
+      }
+      if (!ok)
+        r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
+    }
+    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures",
+              "checkpoint_interval", "series"});
   }
 
   // Cross references, located at the key that names the missing thing.

@@ -18,6 +18,22 @@
 //     critical for the mean particle) during deposition only.
 // It stops when kinetic energy < packing.ke_ratio × potential energy released, or at
 // packing.max_time.
+//
+// Target density (packing.target = { porosity = n } or { void_ratio = e }; issue 14): reached by
+// deposition with a raised (or lowered) interparticle friction that is then reset — the standard
+// way to make loose or dense DEM specimens under gravity. Both friction coefficients are scaled
+// by one factor s (μ_s' = s μ_s, μ_D' = s μ_D); after the deposition at s the scene's friction is
+// restored and the bed settles again (at least 20 √(2 r_max / g), then until KE < ke_ratio × PE
+// released), and the porosity is measured on the settled bed. s is bracketed (1, then doubled up
+// to 16 for looser targets; 0, i.e. frictionless deposition, for denser ones) and bisected until
+// |n − target| ≤ tolerance (at most 10 depositions); the packing nearest to the target is kept.
+// Deterministic: every trial starts from the same placement.
+//
+// Porosity (measure_packing): 1 − solid area / available area in the measurement window = the
+// fill polygon between its lowest point and the bed surface less one largest diameter (surface =
+// the 10th percentile of the tops of columns 2 r_max wide), less the structures' area there;
+// disks are cut exactly at the window's top and bottom. Coordination number Z = 2 C / N over all
+// particles, C the particle–particle contacts (overlap > 0).
 #pragma once
 
 #include <cstddef>
@@ -61,6 +77,16 @@ private:
 [[nodiscard]] std::filesystem::path packing_path(const scene::Scene& scene,
                                                  const std::filesystem::path& out_dir);
 
+// Density and contacts of a packing (see the header comment for the window).
+struct PackingMeasure {
+  double porosity = 0.0;     // n = void area / total area in the window
+  double void_ratio = 0.0;   // e = void area / solid area = n / (1 − n) (2D)
+  double coordination = 0.0; // Z = 2 C / N, particle–particle contacts
+  double rattlers = 0.0;     // fraction of particles without a particle contact
+  double z_bottom = 0.0, z_top = 0.0; // the measurement window [m]
+};
+[[nodiscard]] PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p);
+
 struct PackResult {
   Particles particles;        // at rest, velocities zeroed, ids 0…count−1 in placement order
   std::filesystem::path path; // the checkpoint
@@ -77,7 +103,15 @@ struct PackResult {
   // flags; Engine::save_contact_history without boundaries, whose features differ between the
   // deposition and the run). Empty for explicit particles and packings cached without it.
   std::vector<std::byte> contact_history;
+  PackingMeasure measure;            // of the packing as returned
+  double friction_scale = 1.0;       // s of the deposition kept (1 without a target)
+  int trials = 1;                    // depositions made to reach the target
+  bool target_met = true;            // |porosity − target| ≤ tolerance (true without a target)
 };
+
+// Writes the packing's statistics and measure as JSON (beside a checkpoint, or into a run).
+void write_packing_json(const PackResult& r, const scene::Scene& scene,
+                        const std::filesystem::path& path);
 
 // Places the particles without overlap (no deposition). Throws scene::SceneError (key
 // soil.dem.fill) when they cannot be placed.

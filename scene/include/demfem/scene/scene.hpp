@@ -77,6 +77,12 @@ struct Packing {
   double max_time = 20.0; // give up depositing after this simulated time [s]
   double damping = 0.0;   // extra global damping ratio during deposition only
   std::string cache;      // directory for reusable packings ("" = <out>/packing)
+  // Target density (issue 14): [soil.dem.packing] target = { porosity = n } or
+  // { void_ratio = e } (2D: void area / solid area, n = e/(1+e)), optional tolerance (default
+  // 0.005); target = "none" deposits as is. Reached by raised-friction deposition (pack.hpp).
+  std::optional<double> target_porosity;
+  bool target_as_void_ratio = false; // how the file gave it (for the resolved dump)
+  double target_tolerance = 0.005;   // |achieved − target porosity| accepted
 };
 
 struct DemSoil {
@@ -231,6 +237,9 @@ struct Output {
   bool force_chains = true;
   bool figures = true;
   double checkpoint_interval = 0.0; // [s] (0 = at the end and on interrupt only)
+  // Snapshot series for the figures [s], increasing (issue 14): the times the paper shows as a
+  // series; each is drawn from the nearest .vtp snapshot. Empty: six evenly spaced times.
+  std::vector<double> series;
 };
 
 struct Scene {

@@ -1,0 +1,358 @@
+#include "demfem/compare/series.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkIdList.h>
+#include <vtkPointData.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkXMLPolyDataReader.h>
+
+#include "demfem/compare/plot.hpp"
+
+namespace demfem::compare {
+
+namespace fs = std::filesystem;
+
+std::vector<double> series_times(const scene::Scene& scene) {
+  std::vector<double> t;
+  const double end = scene.info.duration;
+  for (double v : scene.output.series)
+    if (v <= end + 1e-9) t.push_back(v);
+  if (scene.output.series.empty())
+    for (int k = 0; k < 6; ++k) t.push_back(end * k / 5.0);
+  return t;
+}
+
+std::vector<std::pair<double, fs::path>> read_pvd(const fs::path& pvd) {
+  std::vector<std::pair<double, fs::path>> out;
+  std::ifstream in(pvd);
+  if (!in) return out;
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  auto attr = [](const std::string& el, const std::string& name) -> std::string {
+    const auto k = el.find(name + "=\"");
+    if (k == std::string::npos) return {};
+    const auto b = k + name.size() + 2;
+    const auto e = el.find('"', b);
+    return e == std::string::npos ? std::string() : el.substr(b, e - b);
+  };
+  std::size_t pos = 0;
+  while ((pos = text.find("<DataSet", pos)) != std::string::npos) {
+    const auto end = text.find("/>", pos);
+    if (end == std::string::npos) break;
+    const std::string el = text.substr(pos, end - pos);
+    pos = end;
+    const std::string ts = attr(el, "timestep"), file = attr(el, "file");
+    if (ts.empty() || file.empty()) continue;
+    fs::path f(file);
+    if (f.is_relative()) f = pvd.parent_path() / f;
+    out.emplace_back(std::strtod(ts.c_str(), nullptr), f);
+  }
+  return out;
+}
+
+namespace {
+
+struct Disk {
+  double x, z, r, vx, vz, speed;
+};
+struct Chain {
+  double x0, z0, x1, z1, fn;
+  bool tensile;
+};
+struct Frame {
+  double time = 0.0;
+  std::vector<Disk> disks;
+  std::vector<Chain> chains;
+  std::vector<std::vector<std::pair<double, double>>> lines; // boundaries (open walls left out)
+};
+
+vtkSmartPointer<vtkPolyData> read_vtp(const fs::path& f) {
+  std::error_code ec;
+  if (!fs::exists(f, ec)) return nullptr;
+  auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
+  reader->SetFileName(f.string().c_str());
+  reader->Update();
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->DeepCopy(reader->GetOutput());
+  return pd;
+}
+
+// The .vtp files of the snapshot nearest to `t` in each collection (same index: the run writes
+// particles, boundaries and chains together).
+bool load_frame(const std::vector<std::pair<double, fs::path>>& particles,
+                const std::vector<std::pair<double, fs::path>>& chains,
+                const std::vector<std::pair<double, fs::path>>& bounds, std::size_t k,
+                Frame& out) {
+  out.time = particles[k].first;
+  const auto pd = read_vtp(particles[k].second);
+  if (!pd || !pd->GetPointData()) return false;
+  vtkDataArray* rad = pd->GetPointData()->GetArray("radius");
+  vtkDataArray* vel = pd->GetPointData()->GetArray("velocity");
+  if (!rad) return false;
+  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
+    const double* x = pd->GetPoint(i);
+    Disk d{x[0], x[1], rad->GetTuple1(i), 0.0, 0.0, 0.0};
+    if (vel) {
+      const double* v = vel->GetTuple3(i);
+      d.vx = v[0];
+      d.vz = v[1];
+      d.speed = std::hypot(v[0], v[1]);
+    }
+    out.disks.push_back(d);
+  }
+  if (k < chains.size()) {
+    if (const auto cd = read_vtp(chains[k].second); cd && cd->GetCellData()) {
+      vtkDataArray* fn = cd->GetCellData()->GetArray("normal_force");
+      vtkDataArray* te = cd->GetCellData()->GetArray("tensile");
+      auto ids = vtkSmartPointer<vtkIdList>::New();
+      for (vtkIdType c = 0; fn && c < cd->GetNumberOfCells(); ++c) {
+        cd->GetCellPoints(c, ids);
+        if (ids->GetNumberOfIds() != 2) continue;
+        const double* a = cd->GetPoint(ids->GetId(0));
+        const double a0 = a[0], a1 = a[1];
+        const double* b = cd->GetPoint(ids->GetId(1));
+        out.chains.push_back(
+            {a0, a1, b[0], b[1], fn->GetTuple1(c), te ? te->GetTuple1(c) != 0.0 : false});
+      }
+    }
+  }
+  if (k < bounds.size()) {
+    if (const auto bd = read_vtp(bounds[k].second); bd && bd->GetCellData()) {
+      vtkDataArray* open = bd->GetCellData()->GetArray("open");
+      auto ids = vtkSmartPointer<vtkIdList>::New();
+      for (vtkIdType c = 0; c < bd->GetNumberOfCells(); ++c) {
+        if (open && open->GetTuple1(c) != 0.0) continue;
+        bd->GetCellPoints(c, ids);
+        std::vector<std::pair<double, double>> line;
+        for (vtkIdType q = 0; q < ids->GetNumberOfIds(); ++q) {
+          const double* x = bd->GetPoint(ids->GetId(q));
+          line.emplace_back(x[0], x[1]);
+        }
+        out.lines.push_back(std::move(line));
+      }
+    }
+  }
+  return true;
+}
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+} // namespace
+
+SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& run_dir) {
+  SnapshotSeries res;
+  res.requested = series_times(scene);
+  const fs::path dem = run_dir / "dem";
+  const auto parts = read_pvd(dem / "particles.pvd");
+  if (parts.empty()) {
+    res.problems.push_back("snapshot series: no dem/particles.pvd (output.vtk off?)");
+    return res;
+  }
+  const auto chains = read_pvd(dem / "force_chains.pvd");
+  const auto bounds = read_pvd(dem / "boundaries.pvd");
+  // Nearest snapshot to each requested time (a snapshot is drawn once).
+  std::vector<std::size_t> picks;
+  for (double t : res.requested) {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < parts.size(); ++k)
+      if (std::abs(parts[k].first - t) < std::abs(parts[best].first - t)) best = k;
+    if (picks.empty() || picks.back() != best) picks.push_back(best);
+  }
+  std::vector<Frame> frames;
+  for (auto k : picks) {
+    Frame f;
+    if (load_frame(parts, chains, bounds, k, f))
+      frames.push_back(std::move(f));
+    else
+      res.problems.push_back(fmt::format("snapshot series: cannot read {}",
+                                         parts[k].second.string()));
+  }
+  if (frames.empty()) return res;
+  for (const auto& f : frames) res.times.push_back(f.time);
+
+  // One extent, speed scale and force scale for the whole strip.
+  double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300, vmax = 0.0, fmax = 0.0;
+  for (const auto& f : frames) {
+    for (const auto& d : f.disks) {
+      xmin = std::min(xmin, d.x - d.r);
+      xmax = std::max(xmax, d.x + d.r);
+      zmin = std::min(zmin, d.z - d.r);
+      zmax = std::max(zmax, d.z + d.r);
+      vmax = std::max(vmax, d.speed);
+    }
+    for (const auto& l : f.lines)
+      for (const auto& [x, z] : l) {
+        xmin = std::min(xmin, x);
+        xmax = std::max(xmax, x);
+        zmin = std::min(zmin, z);
+        zmax = std::max(zmax, z);
+      }
+    for (const auto& c : f.chains) fmax = std::max(fmax, std::abs(c.fn));
+  }
+  if (!(xmax > xmin)) xmin = 0, xmax = 1;
+  if (!(zmax > zmin)) zmin = 0, zmax = 1;
+  const double aspect = (zmax - zmin) / (xmax - xmin);
+  const std::size_t n = frames.size();
+  const std::size_t cols = aspect < 0.5 ? std::min<std::size_t>(2, n) : std::min<std::size_t>(3, n);
+  const std::size_t rows = (n + cols - 1) / cols;
+  const int pw = 900;
+  const int ph = std::clamp(static_cast<int>(pw * aspect) + 90, 260, 1000);
+
+  const fs::path fig = run_dir / "figures";
+  const fs::path dat = fig / "series";
+  fs::create_directories(dat);
+  // Loci (traced particles) from loci.csv, if the scene has them.
+  CsvTable loci;
+  try {
+    std::error_code ec;
+    if (fs::exists(dem / "loci.csv", ec)) loci = read_csv(dem / "loci.csv");
+  } catch (const std::exception& e) {
+    res.problems.push_back(std::string("snapshot series: loci.csv: ") + e.what());
+  }
+  const auto lt = loci.column("time");
+
+  constexpr int kClasses = 4; // chain widths by |f_n| / max over the strip
+  const double vscale = vmax > 0.0 ? 0.05 * (xmax - xmin) / vmax : 0.0; // m per (m/s)
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& f = frames[k];
+    {
+      std::ofstream d(dat / fmt::format("p{}.dat", k));
+      d.precision(7);
+      for (const auto& q : f.disks) d << q.x << " " << q.z << " " << q.r << " " << q.speed << "\n";
+      d << "NaN NaN NaN NaN\n";
+    }
+    {
+      std::ofstream d(dat / fmt::format("c{}.dat", k));
+      d.precision(7);
+      for (int block = 0; block < 2 * kClasses; ++block) {
+        const bool tension = block >= kClasses;
+        d << "# " << (tension ? "tension" : "compression") << " class " << block % kClasses
+          << "\n";
+        bool any = false;
+        for (const auto& c : f.chains) {
+          if (c.tensile != tension || fmax <= 0.0) continue;
+          const int cls =
+              std::min(kClasses - 1, static_cast<int>(kClasses * std::abs(c.fn) / fmax));
+          if (cls != block % kClasses) continue;
+          d << c.x0 << " " << c.z0 << " " << c.x1 - c.x0 << " " << c.z1 - c.z0 << "\n";
+          any = true;
+        }
+        if (!any) d << "NaN NaN NaN NaN\n";
+        d << "\n\n";
+      }
+    }
+    {
+      std::ofstream d(dat / fmt::format("v{}.dat", k));
+      d.precision(7);
+      for (const auto& q : f.disks)
+        d << q.x << " " << q.z << " " << q.vx * vscale << " " << q.vz * vscale << "\n";
+      d << "NaN NaN NaN NaN\n";
+    }
+    {
+      std::ofstream d(dat / fmt::format("b{}.dat", k));
+      d.precision(7);
+      for (const auto& l : f.lines) {
+        for (const auto& [x, z] : l) d << x << " " << z << "\n";
+        d << "\n";
+      }
+      d << "NaN NaN\n";
+    }
+    {
+      std::ofstream d(dat / fmt::format("l{}.dat", k));
+      d.precision(7);
+      for (std::size_t c = 1; c + 1 < loci.columns.size(); c += 2) {
+        const auto x = loci.column(loci.columns[c].substr(0, loci.columns[c].find(" [")));
+        const auto z = loci.column(loci.columns[c + 1].substr(0, loci.columns[c + 1].find(" [")));
+        for (std::size_t i = 0; i < std::min({x.size(), z.size(), lt.size()}); ++i)
+          if (lt[i] <= f.time + 1e-9 && std::isfinite(x[i]) && std::isfinite(z[i]))
+            d << x[i] << " " << z[i] << "\n";
+        d << "\n";
+      }
+      d << "NaN NaN\n";
+    }
+  }
+
+  enum class Kind { Chains, Velocity, Loci };
+  auto strip = [&](Kind kind, const std::string& name, const std::string& what) {
+    if (kind == Kind::Loci && loci.columns.size() < 3) return;
+    const fs::path png = fig / (name + ".png");
+    const fs::path gp = fig / (name + ".gp");
+    std::ofstream g(gp);
+    g << "# demfem snapshot series; re-plot with: gnuplot " << gp.filename().string() << "\n";
+    g << "cd " << quote(fs::absolute(dat).string()) << "\n";
+    g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,10'\n",
+                     pw * static_cast<int>(cols), ph * static_cast<int>(rows) + 40);
+    g << "set output " << quote(fs::absolute(png).string()) << "\n";
+    g << "set palette defined (0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 "
+         "'#d7191c')\n";
+    g << fmt::format("set cbrange [0:{}]\nset cblabel 'speed [m/s]'\n", vmax > 0 ? vmax : 1.0);
+    g << "set key off\nset size ratio -1\n";
+    g << fmt::format("set xrange [{}:{}]\nset yrange [{}:{}]\n", xmin, xmax, zmin, zmax);
+    g << fmt::format("set multiplot layout {},{} title {} noenhanced\n", rows, cols,
+                     quote(fmt::format("{} — {}", what, scene.label())));
+    for (std::size_t k = 0; k < n; ++k) {
+      g << fmt::format("set title 't = {:.3g} s' noenhanced\n", frames[k].time);
+      std::string cl;
+      if (kind == Kind::Loci) {
+        g << "unset colorbox\n";
+        cl = fmt::format("'p{}.dat' using 1:2:3 with circles lc rgb '#d0d0d0' fs solid 0.6 "
+                         "noborder, 'l{}.dat' using 1:2 with lines lw 2 lc rgb '#c0392b'",
+                         k, k);
+      } else {
+        g << "set colorbox\n";
+        cl = fmt::format("'p{}.dat' using 1:2:3:4 with circles lc palette fs solid 0.85 noborder",
+                         k);
+      }
+      if (kind == Kind::Chains)
+        for (int block = 0; block < 2 * kClasses; ++block) {
+          const bool tension = block >= kClasses;
+          const double lw = 0.3 + 2.5 * ((block % kClasses) + 1) / kClasses;
+          cl += fmt::format(", 'c{}.dat' index {} using 1:2:3:4 with vectors nohead lw {:.2f} {} "
+                            "lc rgb '{}'",
+                            k, block, lw, tension ? "dt 2" : "", tension ? "#7b3294" : "#222222");
+        }
+      if (kind == Kind::Velocity)
+        cl += fmt::format(", 'v{}.dat' using 1:2:3:4 with vectors head filled size screen "
+                          "0.004,20 lw 1 lc rgb '#111111'",
+                          k);
+      cl += fmt::format(", 'b{}.dat' using 1:2 with lines lw 2 lc rgb '#000000'", k);
+      g << "plot " << cl << "\n";
+    }
+    g << "unset multiplot\nset output\n";
+    g.close();
+    const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote(gp.string()),
+                                        quote(gp.string() + ".log"));
+    if (std::system(cmd.c_str()) == 0) {
+      fs::remove(gp.string() + ".log");
+      res.figures.push_back(png);
+    } else {
+      res.problems.push_back(
+          fmt::format("{}: gnuplot failed; see {}.log", png.filename().string(), gp.string()));
+    }
+  };
+  strip(Kind::Chains, "series_force_chains",
+        fmt::format("particles (colour = speed) and normal-force chains (width ∝ |f_n|, max "
+                    "{:.3g} N)",
+                    fmax));
+  strip(Kind::Velocity, "series_velocity",
+        fmt::format("velocity field (arrows ∝ velocity, max {:.3g} m/s)", vmax));
+  strip(Kind::Loci, "series_loci", "loci of the traced particles up to each time");
+  return res;
+}
+
+} // namespace demfem::compare
