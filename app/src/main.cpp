@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <signal.h>
 #include <string>
 #include <vector>
 
@@ -28,20 +29,50 @@ using namespace demfem;
 
 namespace {
 
-// Ctrl-C: the first SIGINT asks the running solver to write a checkpoint and stop; a second one
-// kills the process the usual way.
+// Ctrl-C, a batch scheduler's stop (SIGTERM) and a closed terminal (SIGHUP): the first of them
+// asks the running solver to finish its step, write a checkpoint and stop (exit kInterrupted); a
+// second one kills the process the usual way.
 std::atomic<bool> g_interrupt{false};
-extern "C" void on_sigint(int) {
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_stop_signal(int sig) {
+  g_signal = sig;
   g_interrupt.store(true);
-  std::signal(SIGINT, SIG_DFL);
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &dfl, nullptr);
+}
+
+void install_stop_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &sa, nullptr);
+}
+
+const char* signal_name(int sig) {
+  switch (sig) {
+  case SIGINT:
+    return "SIGINT";
+  case SIGTERM:
+    return "SIGTERM";
+  case SIGHUP:
+    return "SIGHUP";
+  default:
+    return "a stop signal";
+  }
 }
 
 // Exit codes, documented in --help and the README.
 constexpr int kOk = 0;
 constexpr int kRunFailed = 1;
 constexpr int kBadInput = 2;
+constexpr int kInterrupted = 3;
 
-const char* kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage.";
+const char* kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage, 3 stopped "
+                         "by SIGINT/SIGTERM/SIGHUP after writing a checkpoint (continue with "
+                         "--resume).";
 
 struct RunArgs {
   std::string scene;
@@ -108,7 +139,8 @@ std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& 
 struct SolverOutcome {
   bool ran = false; // false: not built or not listed by the scene
   bool ok = false;
-  bool bad_input = false; // the solver refused the scene (SceneError)
+  bool bad_input = false;   // the solver refused the scene (SceneError)
+  bool interrupted = false; // stopped by a signal after writing a checkpoint
   std::string message;
   std::string note; // a successful run that ended early (e.g. a model validity limit)
 };
@@ -130,6 +162,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       const auto x = dem::run(s, o);
       r.ran = true;
       r.ok = x.ok;
+      r.interrupted = x.interrupted;
       r.message = x.message;
       if (x.ok && s.output.figures) { // issue 4: the run's figures and summary.json
         const auto f = compare::write_run_figures(s, out, x.wall_seconds, x.steps);
@@ -161,6 +194,35 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
   }
   reporter.finish();
   return r;
+}
+
+std::string shell_quote(const std::string& w) {
+  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                        "0123456789_-./=:+,@%") == std::string::npos)
+    return w;
+  std::string q = "'";
+  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// The command that continues an interrupted run of one scene (variant) in `out`.
+std::string resume_command(const char* sub, const scene::Scene& s, const fs::path& out,
+                           const RunArgs& a) {
+  std::string c = fmt::format("demfem {} {}", sub, shell_quote(a.scene));
+  if (std::string(sub) == "run" && a.solver != "dem") c += " --solver " + shell_quote(a.solver);
+  if (!s.variant.empty()) c += " --variant " + shell_quote(s.variant);
+  c += " --out " + shell_quote(out.string());
+  if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+  return c + " --resume";
+}
+
+// Logs the stop and how to continue; returns kInterrupted.
+int report_interrupted(const char* sub, const scene::Scene& s, const fs::path& out,
+                       const RunArgs& a, const std::string& message) {
+  spdlog::warn("{}: stopped by {}: {}", s.label(), signal_name(g_signal), message);
+  spdlog::warn("{}: checkpoint {}; continue with:\n  {}", s.label(),
+               (out / "dem" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
+  return kInterrupted;
 }
 
 fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count) {
@@ -207,6 +269,7 @@ int cmd_run(const RunArgs& a) {
       fmt::print(stderr, "{}\n", r.message);
       return kBadInput;
     }
+    if (r.interrupted) return report_interrupted("run", *s, out, a, r.message);
     if (r.ok) {
       spdlog::info("{}: done; outputs in {}", s->label(), out.string());
     } else {
@@ -256,6 +319,7 @@ int cmd_compare(const RunArgs& a) {
         fmt::print(stderr, "{}\n", r.message);
         return kBadInput;
       }
+      if (r.interrupted) return report_interrupted("compare", *s, out, a, r.message);
       if (r.ok) {
         any_ok = true;
         if (!r.note.empty()) ro.notes.push_back(fmt::format("The {} run {}.", name, r.note));
@@ -410,7 +474,7 @@ int main(int argc, char** argv) {
                    "packing goes to packing.cache or <out>/packing");
   pack->footer(kExitCodes);
 
-  std::signal(SIGINT, on_sigint);
+  install_stop_signals();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
