@@ -5,6 +5,8 @@
 #include <fstream>
 #include <iostream>
 #include <signal.h>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -85,6 +87,7 @@ struct RunArgs {
   int refinement = -1;
   int degree = -1;
   bool report_only = false; // compare: rewrite the report from the run directory's outputs
+  bool force = false;       // run into a directory that holds another scene's results
 };
 
 int not_built(const std::string& what, const std::string& issue_hint) {
@@ -237,6 +240,79 @@ void start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
   std::ofstream(out / "scene.resolved.toml") << scene::to_toml(s);
 }
 
+// What the solvers, figures and report write into a run directory (what --force clears).
+constexpr const char* kRunOutputs[] = {"dem",          "continuum",   "figures",
+                                       "summary.json", "report.html", "metrics.json"};
+
+// The resolved scene without its comment lines (they name the file it came from).
+std::vector<std::string> scene_lines(const std::string& toml) {
+  std::vector<std::string> lines;
+  std::istringstream in(toml);
+  for (std::string l; std::getline(in, l);)
+    if (l.rfind('#', 0) != 0) lines.push_back(l);
+  return lines;
+}
+
+void remove_outputs(const fs::path& out, const std::vector<std::string>& names) {
+  for (const auto& n : names) {
+    std::error_code ec;
+    fs::remove_all(out / n, ec);
+    if (ec)
+      throw std::runtime_error(
+          fmt::format("cannot clear {}: {}", (out / n).string(), ec.message()));
+  }
+}
+
+// Before a run writes into `out`: a directory holding another scene's results (its
+// scene.resolved.toml differs, or it has solver outputs and no scene.resolved.toml) is refused
+// unless --force, which clears every solver output first. A fresh run of the same scene clears
+// the outputs it is about to write (`fresh`), so figures and summaries are built only from files
+// this run wrote; --resume keeps them. Returns kOk or kBadInput (message printed).
+int prepare_run_dir(const scene::Scene& s, const fs::path& out, const RunArgs& a, const char* sub,
+                    const std::vector<std::string>& fresh) {
+  if (a.resume || !fs::exists(out)) return kOk;
+  const fs::path resolved = out / "scene.resolved.toml";
+  std::string why;
+  if (fs::exists(resolved)) {
+    std::ifstream in(resolved);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const auto old_lines = scene_lines(ss.str()), new_lines = scene_lines(scene::to_toml(s));
+    if (old_lines != new_lines) {
+      std::size_t i = 0;
+      while (i < old_lines.size() && i < new_lines.size() && old_lines[i] == new_lines[i]) ++i;
+      // "# resolved scene: <label> (from <file>)", the first line to_toml writes
+      std::string label = ss.str().substr(0, ss.str().find('\n'));
+      const std::string tag = "# resolved scene: ";
+      label = label.rfind(tag, 0) == 0
+                  ? label.substr(tag.size(), label.rfind(" (from") - tag.size())
+                  : std::string("?");
+      why = fmt::format("{} is scene '{}' (first difference: `{}` there, `{}` here)",
+                        resolved.string(), label, i < old_lines.size() ? old_lines[i] : "",
+                        i < new_lines.size() ? new_lines[i] : "");
+    }
+  } else {
+    for (const char* n : {"dem", "continuum"})
+      if (fs::exists(out / n) && why.empty())
+        why = fmt::format("it holds {}/ but no scene.resolved.toml saying which scene wrote it",
+                          (out / n).string());
+  }
+  if (!why.empty()) {
+    if (!a.force) {
+      fmt::print(stderr,
+                 "demfem {}: {} holds the results of a different scene: {}. Nothing was run. Use "
+                 "another --out, or --force to clear its results ({}) first.\n",
+                 sub, out.string(), why, fmt::join(kRunOutputs, ", "));
+      return kBadInput;
+    }
+    fmt::print(stderr, "demfem {}: --force: clearing the results of another scene in {} ({})\n",
+               sub, out.string(), why);
+    remove_outputs(out, {std::begin(kRunOutputs), std::end(kRunOutputs)});
+  }
+  remove_outputs(out, fresh);
+  return kOk;
+}
+
 int cmd_run(const RunArgs& a) {
   int rc = kOk;
   const auto file = load_or_report(a.scene, rc);
@@ -261,6 +337,13 @@ int cmd_run(const RunArgs& a) {
       return kBadInput;
     }
     const fs::path out = run_dir_for(*s, a, scenes.size());
+    if (const int p =
+            prepare_run_dir(*s, out, a, "run",
+                            solver == scene::Solver::Dem
+                                ? std::vector<std::string>{"dem", "figures", "summary.json"}
+                                : std::vector<std::string>{"continuum"});
+        p != kOk)
+      return p;
     start_run_dir(*s, out, a.resume);
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
@@ -296,6 +379,10 @@ int cmd_compare(const RunArgs& a) {
         return kBadInput;
       }
     } else {
+      if (const int p = prepare_run_dir(*s, out, a, "compare",
+                                        {std::begin(kRunOutputs), std::end(kRunOutputs)});
+          p != kOk)
+        return p;
       start_run_dir(*s, out, a.resume);
     }
     compare::ReportOptions ro;
@@ -419,6 +506,8 @@ int main(int argc, char** argv) {
   run->add_flag("--all-variants", ra.all_variants, "Run every [[variant]] of the file");
   run->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   run->add_flag("--resume", ra.resume, "Continue from the last checkpoint in the run directory");
+  run->add_flag("--force", ra.force,
+                "Run into a directory that holds another scene's results, clearing them first");
   run->add_option(
          "--threads", ra.threads,
          "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
@@ -446,6 +535,8 @@ int main(int argc, char** argv) {
   compare->add_flag("--all-variants", ra.all_variants, "All variants");
   compare->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   compare->add_flag("--resume", ra.resume, "DEM: continue from the last checkpoint");
+  compare->add_flag("--force", ra.force,
+                    "Run into a directory that holds another scene's results, clearing them first");
   compare->add_flag("--report-only", ra.report_only,
                     "Run nothing: rewrite report.html and metrics.json from the run directory");
   compare->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")

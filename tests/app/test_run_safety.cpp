@@ -89,3 +89,52 @@ TEST(RunSignals, StopSignalsCheckpointAndResumeByteIdentical) {
   fs::remove_all(ref);
   fs::remove(scene);
 }
+
+// A second scene run into a used directory is refused (exit 2, nothing touched); with --force the
+// old results are cleared first, so its summary holds only its own quantities. The same scene
+// again overwrites.
+TEST(RunDirectory, AnotherSceneIsRefusedUnlessForced) {
+  const auto a = settle_box("dir_a", 0.3);
+  auto a_text = slurp(a);
+  a_text.replace(a_text.find("figures = false\n"), 16, "");
+  std::ofstream(a) << a_text; // with figures and summary.json
+  const auto b =
+      write_temp("demfem_safety_dir_b_" + std::to_string(::getpid()) + ".toml",
+                 with_values(slurp(kSource / "cases/verification/rebounding_settle.toml"),
+                             {{"duration", "0.3"}}));
+  const fs::path out = scratch("dir");
+  const auto ra = run("run " + a.string() + " --out " + out.string());
+  ASSERT_EQ(ra.code, 0) << ra.out;
+  ASSERT_TRUE(fs::exists(out / "dem" / "structures.csv"));
+
+  // The same scene again: overwritten, exit 0.
+  const auto again = run("run " + a.string() + " --out " + out.string());
+  EXPECT_EQ(again.code, 0) << again.out;
+  const auto summary_a = slurp(out / "summary.json");
+  ASSERT_NE(summary_a.find("\"footing\""), std::string::npos) << summary_a;
+
+  const auto refused = run("run " + b.string() + " --out " + out.string());
+  EXPECT_EQ(refused.code, 2) << refused.out;
+  EXPECT_NE(refused.out.find("holds the results of a different scene"), std::string::npos)
+      << refused.out;
+  EXPECT_NE(refused.out.find("--force"), std::string::npos) << refused.out;
+  EXPECT_EQ(slurp(out / "summary.json"), summary_a) << "a refused run touched the directory";
+  EXPECT_NE(slurp(out / "scene.resolved.toml").find("settle-box"), std::string::npos);
+
+  const auto forced = run("run " + b.string() + " --out " + out.string() + " --force");
+  ASSERT_EQ(forced.code, 0) << forced.out;
+  const auto summary_b = slurp(out / "summary.json");
+  EXPECT_NE(summary_b.find("\"rebounding-settle\""), std::string::npos) << summary_b;
+  for (const char* stale : {"footing", "settle-box", "base.thrust", "\"surface\""})
+    EXPECT_EQ(summary_b.find(stale), std::string::npos) << stale << " in\n" << summary_b;
+  for (const char* stale : {"structures.csv", "walls.csv", "surface.csv", "coordination.csv"})
+    EXPECT_FALSE(fs::exists(out / "dem" / stale)) << stale;
+  // Every snapshot is the new run's: 0.3 s at interval 0.25 → 0, 0.25 and the end.
+  int snapshots = 0;
+  for (const auto& e : fs::directory_iterator(out / "dem" / "vtk"))
+    snapshots += e.path().filename().string().rfind("particles_", 0) == 0;
+  EXPECT_EQ(snapshots, 3);
+  fs::remove_all(out);
+  fs::remove(a);
+  fs::remove(b);
+}
