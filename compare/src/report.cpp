@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/plot.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -304,7 +305,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   }
 
   res.metrics_json = run_dir / "metrics.json";
-  std::ofstream(res.metrics_json) << metrics.dump(2) << "\n";
+  scene::write_file_atomic(res.metrics_json, metrics.dump(2) + "\n"); // throws WriteError
 
   // ---- HTML -------------------------------------------------------------------------------
   std::string h;
@@ -358,7 +359,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   }
   h += "</body></html>\n";
   res.html = run_dir / "report.html";
-  std::ofstream(res.html) << h;
+  scene::write_file_atomic(res.html, h);
   return res;
 }
 
