@@ -15,6 +15,7 @@
 
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/validate.hpp"
 #include "state_bytes.hpp"
 
 namespace demfem::dem {
@@ -283,10 +284,8 @@ void Engine::set_dt(double dt) {
   if (!(dt > 0.0) || dt > lim) {
     scene::Diagnostic d;
     d.key = "soil.dem.dt";
-    d.message = fmt::format(
-        "time step {:.4g} s is above the stable limit {:.4g} s ({}); use dt ≤ {:.4g} s or 0 for "
-        "automatic ({:.4g} s)",
-        dt, lim, critical_step(step_params(config_, m_min_, r_min_)).formula(), lim, auto_dt());
+    d.message = scene::dem_step_refusal(
+        dt, {lim, critical_step(step_params(config_, m_min_, r_min_)).formula()}, auto_dt());
     throw scene::SceneError({d});
   }
   dt_ = dt;

@@ -173,4 +173,10 @@ std::optional<StepBound> scene_critical_step(const scene::Scene& scene) {
   return critical_step(step_params(c, m, r));
 }
 
+std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene) {
+  const auto b = scene_critical_step(scene);
+  if (!b) return std::nullopt;
+  return scene::DemStepLimit{b->dt, b->formula()};
+}
+
 } // namespace demfem::dem

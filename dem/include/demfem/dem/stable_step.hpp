@@ -10,6 +10,7 @@
 #include <string>
 
 #include "demfem/scene/scene.hpp"
+#include "demfem/scene/validate.hpp"
 
 namespace demfem::dem {
 
@@ -51,5 +52,8 @@ struct StepBound {
 [[nodiscard]] std::optional<StepBound> scene_critical_step(const scene::Scene& scene);
 // Smallest radius of the scene's particles (listed, or the distribution's smallest), 0 if none.
 [[nodiscard]] double scene_min_radius(const scene::DemSoil& d);
+// scene_critical_step in the form scene::set_dem_step_limit() takes: the application installs
+// it so that loading a scene checks soil.dem.dt against this bound (scene/validate.hpp).
+[[nodiscard]] std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene);
 
 } // namespace demfem::dem
