@@ -20,6 +20,7 @@
 #include "demfem/compare/report.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
+#include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -442,6 +443,9 @@ int main(int argc, char** argv) {
   app.footer(kExitCodes);
   app.set_version_flag("--version", std::string("demfem ") + DEMFEM_VERSION);
   app.require_subcommand(1);
+  // Loading a scene checks soil.dem.dt against the DEM's stable limit (issue 11): `check` and
+  // `run` refuse the same step, at the key's file:line:col.
+  scene::set_dem_step_limit(&dem::scene_step_limit);
 
   RunArgs ra;
   auto* run = app.add_subcommand("run", "Run one solver on a scene (or some of its variants).");

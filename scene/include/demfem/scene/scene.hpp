@@ -114,8 +114,10 @@ struct DemSoil {
   double damping_c = 0.0;        // global translational damping C (eq. 2.1) [1/s, per mass]
   double damping_d = 0.0;        // global rotational damping D (eq. 2.2) [1/s, per inertia]
   double dt = 0.0;               // 0 = automatic
-  double dt_safety =
-      0.05; // Δt = safety · 2√(m_min/k_max) = 0.1√(m_min/k_max): ≈ 22 steps per contact
+  // Automatic Δt = dt_safety × the stable limit (dem/stable_step.hpp; disks:
+  // √(m_min/max(2k_n, 6k_s))); 0.14 gives 0.099√(m_min/k_n) for k_s ≤ k_n/3, ≈ 22 steps per
+  // contact (the former default 0.05 × 2√(m_min/k_max) = 0.1√(m_min/k_n)).
+  double dt_safety = 0.14;
   double max_overlap = 0.5; // blow-up: overlap beyond this fraction of the radius
   Polygon fill;             // region filled by packing (default: the domain polygon)
   Packing packing;
