@@ -65,11 +65,21 @@ TEST(Cli, CheckAcceptsEveryCaseFile) {
 }
 
 TEST(Cli, CheckPrintsResolvedVariants) {
-  const auto r =
-      run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  const auto r = run("check --resolved " +
+                     (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("# ===== variant case-12 ====="), std::string::npos);
   EXPECT_NE(r.out.find("amplitude = 8.0"), std::string::npos); // case-2's override
+}
+
+TEST(Cli, CheckSummarisesWhatEachVariantChanges) {
+  const auto r =
+      run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out.find("# ===== variant"), std::string::npos) << "the summary is not the dump";
+  EXPECT_NE(r.out.find("load.shaking.amplitude 4.0 → 8.0"), std::string::npos) << r.out; // case-2
+  EXPECT_NE(r.out.find("soil.dem.mu_static 0.5 → 1.0"), std::string::npos) << r.out;     // case-11
+  EXPECT_NE(r.out.find("scene.duration 26.0 → 7.0"), std::string::npos) << r.out;        // quick
 }
 
 TEST(Cli, CheckRejectsMalformedSceneWithLine) {
