@@ -212,29 +212,41 @@ bool soil_point(const ContinuumSnapshot& s, std::size_t p) {
 }
 } // namespace
 
-std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, double x1, int bins) {
-  std::vector<double> top(static_cast<std::size_t>(bins), -1e300), sum(top.size(), 0.0);
-  std::vector<int> cnt(top.size(), 0);
+std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, double x1,
+                                      int bins) {
+  // The top boundary: for each distinct x of the soil points, the highest reference z there and
+  // its displaced height (mean over the coincident patch points), then linear interpolation at
+  // the bin centres.
   const auto* uz = s.get("displacement_z");
-  const double h = (x1 - x0) / bins;
-  auto bin_of = [&](double x) {
-    return std::clamp(static_cast<int>(std::floor((x - x0) / h)), 0, bins - 1);
-  };
+  std::map<long long, std::pair<double, std::pair<double, int>>> top; // key(x) → z_ref, (Σz, n)
+  auto key = [](double x) { return std::llround(x * 1e6); };
   for (std::size_t p = 0; p < s.x.size(); ++p) {
-    if (!soil_point(s, p) || s.x[p] < x0 || s.x[p] > x1) continue;
-    auto& t = top[static_cast<std::size_t>(bin_of(s.x[p]))];
-    t = std::max(t, s.z[p]);
+    if (!soil_point(s, p)) continue;
+    auto it = top.find(key(s.x[p]));
+    const double zd = s.z[p] + (uz ? (*uz)[p] : 0.0);
+    if (it == top.end() || s.z[p] > it->second.first + 1e-9)
+      top[key(s.x[p])] = {s.z[p], {zd, 1}};
+    else if (s.z[p] > it->second.first - 1e-9) {
+      it->second.second.first += zd;
+      ++it->second.second.second;
+    }
   }
-  for (std::size_t p = 0; p < s.x.size(); ++p) {
-    if (!soil_point(s, p) || s.x[p] < x0 || s.x[p] > x1) continue;
-    const auto b = static_cast<std::size_t>(bin_of(s.x[p]));
-    if (s.z[p] < top[b] - 1e-9 * std::max(1.0, std::abs(top[b]))) continue;
-    sum[b] += s.z[p] + (uz ? (*uz)[p] : 0.0);
-    ++cnt[b];
+  std::vector<double> xs, zs;
+  for (const auto& [k, v] : top) {
+    xs.push_back(static_cast<double>(k) * 1e-6);
+    zs.push_back(v.second.first / v.second.second);
   }
-  std::vector<double> out(top.size(), std::nan(""));
-  for (std::size_t b = 0; b < out.size(); ++b)
-    if (cnt[b] > 0) out[b] = sum[b] / cnt[b];
+  std::vector<double> out(static_cast<std::size_t>(bins), std::nan(""));
+  if (xs.size() < 2) return out;
+  for (int b = 0; b < bins; ++b) {
+    const double x = x0 + (x1 - x0) * (b + 0.5) / bins;
+    if (x < xs.front() || x > xs.back()) continue;
+    const auto it = std::upper_bound(xs.begin(), xs.end(), x);
+    const std::size_t k = std::min(xs.size() - 1, static_cast<std::size_t>(it - xs.begin()));
+    const std::size_t j = k - 1;
+    const double w = (x - xs[j]) / (xs[k] - xs[j]);
+    out[static_cast<std::size_t>(b)] = zs[j] + w * (zs[k] - zs[j]); // linear interpolation
+  }
   return out;
 }
 
@@ -325,24 +337,34 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
   if (dm <= 0.0) dm = 1.0;
   const double wx = g.h * (g.nx - 1), wz = g.h * (g.nz - 1);
   const int pw = 1500;
-  const int ph = std::clamp(static_cast<int>(pw / 3.0 * wz / std::max(wx, 1e-9)) + 130, 260, 900);
+  const int ph = std::clamp(static_cast<int>(pw / 3.0 * wz / std::max(wx, 1e-9)) + 60, 240, 900);
   const fs::path gp = fs::path(png).replace_extension(".gp");
   {
     std::ofstream f(gp);
     f << "set terminal pngcairo size " << pw << "," << ph << " font 'sans,10'\n";
     f << "set output '" << png.string() << "'\n";
     f << "set datafile missing 'NaN'\nset size ratio -1\nunset key\n";
-    f << "set multiplot layout 1,3 title '" << title << "'\n";
+    f << fmt::format("hh = {:.6g}\n", 0.5 * g.h); // each node drawn as a filled h × h square
+    std::string gtitle = title; // gnuplot enhanced text: σ_zz → σ_{zz}
+    for (const char* sub : {"_zz", "_xx", "_x", "_vol"}) {
+      const auto k = gtitle.find(sub);
+      if (k != std::string::npos)
+        gtitle.replace(k, std::string(sub).size(), "_{" + std::string(sub + 1) + "}");
+    }
+    f << "set multiplot layout 1,3 title '" << gtitle << "'\n";
     f << fmt::format("set cbrange [{:.6g}:{:.6g}]\nset palette rgbformulae 33,13,10\n", lo, hi);
     f << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n";
     f << "set title 'DEM, coarse-grained [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:3 with image\n";
+    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):3 with boxxyerror fs solid noborder "
+         "lc palette\n";
     f << "set title 'continuum [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:4 with image\n";
+    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):4 with boxxyerror fs solid noborder "
+         "lc palette\n";
     f << fmt::format("set cbrange [{:.6g}:{:.6g}]\n", -dm, dm);
     f << "set palette defined (0 '#2166ac', 1 '#f7f7f7', 2 '#b2182b')\n";
     f << "set title 'continuum − DEM [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:5 with image\n";
+    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):5 with boxxyerror fs solid noborder "
+         "lc palette\n";
     f << "unset multiplot\n";
   }
   const std::string cmd = fmt::format("gnuplot '{}' 2>'{}'", gp.string(),

@@ -326,6 +326,21 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
   }
   for (const auto& b : bodies) {
     if (is_wall(b)) continue;
+    // A structure whose DEM soil forces are 0 throughout while the continuum's are not: the
+    // particles never touch it (e.g. a packing that leaves a gap under it).
+    bool dem_zero = true, cont_zero = true, any = false;
+    for (const char* q : {".force_x", ".force_z", ".moment"})
+      if (dem.cols.count(b + q) && cont.cols.count(b + q)) {
+        any = true;
+        dem_zero = dem_zero && all_zero(dem.cols.at(b + q));
+        cont_zero = cont_zero && all_zero(cont.cols.at(b + q));
+      }
+    if (any && dem_zero && !cont_zero)
+      set.warnings.push_back(fmt::format(
+          "The DEM's soil force and moment on '{}' are 0 throughout the run: no particle touches "
+          "it, so its DEM motion is that of a body loaded without soil and its comparison with "
+          "the continuum (where the soil is tied to it) is not a comparison of two soil models.",
+          b));
     for (const auto& sq : kBodyQ) add(b, sq, "structures.csv", "structures.csv");
     if (dem.cols.count(b + ".applied_moment"))
       set.aliases.push_back(

@@ -179,7 +179,7 @@ double mean_over(const std::vector<double>& t, const std::vector<double>& y, dou
 namespace {
 
 std::string num(double v) {
-  return std::isfinite(v) ? fmt::format("{:.4g}", v) : std::string("—");
+  return std::isfinite(v) ? fmt::format("{:.3g}", v) : std::string("—");
 }
 std::string pct(double v) {
   return std::isfinite(v) ? fmt::format("{:+.0f} %", 100 * v) : std::string("—");
@@ -269,6 +269,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   metrics["aliases"] = nlohmann::json::array();
   for (const auto& a : set.aliases)
     metrics["aliases"].push_back({{"column", a.column}, {"same_as", a.same_as}, {"why", a.why}});
+  metrics["warnings"] = set.warnings;
   metrics["zero_in_both"] = nlohmann::json::array();
   for (const auto& z : set.zero)
     metrics["zero_in_both"].push_back({{"key", z.def.key}, {"note", z.note}});
@@ -281,7 +282,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
       for (const auto& [name, d] : all) {
         std::string wall;
         int bin = 0;
-        if (!is_profile_bin(name, &wall, &bin)) continue;
+        if (!is_profile_bin(name, &wall, &bin) || d.file.rfind("pressure_", 0) != 0) continue;
         const double rest_a = so.load_start > 0.2 ? 0.5 * so.load_start : 0.0;
         const double rest_b =
             so.load_start > 0.2 ? so.load_start * (1 - 1e-9) - 1e-12 : d.t.front();
@@ -450,13 +451,14 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
        "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222;"
        "padding:0 1em}table{border-collapse:collapse;margin:1em 0;font-size:90%}td,th{border:1px "
        "solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}th{background:#f3f3f3}"
-       "td.l,th.l{text-align:left}figure{margin:1em 0}img{max-width:100%;border:1px solid #eee}"
+       "table.v{font-size:78%}table.v td{white-space:nowrap}table.v td.l{white-space:normal;min-width:9em}td.l,th.l{text-align:left}figure{margin:1em 0}img{max-width:100%;border:1px solid #eee}"
        ".note{background:#fff6d6;padding:.6em 1em;border-left:4px solid #e6b800}"
        ".div{color:#b00;font-weight:bold}.ok{color:#070;font-weight:bold}"
        "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
   h += "<!--report-body-->\n";
   h += "<h1>" + html_escape(options.title) + "</h1>\n";
   for (const auto& note : options.notes) h += "<p class=\"note\">" + html_escape(note) + "</p>\n";
+  for (const auto& w : set.warnings) h += "<p class=\"note\">" + html_escape(w) + "</p>\n";
   h += fmt::format("<p>Run directory: <code>{}</code>. Quantities compared: {} (each once; "
                    "{} solver columns folded into them, {} zero in both).</p>\n",
                    html_escape(run_dir.string()), res.compared.size(), res.aliases.size(),
@@ -475,14 +477,15 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
         "|increment| (|moving mean|).</p>\n",
         so.load_start > 0.2 ? 0.5 * so.load_start : 0.0, so.load_start, so.load_start, so.late_from,
         so.late_to, so.window, 100 * thr, 100 * thr);
-    h += "<table><tr><th class=\"l\" rowspan=\"2\">quantity</th><th rowspan=\"2\">unit</th>"
+    h += "<div style=\"overflow-x:auto\"><table class=\"v\"><tr><th class=\"l\" rowspan=\"2\">"
+         "quantity [unit]</th>"
          "<th colspan=\"4\">static (at rest)</th><th colspan=\"4\">mean increment (late)</th>"
          "<th colspan=\"4\">oscillation amplitude (late)</th><th colspan=\"2\">first divergence "
          "[s]</th><th rowspan=\"2\">verdict</th></tr><tr>";
     for (int k = 0; k < 3; ++k) h += "<th>DEM</th><th>continuum</th><th>diff.</th><th>rel.</th>";
     h += "<th>incr.</th><th>mean</th></tr>\n";
     for (const auto& r : res.compared) {
-      h += fmt::format("<tr><td class=\"l\">{}</td><td>{}</td>", html_escape(r.def.quantity),
+      h += fmt::format("<tr><td class=\"l\">{} [{}]</td>", html_escape(r.def.quantity),
                        html_escape(r.def.unit));
       for (const Part* p : {&r.static_part, &r.increment, &r.amplitude})
         h += fmt::format("<td>{}</td><td>{}</td><td>{}</td><td>{}</td>", num(p->dem),
@@ -491,7 +494,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                        when(r.first_divergence), when(r.first_divergence_mean),
                        r.diverges ? "div" : "ok", r.diverges ? "diverge" : "agree");
     }
-    h += "</table>\n<ul>\n";
+    h += "</table></div>\n<ul>\n";
     for (const auto& r : res.compared)
       h += "<li><b>" + html_escape(r.def.quantity) + "</b>: " + html_escape(r.verdict) + "</li>\n";
     h += "</ul>\n";

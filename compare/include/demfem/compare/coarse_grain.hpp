@@ -88,9 +88,9 @@ struct ContinuumSnapshot {
 };
 [[nodiscard]] ContinuumSnapshot read_continuum_vtu(const std::filesystem::path& file);
 
-// Ground elevation in `bins` equal x bins over [x0, x1]: the highest reference z of the soil
-// cells' points (material 0) in each bin, plus its vertical displacement (mean over the points at
-// that height). NaN for a bin without soil.
+// Ground elevation at the centres of `bins` equal x bins over [x0, x1]: along the top boundary of
+// the soil cells (material 0; the highest reference z at each x) moved by its vertical
+// displacement, interpolated linearly in x. NaN outside the soil's x range.
 [[nodiscard]] std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0,
                                                     double x1, int bins);
 

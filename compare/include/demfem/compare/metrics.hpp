@@ -46,6 +46,7 @@ struct MetricSet {
   std::vector<MetricSeries> series; // compared quantities, key ones first
   std::vector<Alias> aliases;       // columns folded into a canonical quantity
   std::vector<MetricSeries> zero;   // identically zero in both solvers (fixed by the scene)
+  std::vector<std::string> warnings; // e.g. a structure the DEM's particles never touch
 };
 
 // Reads <run>/dem/*.csv and <run>/continuum/*.csv (+ the continuum's .vtu snapshots for the
