@@ -212,8 +212,7 @@ bool soil_point(const ContinuumSnapshot& s, std::size_t p) {
 }
 } // namespace
 
-std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, double x1,
-                                      int bins) {
+std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, double x1, int bins) {
   // The top boundary: for each distinct x of the soil points, the highest reference z there and
   // its displaced height (mean over the coincident patch points), then linear interpolation at
   // the bin centres.
@@ -345,7 +344,7 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
     f << "set output '" << png.string() << "'\n";
     f << "set datafile missing 'NaN'\nset size ratio -1\nunset key\n";
     f << fmt::format("hh = {:.6g}\n", 0.5 * g.h); // each node drawn as a filled h × h square
-    std::string gtitle = title; // gnuplot enhanced text: σ_zz → σ_{zz}
+    std::string gtitle = title;                   // gnuplot enhanced text: σ_zz → σ_{zz}
     for (const char* sub : {"_zz", "_xx", "_x", "_vol"}) {
       const auto k = gtitle.find(sub);
       if (k != std::string::npos)
@@ -355,15 +354,18 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
     f << fmt::format("set cbrange [{:.6g}:{:.6g}]\nset palette rgbformulae 33,13,10\n", lo, hi);
     f << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n";
     f << "set title 'DEM, coarse-grained [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):3 with boxxyerror fs solid noborder "
+    f << "plot '" << dat.string()
+      << "' using 1:2:(hh):(hh):3 with boxxyerror fs solid noborder "
          "lc palette\n";
     f << "set title 'continuum [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):4 with boxxyerror fs solid noborder "
+    f << "plot '" << dat.string()
+      << "' using 1:2:(hh):(hh):4 with boxxyerror fs solid noborder "
          "lc palette\n";
     f << fmt::format("set cbrange [{:.6g}:{:.6g}]\n", -dm, dm);
     f << "set palette defined (0 '#2166ac', 1 '#f7f7f7', 2 '#b2182b')\n";
     f << "set title 'continuum − DEM [" << unit << "]'\n";
-    f << "plot '" << dat.string() << "' using 1:2:(hh):(hh):5 with boxxyerror fs solid noborder "
+    f << "plot '" << dat.string()
+      << "' using 1:2:(hh):(hh):5 with boxxyerror fs solid noborder "
          "lc palette\n";
     f << "unset multiplot\n";
   }

@@ -451,7 +451,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
        "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222;"
        "padding:0 1em}table{border-collapse:collapse;margin:1em 0;font-size:90%}td,th{border:1px "
        "solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}th{background:#f3f3f3}"
-       "table.v{font-size:78%}table.v td{white-space:nowrap}table.v td.l{white-space:normal;min-width:9em}td.l,th.l{text-align:left}figure{margin:1em 0}img{max-width:100%;border:1px solid #eee}"
+       "table.v{font-size:78%}table.v td{white-space:nowrap}table.v "
+       "td.l{white-space:normal;min-width:9em}td.l,th.l{text-align:left}figure{margin:1em "
+       "0}img{max-width:100%;border:1px solid #eee}"
        ".note{background:#fff6d6;padding:.6em 1em;border-left:4px solid #e6b800}"
        ".div{color:#b00;font-weight:bold}.ok{color:#070;font-weight:bold}"
        "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
@@ -565,7 +567,19 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
         for (const auto& e : fs::directory_iterator(fd))
           if (e.path().extension() == ".png") pngs.push_back(e.path());
     std::sort(pngs.begin(), pngs.end());
-    for (const auto& p : pngs) h += img(p, p.stem().string());
+    // Figures above 1 MB (the snapshot series) are linked, not embedded, to keep the page small.
+    std::string linked;
+    for (const auto& p : pngs) {
+      std::error_code ec;
+      const auto size = fs::file_size(p, ec);
+      if (!ec && size > 1000000)
+        linked += fmt::format("{}<a href=\"{}\">{}</a> ({:.1f} MB)", linked.empty() ? "" : ", ",
+                              html_escape(fs::relative(p, run_dir).string()),
+                              html_escape(p.stem().string()), static_cast<double>(size) / 1e6);
+      else
+        h += img(p, p.stem().string());
+    }
+    if (!linked.empty()) h += "<p>Not embedded (large): " + linked + ".</p>\n";
   }
   h += "<!--/report-body-->\n</body></html>\n";
   res.html = run_dir / "report.html";

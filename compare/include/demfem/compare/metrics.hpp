@@ -43,9 +43,9 @@ struct Alias {
 };
 
 struct MetricSet {
-  std::vector<MetricSeries> series; // compared quantities, key ones first
-  std::vector<Alias> aliases;       // columns folded into a canonical quantity
-  std::vector<MetricSeries> zero;   // identically zero in both solvers (fixed by the scene)
+  std::vector<MetricSeries> series;  // compared quantities, key ones first
+  std::vector<Alias> aliases;        // columns folded into a canonical quantity
+  std::vector<MetricSeries> zero;    // identically zero in both solvers (fixed by the scene)
   std::vector<std::string> warnings; // e.g. a structure the DEM's particles never touch
 };
 
