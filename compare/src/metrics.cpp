@@ -243,6 +243,14 @@ MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o, double th
     return std::isfinite(p.dem) && p.dem != 0.0 ? fmt::format("{:.2f}×", p.continuum / p.dem)
                                                 : std::string("n/a");
   };
+  const bool dz = all_zero(m.dem), cz = all_zero(m.continuum);
+  if (dz != cz) {
+    r.comparable = false;
+    r.diverges = false;
+    r.verdict = fmt::format("not comparable: the {} series is 0 throughout (nothing measured)",
+                            dz ? "DEM" : "continuum");
+    return r;
+  }
   std::string v = r.diverges ? "diverge" : "agree";
   v += fmt::format(": mean increment continuum/DEM {} ({:.3g} vs {:.3g} {})", ratio(r.increment),
                    r.increment.continuum, r.increment.dem, m.def.unit);

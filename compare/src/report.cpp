@@ -262,6 +262,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                                {"first_divergence_increment_s", row.first_divergence},
                                {"first_divergence_mean_increment_s", row.first_divergence_mean},
                                {"diverges", row.diverges},
+                               {"comparable", row.comparable},
                                {"verdict", row.verdict},
                                {"figure", figure}});
     res.compared.push_back(std::move(row));
@@ -462,13 +463,13 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   for (const auto& note : options.notes) h += "<p class=\"note\">" + html_escape(note) + "</p>\n";
   for (const auto& w : set.warnings) h += "<p class=\"note\">" + html_escape(w) + "</p>\n";
   h += fmt::format("<p>Run directory: <code>{}</code>. Quantities compared: {} (each once; "
-                   "{} solver columns folded into them, {} zero in both).</p>\n",
+                   "{} solver column(s) folded into them, {} zero in both).</p>\n",
                    html_escape(run_dir.string()), res.compared.size(), res.aliases.size(),
                    res.zero.size());
   if (!res.compared.empty()) {
     h += fmt::format(
-        "<h2>Verdicts</h2><p>Each series is split into its <b>static</b> value (the mean at rest, "
-        "{:.3g}–{:.3g} s, before the loading starts at {:.3g} s), its <b>increment</b> (series − "
+        "<h2>Verdicts</h2><p>Each series is split into its <b>static</b> value ({}), its "
+        "<b>increment</b> (series − "
         "static; the table gives its mean over the late window {:.3g}–{:.3g} s) and its "
         "<b>oscillation</b> (increment − its moving mean over {:.3g} s of whole loading periods; "
         "the table gives the amplitude √2·RMS over the late window). Relative difference = "
@@ -477,8 +478,12 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
         "otherwise. First divergence: the first time after the load starts at which |continuum − "
         "DEM| of the increments (of their moving means) exceeds {:.0f} % of the DEM's largest "
         "|increment| (|moving mean|).</p>\n",
-        so.load_start > 0.2 ? 0.5 * so.load_start : 0.0, so.load_start, so.load_start, so.late_from,
-        so.late_to, so.window, 100 * thr, 100 * thr);
+        so.load_start > 0.2
+            ? fmt::format(
+                  "the mean at rest, {:.3g}–{:.3g} s, before the loading starts at {:.3g} s",
+                  0.5 * so.load_start, so.load_start, so.load_start)
+            : fmt::format("the sample at t = {:.3g} s: the loading starts then", so.load_start),
+        so.late_from, so.late_to, so.window, 100 * thr, 100 * thr);
     h += "<div style=\"overflow-x:auto\"><table class=\"v\"><tr><th class=\"l\" rowspan=\"2\">"
          "quantity [unit]</th>"
          "<th colspan=\"4\">static (at rest)</th><th colspan=\"4\">mean increment (late)</th>"
@@ -494,7 +499,12 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                          num(p->continuum), num(p->difference()), pct(p->relative()));
       h += fmt::format("<td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
                        when(r.first_divergence), when(r.first_divergence_mean),
-                       r.diverges ? "div" : "ok", r.diverges ? "diverge" : "agree");
+                       !r.comparable ? ""
+                       : r.diverges  ? "div"
+                                     : "ok",
+                       !r.comparable ? "n/a"
+                       : r.diverges  ? "diverge"
+                                     : "agree");
     }
     h += "</table></div>\n<ul>\n";
     for (const auto& r : res.compared)

@@ -166,3 +166,21 @@ TEST(Metrics, ReportHasOneRowPerQuantityAndAVerdict) {
   EXPECT_NE(html.find("diverge"), std::string::npos);
   EXPECT_EQ(html.find("wall.force_x [N]</td>"), std::string::npos);
 }
+
+// A series one solver writes as 0 throughout (nothing measured: e.g. a structure no particle
+// touches) is reported as not comparable, not as a divergence.
+TEST(Metrics, ZeroInOneSolverIsNotComparable) {
+  compare::MetricSeries m;
+  m.def.key = "f.moment";
+  m.def.unit = "N·m";
+  for (int k = 0; k <= 100; ++k) {
+    m.dem.t.push_back(0.1 * k);
+    m.dem.y.push_back(0.0);
+    m.continuum.t.push_back(0.1 * k);
+    m.continuum.y.push_back(std::sin(0.1 * k));
+  }
+  const auto row = compare::compare_metric(m, compare::split_options(nullptr, 10.0), 0.2);
+  EXPECT_FALSE(row.comparable);
+  EXPECT_FALSE(row.diverges);
+  EXPECT_NE(row.verdict.find("not comparable"), std::string::npos);
+}

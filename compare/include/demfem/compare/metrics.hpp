@@ -96,7 +96,8 @@ struct MetricRow {
   double first_divergence = -1.0; // first t ≥ load start where |Δ increment| > thr·max|inc_dem|
   double first_divergence_mean = -1.0; // the same on the moving averages of the increments
   bool diverges = false;
-  std::string verdict; // plain words with the numbers
+  bool comparable = true; // false when one solver's series is 0 throughout (nothing measured)
+  std::string verdict;    // plain words with the numbers
   Split dem_split, continuum_split;
 };
 
