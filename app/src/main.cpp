@@ -452,6 +452,7 @@ int cmd_compare(const RunArgs& a) {
       if (const int d = start_run_dir(*s, out, a.resume); d != kOk) return d;
     }
     compare::ReportOptions ro;
+    ro.scene = s;
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
     bool any_ok = false;
