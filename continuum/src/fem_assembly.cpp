@@ -200,32 +200,26 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
     cr = 0;
     cf = 0;
     const auto id = cell->material_id();
-    const mc::Parameters& P = iface_cell[cell->active_cell_index()] ? iface_mat : mat[id];
+    const constitutive::Material& model = model_of(cell->active_cell_index(), id);
     const std::size_t base = cell->active_cell_index() * nq();
     for (unsigned q = 0; q < nq(); ++q) {
       const QpState& c0 = committed[base + q];
       QpState& s = trial[base + q];
       const mc::Vec3& e = eps[q];
-      mc::ElasticStrain tr = c0.ee;
-      for (int k = 0; k < 3; ++k) tr.in_plane[k] += e[k] - c0.eps[k];
-      mc::Result r = mc::integrate(P, tr, predictor_tangent && c0.plastic);
-      ++returns[static_cast<std::size_t>(r.region)];
-      if (r.region == mc::Return::Apex || r.region == mc::Return::TensionApex) {
+      const mc::Vec3 de{{e[0] - c0.eps[0], e[1] - c0.eps[1], e[2] - c0.eps[2]}};
+      mc::Mat3 tangent{};
+      const mc::Return region =
+          model.update(c0, de, s, matrix ? &tangent : nullptr, predictor_tangent);
+      s.eps = e;
+      ++returns[static_cast<std::size_t>(region)];
+      if (matrix && (region == mc::Return::Apex || region == mc::Return::TensionApex)) {
         // the consistent apex tangent is zero (perfect plasticity); a whole element at the apex
         // would make K singular, so 1e-4 of the elastic tangent is kept there (affects the
         // Newton rate only, never the converged stresses)
-        const mc::Mat3 De = mc::elastic_tangent(P);
+        const mc::Mat3 De = mc::elastic_tangent(model.parameters());
         for (int a = 0; a < 3; ++a)
-          for (int bb = 0; bb < 3; ++bb) r.tangent[a][bb] = 1e-4 * De[a][bb];
+          for (int bb = 0; bb < 3; ++bb) tangent[a][bb] = 1e-4 * De[a][bb];
       }
-      s.ee = r.elastic;
-      s.plastic = r.region != mc::Return::Elastic;
-      s.eps = e;
-      s.stress = r.stress;
-      s.syy = r.stress_yy;
-      for (int k = 0; k < 3; ++k)
-        s.eps_p[k] = c0.eps_p[k] + (e[k] - c0.eps[k]) - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
-      s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
       // body force: gravity along −z, base shaking ρ·a(t), structure loads
       const auto xq = fv.quadrature_point(q);
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
@@ -242,12 +236,12 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
       for (unsigned i = 0; i < n; ++i) {
         const unsigned ci = fe.system_to_component_index(i).first;
         const auto& Bi = cb(i, q);
-        cf(i) += (Bi[0] * r.stress[0] + Bi[1] * r.stress[1] + Bi[2] * r.stress[2]) * w;
+        cf(i) += (Bi[0] * s.stress[0] + Bi[1] * s.stress[1] + Bi[2] * s.stress[2]) * w;
         cr(i) -= fv.shape_value(i, q) * b[ci] * w;
         if (!matrix) continue;
         double BiC[3] = {0, 0, 0};
         for (int a = 0; a < 3; ++a)
-          for (int bb = 0; bb < 3; ++bb) BiC[bb] += Bi[a] * r.tangent[a][bb];
+          for (int bb = 0; bb < 3; ++bb) BiC[bb] += Bi[a] * tangent[a][bb];
         for (unsigned j = 0; j < n; ++j) {
           const auto& Bj = cb(j, q);
           ck(i, j) += (BiC[0] * Bj[0] + BiC[1] * Bj[1] + BiC[2] * Bj[2]) * w;

@@ -8,6 +8,7 @@
 // Only these files include it (deal.II's flags, C++17).
 #pragma once
 
+#include "constitutive.hpp"
 #include "fem.hpp"
 
 #include <deal.II/base/index_set.h>
@@ -75,13 +76,10 @@ inline bool on_segment(const Point& a, const Point& b, double x, double z, doubl
   return std::sqrt(px * px + pz * pz) <= tol;
 }
 
-struct QpState {
-  mc::ElasticStrain ee;
+// A quadrature point: its constitutive state plus the total strain the state belongs to (the
+// strain increment of the next update is measured from it).
+struct QpState : constitutive::State {
   mc::Vec3 eps{{0, 0, 0}}; // total strain (εxx, εzz, γxz)
-  mc::Vec3 stress{{0, 0, 0}};
-  double syy = 0.0;
-  double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
-  bool plastic = false;           // the return of the last evaluation was plastic
 };
 
 } // namespace detail
@@ -125,6 +123,13 @@ struct Model::Impl {
   std::vector<mc::Parameters> mat; // by material id
   std::vector<char> iface_cell;    // by active cell index: soil cell of the interface layer
   mc::Parameters iface_mat;
+  // constitutive models (the seam, constitutive.hpp) by material id, and the interface layer's
+  std::vector<constitutive::Material> models;
+  constitutive::Material iface_model;
+  [[nodiscard]] const constitutive::Material& model_of(unsigned cell_index,
+                                                       types::material_id id) const {
+    return iface_cell[cell_index] ? iface_model : models[id];
+  }
   std::vector<double> rho;
   struct RegionGeom {
     double area = 0, xc = 0, zc = 0, J = 0;
@@ -239,6 +244,47 @@ struct Model::Impl {
   StepStats dynamic_to(double dt, int depth);
 
   double top_at(double x) const;
+
+  // ---- explicit central differences (fem_explicit.cpp)
+  struct Explicit {
+    bool ready = false;
+    double omega_max = 0.0; // element bound on the highest angular frequency [rad/s]
+    double dt_stable = 0.0; // safety × critical step
+    unsigned n = 0, nq = 0; // dofs and quadrature points per cell
+    // replicated full-length nodal vectors (one rank)
+    std::vector<double> u, v, a, f, mass, damp;
+    std::vector<double> f_static, f_shake; // gravity + tractions; shaking per unit acceleration
+    std::vector<std::array<std::vector<double>, 3>> f_region; // per region: unit Fx, Fz, Mt
+    // cells with stresses (every non-rigid cell): dofs, B̄ rows, weights, state offset, model
+    std::vector<types::global_dof_index> cell_dofs; // [c·n + i]
+    std::vector<double> cell_B;                     // [((c·nq + q)·n + i)·3 + k]
+    std::vector<double> cell_w;                     // [c·nq + q]
+    std::vector<std::size_t> cell_base;             // state index of the cell's first point
+    std::vector<const constitutive::Material*> cell_model;
+    std::vector<mc::Mat3> cell_De; // elastic tangent (stiffness-proportional damping)
+    // dof classes: 0 free, 1 fixed (zero), 2 prescribed (patch target), 3 follows a master
+    // (periodic), 4 rigid body
+    std::vector<char> kind;
+    std::vector<std::pair<types::global_dof_index, types::global_dof_index>> follows;
+    std::vector<std::pair<types::global_dof_index, double>> prescribed;
+    struct Body {
+      std::size_t region = 0;
+      std::vector<types::global_dof_index> dofs;
+      std::vector<std::array<double, 3>> rows; // u_i = rows_i · q
+      double M[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+      double q[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qa[3] = {0, 0, 0};
+      double q_prev[3] = {0, 0, 0}; // prescribed components one step back
+    };
+    std::vector<Body> bodies;
+    long steps = 0;
+  } ex;
+  bool is_explicit() const { return pb.integrator == "explicit"; }
+  void explicit_setup();
+  double explicit_stable_step();
+  void explicit_accel(double dt); // a from u, v at time t (dt: the step, for prescribed motion)
+  void explicit_move(double dt);  // one velocity-Verlet step
+  void explicit_sync();           // u, v, acc, trial ← the explicit state (for observation)
+  StepStats explicit_advance(double dt);
 
   template <class F> double sum(F f) const { return Utilities::MPI::sum(f(), comm); }
 };

@@ -350,6 +350,7 @@ void Model::set_displacement(const std::function<Point(Point)>& f) {
 
 StepStats Model::dynamic_step(double dt) {
   Impl& m = *impl_;
+  if (m.is_explicit()) return m.explicit_advance(dt);
   if (!m.dyn_init) {
     // initial acceleration: M a0 = fext − f_internal(u0)
     m.assemble(false, m.hom, false);

@@ -115,6 +115,9 @@ void Model::Impl::setup() {
     mat[r + 1].plastic = false;
     rho[r + 1] = pb.regions[r].density;
   }
+  models.clear();
+  for (const auto& p : mat) models.push_back(constitutive::Material::from(p));
+  iface_model = constitutive::Material::from(iface_mat);
   // region geometry (all cells: every rank holds the whole shared mesh)
   geom.assign(pb.regions.size() + 1, RegionGeom{});
   {

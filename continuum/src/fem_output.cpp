@@ -257,13 +257,44 @@ Model::RegionMotion Model::region_motion(std::size_t region) const {
 }
 
 double Model::elastic_energy() const {
-  const Impl& m = *impl_;
-  Vec tmp(m.owned, m.comm);
-  m.M.vmult(tmp, m.v);
-  double e = 0.5 * (tmp * m.v);
-  m.K0.vmult(tmp, m.u);
-  e += 0.5 * (tmp * m.u);
-  return e;
+  // cell by cell (constrained rows of the condensed matrices would add their artificial
+  // diagonals): kinetic ½∫ρ|v|² (consistent mass; lumped ½Σ m_i v_i² with the explicit integrator)
+  // plus elastic strain energy ½∫ ε̄ᵀ De ε̄ of the displacement (linear elastic problems)
+  Impl& m = *impl_;
+  m.update_ghost();
+  Vec vg(m.owned, m.relevant, m.comm);
+  vg = m.v;
+  FEValues<2> fv(m.mapping, m.fe, m.quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  const unsigned n = m.fe.n_dofs_per_cell();
+  dealii::Vector<double> lu(n), lv(n);
+  std::vector<mc::Vec3> eps;
+  Impl::CellB cb;
+  double e = 0;
+  const bool lumped = m.is_explicit() && m.ex.ready;
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    m.cell_b(fv, cb);
+    cell->get_dof_values(m.u_ghost, lu);
+    cell->get_dof_values(vg, lv);
+    Impl::cell_strain(cb, lu, eps);
+    const auto id = cell->material_id();
+    const mc::Mat3 C = mc::elastic_tangent(m.mat[id]);
+    for (unsigned q = 0; q < m.nq(); ++q) {
+      const double w = fv.JxW(q);
+      double vq[2] = {0, 0};
+      for (unsigned i = 0; i < n; ++i)
+        vq[m.fe.system_to_component_index(i).first] += lv[i] * fv.shape_value(i, q);
+      if (!lumped) e += 0.5 * m.rho[id] * (vq[0] * vq[0] + vq[1] * vq[1]) * w;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) e += 0.5 * eps[q][a] * C[a][b] * eps[q][b] * w;
+    }
+  }
+  if (lumped)
+    for (std::size_t i = 0; i < m.ex.u.size(); ++i)
+      if (m.ex.kind[i] != 3) e += 0.5 * m.ex.mass[i] * m.ex.v[i] * m.ex.v[i];
+  return Utilities::MPI::sum(e, m.comm);
 }
 
 std::vector<QpStress> Model::stresses() const {
