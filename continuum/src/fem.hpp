@@ -115,6 +115,11 @@ struct Problem {
   std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
+  // diagnostics, written to the model's log (run.cpp sets them from DEMFEM_NEWTON_TRACE and
+  // DEMFEM_TANGENT_CHECK): every step's Newton history (residual, return regions, line-search α);
+  // the directional derivative of the residual along each Newton step against −R
+  bool newton_trace = false;
+  bool tangent_check = false;
   // dynamics
   double newmark_beta = 0.25, newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;

@@ -220,12 +220,13 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
         for (int a = 0; a < 3; ++a)
           for (int bb = 0; bb < 3; ++bb) tangent[a][bb] = 1e-4 * De[a][bb];
       }
-      // body force: gravity along −z, base shaking ρ·a(t), structure loads
+      // body force: gravity along −z, base shaking ρ·a(t) (soil), structure loads
       const auto xq = fv.quadrature_point(q);
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
       double b[2] = {0.0,
                      weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0};
-      if (pb.shaking_component >= 0) b[pb.shaking_component] += rho[id] * shake;
+      // base shaking loads the soil only, as the DEM loads its particles only
+      if (pb.shaking_component >= 0 && id == 0) b[pb.shaking_component] += rho[id] * shake;
       if (id > 0) {
         double bx = 0, bz = 0;
         region_force(id - 1, xq[0], xq[1], bx, bz);

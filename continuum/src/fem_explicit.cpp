@@ -73,7 +73,8 @@ void Model::Impl::explicit_setup() {
       const double w = fv.JxW(q);
       const auto xq = fv.quadrature_point(q);
       // body forces: gravity along −z (structures' weight if dead_weight), base shaking ρ·a(t)
-      // per unit acceleration, structure loads per unit resultant/moment (as in assemble)
+      // per unit acceleration (soil only, as in assemble), structure loads per unit
+      // resultant/moment (as in assemble)
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
       const double gz = weight ? -r * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0;
       double unit[3][2] = {{0, 0}, {0, 0}, {0, 0}};
@@ -96,7 +97,7 @@ void Model::Impl::explicit_setup() {
         // row-sum lumping: m_i = Σ_j M_ij = ∫ ρ N_i (Σ_j N_j = 1); positive for Lagrange Q1/Q2
         e.mass[ld[i]] += r * Nw;
         if (ci == 1) e.f_static[ld[i]] += gz * Nw;
-        if (pb.shaking_component >= 0 && ci == unsigned(pb.shaking_component))
+        if (pb.shaking_component >= 0 && ci == unsigned(pb.shaking_component) && id == 0)
           e.f_shake[ld[i]] += r * Nw;
         if (id > 0)
           for (int k = 0; k < 3; ++k) e.f_region[id - 1][k][ld[i]] += unit[k][ci] * Nw;

@@ -225,9 +225,6 @@ struct Model::Impl {
 
   static constexpr double stagnation_tolerance = 1e-5;
   static constexpr int max_nondescent = 3;
-  // DEMFEM_NEWTON_TRACE=1: every step's Newton history (residual, return regions, line-search α)
-  const bool trace_newton = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
-  const bool check_tangent = std::getenv("DEMFEM_TANGENT_CHECK") != nullptr;
   // Newton iteration to equilibrium at (lambda, gfactor) [and time t when dynamic].
   StepStats newton(bool dynamic);
 

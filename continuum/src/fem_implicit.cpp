@@ -67,7 +67,11 @@ int Model::Impl::solve_linear(bool symmetric) {
 }
 
 bool Model::Impl::symmetric_tangent() const {
-  return !pb.soil.plastic || std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12;
+  // non-associated flow (ψ ≠ φ) makes the consistent tangent non-symmetric: in the soil, and in
+  // the frictional interface layer (ψ = 0, φ_l > 0) when there is one
+  const bool soil_sym = !pb.soil.plastic || std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12;
+  const bool iface_sym = pb.interface_friction < 1e-12; // < 0: tied, no layer
+  return soil_sym && iface_sym;
 }
 
 double Model::Impl::free_norm(const Vec& r) const {
@@ -120,8 +124,8 @@ StepStats Model::Impl::newton(bool dynamic) {
     if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
       st.converged = true;
       st.newton_iterations = it;
-      if (trace_newton)
-        std::fprintf(stderr, "newton t=%g λ=%g\n%s\n", t, lambda, trace.str().c_str());
+      if (pb.newton_trace)
+        log << "newton t=" << t << " λ=" << lambda << "\n" << trace.str() << "\n";
       return st;
     }
     if (it == pb.newton_max_iterations) break;
@@ -133,7 +137,7 @@ StepStats Model::Impl::newton(bool dynamic) {
     }
     cons.distribute(du);
     if (!std::isfinite(du.l2_norm())) break;
-    if (check_tangent && it > 0) { // directional derivative of R along du vs K du = −R
+    if (pb.tangent_check && it > 0) { // directional derivative of R along du vs K du = −R
       const Vec u0(u), r0(rhs);
       double rel[3];
       int k = 0;
@@ -154,10 +158,9 @@ StepStats Model::Impl::newton(bool dynamic) {
         rp += r0;
         rel[k++] = rp.l2_norm() / r0.l2_norm();
       }
-      std::fprintf(stderr,
-                   "tangent check t=%g λ=%g it=%d: |dR[du] + R|/|R| = %.3e %.3e %.3e (h = 1e-3, "
-                   "1e-5, 1e-7 of the Newton step)\n",
-                   t, lambda, it, rel[0], rel[1], rel[2]);
+      log << "tangent check t=" << t << " λ=" << lambda << " it=" << it
+          << ": |dR[du] + R|/|R| = " << rel[0] << " " << rel[1] << " " << rel[2]
+          << " (h = 1e-3, 1e-5, 1e-7 of the Newton step)\n";
       u = u0;
       assemble(true, hom, dynamic);
       if (dynamic) add_dynamic(true);

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -192,6 +193,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   pb.rayleigh_alpha = co.rayleigh_alpha;
   pb.rayleigh_beta = co.rayleigh_beta;
   pb.absorbing = co.absorbing;
+  // diagnostics (continuum/README.md), read here so that the solver itself reads no environment
+  pb.newton_trace = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
+  pb.tangent_check = std::getenv("DEMFEM_TANGENT_CHECK") != nullptr;
   pb.integrator = co.integrator;
   pb.explicit_safety = co.explicit_safety;
   pb.local_damping = co.local_damping;
