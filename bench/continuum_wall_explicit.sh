@@ -16,7 +16,7 @@ work=${BENCH_DIR:-/tmp/demfem-bench-wall-explicit}
 mkdir -p "$work"
 for r in "$@"; do
   scene=$work/wall_r$r.toml
-  sed -e "s/^duration = 26.0 .*/duration = $duration/" \
+  sed -e "s/^duration = 26.0 .*/duration = $duration/" -e "/^integrator = /d" \
       -e "s/^refinement = [0-9]*.*/refinement = $r\nintegrator = \"explicit\"/" \
       -e 's/^dt = 0.01$/dt = 0.0/' \
       -e 's/^interval = 0.5$/interval = 0.5\nvtk = false/' \
