@@ -16,8 +16,9 @@ mkdir -p "$work"
 for r in "$@"; do
   scene=$work/wall_r$r.toml
   sed -e 's/^duration = 26.0 .*/duration = 0.08/' \
-      -e "s/^refinement = 1.*/refinement = $r/" \
-      -e "s/^linear_solver = \"direct\"/linear_solver = \"$solver\"/" \
+      -e "s/^refinement = [0-9]*.*/refinement = $r/" \
+      -e 's/^integrator = .*/integrator = "implicit"/' -e 's/^dt = 0.0 .*/dt = 0.01/' \
+      -e "s/^linear_solver = \"direct\".*/linear_solver = \"$solver\"/" \
       -e 's/start = 1.0 }/start = 0.02 }/' "$root/cases/retaining_wall.toml" > "$scene"
   out=$work/${variant}_${solver}_r$r
   rm -rf "$out"

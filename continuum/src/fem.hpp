@@ -115,6 +115,11 @@ struct Problem {
   std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
+  // diagnostics, written to the model's log (run.cpp sets them from DEMFEM_NEWTON_TRACE and
+  // DEMFEM_TANGENT_CHECK): every step's Newton history (residual, return regions, line-search α);
+  // the directional derivative of the residual along each Newton step against −R
+  bool newton_trace = false;
+  bool tangent_check = false;
   // dynamics
   double newmark_beta = 0.25, newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0, rayleigh_beta = 0.0;
@@ -122,6 +127,14 @@ struct Problem {
   // flag is set (left, right, bottom, top); only unconstrained components feel them.
   bool absorbing = false;
   bool absorbing_sides[4] = {true, true, true, false};
+  // Time integration of dynamic_step: "implicit" (Newmark-β with Newton) or "explicit" (central
+  // differences, lumped mass, cell-wise internal force, automatic stable step; one MPI rank).
+  std::string integrator = "implicit";
+  double explicit_safety = 0.8; // fraction of the critical step (element bound, Irons 1970)
+  double explicit_dt = 0.0;     // explicit step [s]; 0 = automatic; above the stable step: error
+  // FLAC-style local (non-viscous) damping, explicit only: f_d = −α |f| sign(v) per dof
+  // (Cundall 1987); 0 = none
+  double local_damping = 0.0;
   int shaking_component = -1;  // 0 = x, 1 = z, −1 = none
   scene::TimeFunction shaking; // base acceleration [m/s²] applied as body force ρ·a(t)
 };
@@ -138,6 +151,7 @@ struct StepStats {
   int linear_iterations = 0;
   int cuts = 0;
   double residual = 0.0;
+  long substeps = 0; // explicit central-difference steps taken
 };
 
 class Model {
@@ -159,8 +173,13 @@ public:
   // Static equilibrium at load factor `lambda` (tractions and patches scale with it; gravity is
   // on when it was initialised). Newton with line search; the increment is halved on failure.
   StepStats static_step(double lambda);
-  // One Newmark-β step (Newmark 1959) from t to t + dt with patches/tractions at factor 1.
+  // Advance from t to t + dt with patches/tractions at factor 1: one Newmark-β step (Newmark
+  // 1959) when `integrator` is implicit; with the explicit integrator, ceil(dt/Δt) equal central-
+  // difference steps no longer than the stable step (StepStats::substeps).
   StepStats dynamic_step(double dt);
+  // Explicit integrator: the automatic step, safety × 2/ω_max with ω_max bounded by the largest
+  // element eigenvalue (Irons 1970) [s].
+  [[nodiscard]] double stable_time_step();
   // Initial displacement for free vibration tests (gravity off).
   void set_displacement(const std::function<Point(Point)>& u);
 

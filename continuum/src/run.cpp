@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -192,6 +193,14 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   pb.rayleigh_alpha = co.rayleigh_alpha;
   pb.rayleigh_beta = co.rayleigh_beta;
   pb.absorbing = co.absorbing;
+  // diagnostics (continuum/README.md), read here so that the solver itself reads no environment
+  pb.newton_trace = std::getenv("DEMFEM_NEWTON_TRACE") != nullptr;
+  pb.tangent_check = std::getenv("DEMFEM_TANGENT_CHECK") != nullptr;
+  pb.integrator = co.integrator;
+  pb.explicit_safety = co.explicit_safety;
+  pb.local_damping = co.local_damping;
+  const bool explicit_dyn = co.integrator == "explicit";
+  if (explicit_dyn) pb.explicit_dt = co.dt; // 0 = automatic
 
   const std::filesystem::path dir = options.out_dir / "continuum";
   std::error_code ec;
@@ -228,7 +237,29 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
 
     // ---- time loop
     const double duration = scene.info.duration;
-    double dt = co.dt > 0.0 ? co.dt : std::min(scene.output.probe_interval, duration / 100.0);
+    // explicit: the loop's step is the probe interval, taken in central-difference substeps of
+    // at most the stable step (continuum.dt, when given, must not exceed it)
+    double dt = co.dt > 0.0 && !explicit_dyn
+                    ? co.dt
+                    : std::min(scene.output.probe_interval, duration / 100.0);
+    if (explicit_dyn) {
+      const double stable = m.stable_time_step();
+      if (co.dt > stable) {
+        summary.message = fmt::format(
+            "continuum.dt = {:.4g} s exceeds the explicit integrator's stable step {:.4g} s "
+            "({} × the critical step of the finest cell); give continuum.dt ≤ {:.4g} s or 0 "
+            "(automatic)",
+            co.dt, stable, co.explicit_safety, stable);
+        return summary;
+      }
+      const double h = co.dt > 0.0 ? co.dt : stable;
+      if (root)
+        log << fmt::format("explicit central differences: step {:.4g} s ({}), stable step {:.4g} "
+                           "s, lumped mass, local damping {}, Rayleigh α = {}, β = {}\n",
+                           h, co.dt > 0.0 ? "continuum.dt" : "automatic", stable, co.local_damping,
+                           co.rayleigh_alpha, co.rayleigh_beta)
+            << std::flush;
+    }
     dt = std::max(dt, 1e-9);
     const long long nsteps = std::max<long long>(1, std::llround(std::ceil(duration / dt - 1e-9)));
     dt = duration / double(nsteps);
@@ -362,14 +393,14 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (vtk) m.write_vtu(dir.string(), "continuum", snapshot++);
     write_probes(0.0);
     double next_probe = scene.output.probe_interval, next_out = scene.output.interval;
-    long long newton_total = 0, linear_total = 0, cuts_total = 0;
+    long long newton_total = 0, linear_total = 0, cuts_total = 0, substeps_total = 0;
     const auto t_dyn = std::chrono::steady_clock::now();
     // solver statistics per step (benchmarks: bench/RESULTS.md)
     std::ofstream stepfile;
     if (root) {
       stepfile.open(dir / "steps.csv");
       stepfile << "step,time [s],newton iterations,linear iterations,step cuts,converged,"
-                  "relative residual,wall [s]\n";
+                  "relative residual,wall [s],explicit substeps\n";
     }
     for (long long step = 1; step <= nsteps; ++step) {
       const auto t_step = std::chrono::steady_clock::now();
@@ -377,20 +408,24 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       if (root)
         stepfile
             << fmt::format(
-                   "{},{:.6g},{},{},{},{},{:.3e},{:.4f}\n", step, m.time(), st.newton_iterations,
+                   "{},{:.6g},{},{},{},{},{:.3e},{:.4f},{}\n", step, m.time(), st.newton_iterations,
                    st.linear_iterations, st.cuts, st.converged ? 1 : 0, st.residual,
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count())
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count(),
+                   st.substeps)
             << std::flush;
       newton_total += st.newton_iterations;
       linear_total += st.linear_iterations;
       cuts_total += st.cuts;
+      substeps_total += st.substeps;
       if (root && (st.cuts > 0 || st.newton_iterations > 10))
         log << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step,
                            m.time(), st.newton_iterations, st.cuts)
             << std::flush;
       if (!st.converged) {
         summary.message =
-            fmt::format("Newton did not converge at t = {:.6g} s\n{}", m.time(), m.log());
+            fmt::format("{} at t = {:.6g} s\n{}",
+                        explicit_dyn ? "explicit integration diverged" : "Newton did not converge",
+                        m.time(), m.log());
         summary.steps = step;
         summary.simulated_time = m.time();
         return summary;
@@ -457,6 +492,10 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                          "iterations, {} step cuts, {:.3f} s wall per step ({:.1f} s)\n",
                          summary.steps, dt, newton_total, linear_total, cuts_total,
                          wall_dyn / double(std::max(1LL, summary.steps)), wall_dyn);
+      if (explicit_dyn)
+        log << fmt::format("explicit: {} central-difference steps, {:.3g} s wall per simulated "
+                           "second\n",
+                           substeps_total, wall_dyn / std::max(1e-300, m.time()));
     }
     summary.ok = true;
     summary.simulated_time = m.time();

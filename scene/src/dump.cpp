@@ -208,7 +208,10 @@ std::string to_toml(const Scene& s) {
                             {"load_steps", o.load_steps},
                             {"newton_tolerance", o.newton_tolerance},
                             {"newton_max_iterations", o.newton_max_iterations},
-                            {"max_displacement", o.max_displacement}});
+                            {"max_displacement", o.max_displacement},
+                            {"integrator", o.integrator},
+                            {"explicit_safety", o.explicit_safety},
+                            {"local_damping", o.local_damping}});
   }
 
   if (!s.walls.empty()) {

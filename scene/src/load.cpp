@@ -661,7 +661,13 @@ ContinuumOptions read_continuum_options(Reader& r) {
   o.newton_tolerance = r.positive("newton_tolerance", o.newton_tolerance);
   o.newton_max_iterations = r.integer("newton_max_iterations", o.newton_max_iterations, 1, 1000);
   o.max_displacement = r.non_negative("max_displacement", o.max_displacement);
-  r.finish({"refinement", "degree", "bbar", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
+  o.integrator = r.string("integrator", o.integrator);
+  if (o.integrator != "implicit" && o.integrator != "explicit")
+    r.error("integrator",
+            fmt::format("unknown integrator '{}'; valid: implicit, explicit", o.integrator));
+  o.explicit_safety = r.in_range("explicit_safety", o.explicit_safety, 0.01, 1.0);
+  o.local_damping = r.in_range("local_damping", o.local_damping, 0.0, 1.0);
+  r.finish({"integrator", "explicit_safety", "local_damping", "refinement", "degree", "bbar", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
             "rayleigh_beta", "absorbing", "linear_solver", "interface", "interface_friction_angle",
             "load_steps", "newton_tolerance", "newton_max_iterations", "max_displacement"});
   return o;

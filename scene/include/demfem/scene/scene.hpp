@@ -167,6 +167,12 @@ struct ContinuumOptions {
   // small-strain validity limit [m]: the run stops (successfully, with a note) when a structure's
   // pivot has moved further than this; 0 = no limit
   double max_displacement = 0.0;
+  // dynamics: "implicit" (Newmark-β + Newton) or "explicit" (central differences, lumped mass,
+  // automatic step = explicit_safety × the critical step; `dt` then caps the step);
+  // local_damping: FLAC-style non-viscous damping coefficient (explicit only; 0 = none)
+  std::string integrator = "implicit";
+  double explicit_safety = 0.8;
+  double local_damping = 0.0;
 };
 
 struct Soil {

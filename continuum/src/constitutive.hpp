@@ -1,0 +1,91 @@
+// Constitutive seam: one point-wise interface used by both integrators (implicit Newton and
+// explicit central differences). A material integrates a strain increment at a quadrature point
+// from its committed state and gives the tangent only when asked. The models are alternatives of
+// a std::variant (no virtual call per point); a new model (e.g. a densifying sand) is one more
+// alternative plus its `update`, and nothing else changes.
+//
+// Pure C++ without deal.II; C++17-compatible (the deal.II translation units include it).
+// Sign convention and Voigt order as in mohr_coulomb.hpp: tension positive, (xx, zz, γxz).
+#pragma once
+
+#include <string>
+#include <variant>
+
+#include "mohr_coulomb.hpp"
+
+namespace demfem::continuum::constitutive {
+
+// Committed or trial state of a point.
+struct State {
+  mc::ElasticStrain ee;           // elastic strain
+  mc::Vec3 stress{{0, 0, 0}};     // σxx, σzz, σxz
+  double syy = 0.0;               // out-of-plane stress
+  double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
+  bool plastic = false;           // the last update returned to the yield surface
+};
+
+// Linear isotropic elasticity (Hooke).
+struct Elastic {
+  mc::Parameters p;
+};
+// Perfectly plastic Mohr–Coulomb with non-associated flow and tension cut-off (mc::integrate).
+struct MohrCoulomb {
+  mc::Parameters p;
+};
+
+class Material {
+public:
+  Material() = default;
+  // The model the parameters describe: Mohr–Coulomb when p.plastic, else elastic.
+  static Material from(const mc::Parameters& p) {
+    Material m;
+    if (p.plastic)
+      m.model_ = MohrCoulomb{p};
+    else
+      m.model_ = Elastic{p};
+    return m;
+  }
+  // By name ("elastic", "mohr-coulomb"); throws std::invalid_argument on an unknown name.
+  static Material by_name(const std::string& name, mc::Parameters p);
+
+  [[nodiscard]] const mc::Parameters& parameters() const {
+    return std::visit([](const auto& m) -> const mc::Parameters& { return m.p; }, model_);
+  }
+  [[nodiscard]] bool elastic() const { return std::holds_alternative<Elastic>(model_); }
+
+  // Integrate the strain increment `deps` (Δεxx, Δεzz, Δγxz; Δεyy = 0, plane strain) from the
+  // committed state `c0` into `s`. When `tangent` is given it receives dσ/dε (the consistent
+  // tangent; with `predictor`, a point that was yielding keeps the elastoplastic tangent of the
+  // plane it sits on, see mc::integrate). Returns the return-map region.
+  mc::Return update(const State& c0, const mc::Vec3& deps, State& s, mc::Mat3* tangent,
+                    bool predictor = false) const {
+    if (const auto* e = std::get_if<Elastic>(&model_)) {
+      s.ee = c0.ee;
+      for (int k = 0; k < 3; ++k) s.ee.in_plane[k] += deps[k];
+      mc::elastic_stress(e->p, s.ee, s.stress, s.syy);
+      for (int k = 0; k < 4; ++k) s.eps_p[k] = c0.eps_p[k];
+      s.plastic = false;
+      if (tangent) *tangent = mc::elastic_tangent(e->p);
+      return mc::Return::Elastic;
+    }
+    const auto& m = std::get<MohrCoulomb>(model_);
+    mc::ElasticStrain trial = c0.ee;
+    for (int k = 0; k < 3; ++k) trial.in_plane[k] += deps[k];
+    const mc::Result r = mc::integrate(m.p, trial, predictor && c0.plastic);
+    s.ee = r.elastic;
+    s.stress = r.stress;
+    s.syy = r.stress_yy;
+    s.plastic = r.region != mc::Return::Elastic;
+    // plastic strain increment = total − elastic (additive split)
+    for (int k = 0; k < 3; ++k)
+      s.eps_p[k] = c0.eps_p[k] + deps[k] - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
+    s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
+    if (tangent) *tangent = r.tangent;
+    return r.region;
+  }
+
+private:
+  std::variant<Elastic, MohrCoulomb> model_;
+};
+
+} // namespace demfem::continuum::constitutive

@@ -1,0 +1,285 @@
+// Assembly: B-bar strain rows, mass and stiffness matrices, residual and tangent.
+#include "fem_impl.hpp"
+
+namespace demfem::continuum::fem {
+
+void Model::Impl::cell_b(const FEValues<2>& fv, CellB& b) const {
+  b.n = fe.n_dofs_per_cell();
+  b.nq = nq();
+  b.rows.resize(std::size_t(b.n) * b.nq);
+  for (unsigned q = 0; q < b.nq; ++q)
+    for (unsigned i = 0; i < b.n; ++i) {
+      const unsigned ci = fe.system_to_component_index(i).first;
+      const auto g = fv.shape_grad(i, q);
+      b.rows[q * b.n + i] = {{ci == 0 ? g[0] : 0.0, ci == 1 ? g[1] : 0.0, ci == 0 ? g[1] : g[0]}};
+    }
+  if (!pb.bbar) return;
+  // monomials ξ^a ζ^c (a + c ≤ p − 1) in cell-scaled coordinates about the cell's centroid
+  const unsigned deg = static_cast<unsigned>(std::max(1, pb.degree)) - 1;
+  const auto& cell = fv.get_cell();
+  const auto ctr = cell->center();
+  const double h = cell->diameter();
+  std::vector<std::pair<unsigned, unsigned>> mono;
+  for (unsigned a = 0; a <= deg; ++a)
+    for (unsigned c = 0; a + c <= deg; ++c) mono.emplace_back(a, c);
+  const unsigned m = static_cast<unsigned>(mono.size());
+  FullMatrix<double> P(b.nq, m), G(m, m), Ginv(m, m);
+  for (unsigned q = 0; q < b.nq; ++q) {
+    const auto x = fv.quadrature_point(q);
+    const double xi = (x[0] - ctr[0]) / h, ze = (x[1] - ctr[1]) / h;
+    for (unsigned k = 0; k < m; ++k)
+      P(q, k) = std::pow(xi, mono[k].first) * std::pow(ze, mono[k].second);
+  }
+  for (unsigned k = 0; k < m; ++k)
+    for (unsigned l = 0; l < m; ++l) {
+      double s = 0;
+      for (unsigned q = 0; q < b.nq; ++q) s += P(q, k) * P(q, l) * fv.JxW(q);
+      G(k, l) = s;
+    }
+  Ginv.invert(G);
+  // θ̄(q) = Σ_r proj[q·nq + r] θ(r), proj = P G⁻¹ Pᵀ W (L2 projection onto span{P_k} at the
+  // quadrature points)
+  std::vector<double> proj(std::size_t(b.nq) * b.nq, 0.0);
+  for (unsigned q = 0; q < b.nq; ++q)
+    for (unsigned r = 0; r < b.nq; ++r) {
+      double s = 0;
+      for (unsigned k = 0; k < m; ++k)
+        for (unsigned l = 0; l < m; ++l) s += P(q, k) * Ginv(k, l) * P(r, l);
+      proj[q * b.nq + r] = s * fv.JxW(r);
+    }
+  std::vector<double> div(b.nq);
+  for (unsigned i = 0; i < b.n; ++i) {
+    for (unsigned q = 0; q < b.nq; ++q) div[q] = b.rows[q * b.n + i][0] + b.rows[q * b.n + i][1];
+    for (unsigned q = 0; q < b.nq; ++q) {
+      double bar = 0;
+      for (unsigned r = 0; r < b.nq; ++r) bar += proj[q * b.nq + r] * div[r];
+      const double corr = 0.5 * (bar - div[q]);
+      b.rows[q * b.n + i][0] += corr;
+      b.rows[q * b.n + i][1] += corr;
+    }
+  }
+}
+
+void Model::Impl::cell_strain(const CellB& b, const dealii::Vector<double>& local,
+                              std::vector<mc::Vec3>& eps) {
+  eps.assign(b.nq, mc::Vec3{{0.0, 0.0, 0.0}});
+  for (unsigned q = 0; q < b.nq; ++q)
+    for (unsigned i = 0; i < b.n; ++i)
+      for (int k = 0; k < 3; ++k) eps[q][k] += local[i] * b(i, q)[k];
+}
+
+void Model::Impl::assemble_mass_and_elastic() {
+  FEValues<2> fv(mapping, fe, quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  const unsigned n = fe.n_dofs_per_cell();
+  FullMatrix<double> cm(n, n), ck(n, n);
+  std::vector<types::global_dof_index> ld(n);
+  CellB cb;
+  M = 0;
+  K0 = 0;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    cm = 0;
+    ck = 0;
+    const auto C = mc::elastic_tangent(mat[cell->material_id()]);
+    const double r = rho[cell->material_id()];
+    cell_b(fv, cb);
+    for (unsigned q = 0; q < nq(); ++q) {
+      for (unsigned i = 0; i < n; ++i) {
+        const unsigned ci = fe.system_to_component_index(i).first;
+        const auto& Bi = cb(i, q);
+        for (unsigned j = 0; j < n; ++j) {
+          const unsigned cj = fe.system_to_component_index(j).first;
+          if (ci == cj) cm(i, j) += r * fv.shape_value(i, q) * fv.shape_value(j, q) * fv.JxW(q);
+          const auto& Bj = cb(j, q);
+          double s = 0;
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) s += Bi[a] * C[a][b] * Bj[b];
+          ck(i, j) += s * fv.JxW(q);
+        }
+      }
+    }
+    cell->get_dof_indices(ld);
+    hom.distribute_local_to_global(cm, ld, M);
+    hom.distribute_local_to_global(ck, ld, K0);
+  }
+  M.compress(VectorOperation::add);
+  K0.compress(VectorOperation::add);
+  // Lysmer & Kuhlemeyer (1969) viscous boundary: t = −ρ(c_p (v·n) n + c_s (v − (v·n) n)),
+  // c_p = √((λ + 2G)/ρ), c_s = √(G/ρ) of the adjacent cell's elastic constants
+  has_cabs = false;
+  if (!pb.absorbing) return;
+  has_cabs = true;
+  Cabs.reinit(M);
+  Cabs = 0;
+  FEFaceValues<2> ffv(mapping, fe, face_quad,
+                      update_values | update_normal_vectors | update_JxW_values);
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    cm = 0;
+    bool any = false;
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+      if (!cell->face(f)->at_boundary()) continue;
+      const auto bid = cell->face(f)->boundary_id();
+      if (bid > 3 || !pb.absorbing_sides[bid]) continue;
+      any = true;
+      ffv.reinit(cell, f);
+      const mc::Parameters& P = mat[cell->material_id()];
+      const double r = rho[cell->material_id()];
+      const double G = P.young / (2 * (1 + P.poisson));
+      const double lam = P.young * P.poisson / ((1 + P.poisson) * (1 - 2 * P.poisson));
+      const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
+      for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
+        const auto nrm = ffv.normal_vector(q);
+        for (unsigned i = 0; i < n; ++i) {
+          const unsigned ci = fe.system_to_component_index(i).first;
+          for (unsigned j = 0; j < n; ++j) {
+            const unsigned cj = fe.system_to_component_index(j).first;
+            // C_ij = ∫ N_i N_j ρ (c_p n_ci n_cj + c_s (δ_ci,cj − n_ci n_cj)) dΓ
+            const double coef =
+                r * (cp * nrm[ci] * nrm[cj] + cs * ((ci == cj ? 1.0 : 0.0) - nrm[ci] * nrm[cj]));
+            cm(i, j) += ffv.shape_value(i, q) * ffv.shape_value(j, q) * coef * ffv.JxW(q);
+          }
+        }
+      }
+    }
+    if (!any) continue;
+    cell->get_dof_indices(ld);
+    hom.distribute_local_to_global(cm, ld, Cabs);
+  }
+  Cabs.compress(VectorOperation::add);
+}
+
+void Model::Impl::region_force(std::size_t r, double x, double z, double& bx, double& bz) const {
+  const Region& reg = pb.regions[r];
+  const RegionGeom& g = geom[r + 1];
+  const double Fx = reg.force_x(t), Fz = reg.force_z(t);
+  const double Mt = reg.moment(t) + (reg.load_point.x - g.xc) * Fz - (reg.load_point.z - g.zc) * Fx;
+  bx = Fx / g.area - Mt * (z - g.zc) / g.J;
+  bz = Fz / g.area + Mt * (x - g.xc) / g.J;
+}
+
+std::string Model::Impl::return_counts() const {
+  static const char* names[9] = {"el", "main",   "edgeL",  "edgeR", "apex",
+                                 "t",  "t+main", "t+edge", "t+apex"};
+  std::string s;
+  for (std::size_t k = 0; k < returns.size(); ++k)
+    if (returns[k] > 0) s += std::string(" ") + names[k] + "=" + std::to_string(returns[k]);
+  return s;
+}
+
+void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
+  update_ghost();
+  FEValues<2> fv(mapping, fe, quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  FEFaceValues<2> ffv(mapping, fe, face_quad,
+                      update_values | update_quadrature_points | update_normal_vectors |
+                          update_JxW_values);
+  const unsigned n = fe.n_dofs_per_cell();
+  FullMatrix<double> ck(n, n);
+  dealii::Vector<double> cr(n), cf(n), crhs(n);
+  std::vector<types::global_dof_index> ld(n);
+  std::vector<mc::Vec3> eps(nq());
+  dealii::Vector<double> local(n);
+  CellB cb;
+  returns.fill(0);
+  if (matrix) K = 0;
+  rhs = 0;
+  res = 0;
+  f_internal = 0;
+  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  const double shake = pb.shaking_component >= 0 && dynamic ? pb.shaking(t) : 0.0;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    cell_b(fv, cb);
+    cell->get_dof_values(u_ghost, local);
+    cell_strain(cb, local, eps);
+    ck = 0;
+    cr = 0;
+    cf = 0;
+    const auto id = cell->material_id();
+    const constitutive::Material& model = model_of(cell->active_cell_index(), id);
+    const std::size_t base = cell->active_cell_index() * nq();
+    for (unsigned q = 0; q < nq(); ++q) {
+      const QpState& c0 = committed[base + q];
+      QpState& s = trial[base + q];
+      const mc::Vec3& e = eps[q];
+      const mc::Vec3 de{{e[0] - c0.eps[0], e[1] - c0.eps[1], e[2] - c0.eps[2]}};
+      mc::Mat3 tangent{};
+      const mc::Return region =
+          model.update(c0, de, s, matrix ? &tangent : nullptr, predictor_tangent);
+      s.eps = e;
+      ++returns[static_cast<std::size_t>(region)];
+      if (matrix && (region == mc::Return::Apex || region == mc::Return::TensionApex)) {
+        // the consistent apex tangent is zero (perfect plasticity); a whole element at the apex
+        // would make K singular, so 1e-4 of the elastic tangent is kept there (affects the
+        // Newton rate only, never the converged stresses)
+        const mc::Mat3 De = mc::elastic_tangent(model.parameters());
+        for (int a = 0; a < 3; ++a)
+          for (int bb = 0; bb < 3; ++bb) tangent[a][bb] = 1e-4 * De[a][bb];
+      }
+      // body force: gravity along −z, base shaking ρ·a(t) (soil), structure loads
+      const auto xq = fv.quadrature_point(q);
+      const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
+      double b[2] = {0.0,
+                     weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0};
+      // base shaking loads the soil only, as the DEM loads its particles only
+      if (pb.shaking_component >= 0 && id == 0) b[pb.shaking_component] += rho[id] * shake;
+      if (id > 0) {
+        double bx = 0, bz = 0;
+        region_force(id - 1, xq[0], xq[1], bx, bz);
+        b[0] += bx * lambda;
+        b[1] += bz * lambda;
+      }
+      const double w = fv.JxW(q);
+      for (unsigned i = 0; i < n; ++i) {
+        const unsigned ci = fe.system_to_component_index(i).first;
+        const auto& Bi = cb(i, q);
+        cf(i) += (Bi[0] * s.stress[0] + Bi[1] * s.stress[1] + Bi[2] * s.stress[2]) * w;
+        cr(i) -= fv.shape_value(i, q) * b[ci] * w;
+        if (!matrix) continue;
+        double BiC[3] = {0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int bb = 0; bb < 3; ++bb) BiC[bb] += Bi[a] * tangent[a][bb];
+        for (unsigned j = 0; j < n; ++j) {
+          const auto& Bj = cb(j, q);
+          ck(i, j) += (BiC[0] * Bj[0] + BiC[1] * Bj[1] + BiC[2] * Bj[2]) * w;
+        }
+      }
+    }
+    // strip tractions: t = −p n on the selected boundary faces
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+      if (!cell->face(f)->at_boundary()) continue;
+      const auto fc = cell->face(f)->center();
+      for (const Traction& tr : pb.tractions) {
+        if (!on_segment(tr.a, tr.b, fc[0], fc[1], tol)) continue;
+        ffv.reinit(cell, f);
+        for (unsigned q = 0; q < ffv.n_quadrature_points; ++q)
+          for (unsigned i = 0; i < n; ++i) {
+            const unsigned ci = fe.system_to_component_index(i).first;
+            cr(i) -= ffv.shape_value(i, q) * (-tr.pressure * lambda * ffv.normal_vector(q)[ci]) *
+                     ffv.JxW(q);
+          }
+      }
+    }
+    cell->get_dof_indices(ld);
+    for (unsigned i = 0; i < n; ++i) {
+      cr(i) += cf(i);
+      crhs(i) = -cr(i);
+    }
+    res.add(ld, cr);
+    f_internal.add(ld, cf);
+    if (matrix)
+      cons.distribute_local_to_global(ck, crhs, ld, K, rhs, true);
+    else
+      cons.distribute_local_to_global(crhs, ld, rhs);
+  }
+  if (matrix) K.compress(VectorOperation::add);
+  rhs.compress(VectorOperation::add);
+  res.compress(VectorOperation::add);
+  f_internal.compress(VectorOperation::add);
+}
+
+} // namespace demfem::continuum::fem

@@ -1,0 +1,486 @@
+// Explicit central-difference dynamics (velocity-Verlet form of the central-difference method,
+// Belytschko, Liu & Moran 2000 §6.2): lumped (row-sum) mass, internal force cell by cell from the
+// B̄ rows and the constitutive seam (no global matrix), automatic stable step from an element
+// bound on the highest frequency (Irons 1970), the implicit path's loads, constraints, rigid
+// bodies and base shaking. One MPI rank (replicated nodal vectors).
+#include "fem_impl.hpp"
+
+namespace demfem::continuum::fem {
+
+namespace {
+// solve the k×k system A x = b (k ≤ 3) by Gaussian elimination with partial pivoting
+void solve_small(int k, double A[3][3], double b[3]) {
+  for (int c = 0; c < k; ++c) {
+    int p = c;
+    for (int r = c + 1; r < k; ++r)
+      if (std::abs(A[r][c]) > std::abs(A[p][c])) p = r;
+    for (int j = 0; j < k; ++j) std::swap(A[c][j], A[p][j]);
+    std::swap(b[c], b[p]);
+    for (int r = c + 1; r < k; ++r) {
+      const double f = A[r][c] / A[c][c];
+      for (int j = c; j < k; ++j) A[r][j] -= f * A[c][j];
+      b[r] -= f * b[c];
+    }
+  }
+  for (int c = k - 1; c >= 0; --c) {
+    for (int j = c + 1; j < k; ++j) b[c] -= A[c][j] * b[j];
+    b[c] /= A[c][c];
+  }
+}
+} // namespace
+
+void Model::Impl::explicit_setup() {
+  if (Utilities::MPI::n_mpi_processes(comm) != 1)
+    throw std::runtime_error("the explicit integrator runs on one MPI rank (continuum.integrator = "
+                             "\"implicit\" runs on several)");
+  Explicit& e = ex;
+  const std::size_t N = dof.n_dofs();
+  const unsigned n = fe.n_dofs_per_cell();
+  e.n = n;
+  e.nq = nq();
+  for (auto* w : {&e.u, &e.v, &e.a, &e.f, &e.mass, &e.damp, &e.f_static, &e.f_shake})
+    w->assign(N, 0.0);
+  e.f_region.assign(pb.regions.size(), {});
+  for (auto& fr : e.f_region)
+    for (auto& w : fr) w.assign(N, 0.0);
+  // the current state (the K0 state at rest, or a set displacement)
+  for (const auto i : owned) {
+    e.u[i] = u(i);
+    e.v[i] = v(i);
+  }
+
+  FEValues<2> fv(mapping, fe, quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  FEFaceValues<2> ffv(mapping, fe, face_quad,
+                      update_values | update_quadrature_points | update_normal_vectors |
+                          update_JxW_values);
+  std::vector<types::global_dof_index> ld(n);
+  CellB cb;
+  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  e.cell_dofs.clear();
+  e.cell_B.clear();
+  e.cell_w.clear();
+  e.cell_base.clear();
+  e.cell_model.clear();
+  e.cell_De.clear();
+  for (const auto& cell : dof.active_cell_iterators()) {
+    fv.reinit(cell);
+    cell->get_dof_indices(ld);
+    const auto id = cell->material_id();
+    const bool rigid_cell = id > 0 && pb.regions[id - 1].rigid;
+    const double r = rho[id];
+    for (unsigned q = 0; q < nq(); ++q) {
+      const double w = fv.JxW(q);
+      const auto xq = fv.quadrature_point(q);
+      // body forces: gravity along −z (structures' weight if dead_weight), base shaking ρ·a(t)
+      // per unit acceleration (soil only, as in assemble), structure loads per unit
+      // resultant/moment (as in assemble)
+      const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
+      const double gz = weight ? -r * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0;
+      double unit[3][2] = {{0, 0}, {0, 0}, {0, 0}};
+      if (id > 0) {
+        const RegionGeom& g = geom[id];
+        const Region& reg = pb.regions[id - 1];
+        // b = F/A + M_tot/J e_z × (x − x_c), M_tot = M + (load point − centroid) × F
+        const double ax = -(reg.load_point.z - g.zc), az = reg.load_point.x - g.xc;
+        const double mx = -(xq[1] - g.zc) / g.J, mz = (xq[0] - g.xc) / g.J;
+        unit[0][0] = 1.0 / g.area + ax * mx; // unit Fx
+        unit[0][1] = ax * mz;
+        unit[1][0] = az * mx; // unit Fz
+        unit[1][1] = 1.0 / g.area + az * mz;
+        unit[2][0] = mx; // unit moment
+        unit[2][1] = mz;
+      }
+      for (unsigned i = 0; i < n; ++i) {
+        const unsigned ci = fe.system_to_component_index(i).first;
+        const double Nw = fv.shape_value(i, q) * w;
+        // row-sum lumping: m_i = Σ_j M_ij = ∫ ρ N_i (Σ_j N_j = 1); positive for Lagrange Q1/Q2
+        e.mass[ld[i]] += r * Nw;
+        if (ci == 1) e.f_static[ld[i]] += gz * Nw;
+        if (pb.shaking_component >= 0 && ci == unsigned(pb.shaking_component) && id == 0)
+          e.f_shake[ld[i]] += r * Nw;
+        if (id > 0)
+          for (int k = 0; k < 3; ++k) e.f_region[id - 1][k][ld[i]] += unit[k][ci] * Nw;
+      }
+    }
+    // strip tractions at the current load factor: t = −p n
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+      if (!cell->face(f)->at_boundary()) continue;
+      const auto fc = cell->face(f)->center();
+      for (const Traction& tr : pb.tractions) {
+        if (!on_segment(tr.a, tr.b, fc[0], fc[1], tol)) continue;
+        ffv.reinit(cell, f);
+        for (unsigned q = 0; q < ffv.n_quadrature_points; ++q)
+          for (unsigned i = 0; i < n; ++i) {
+            const unsigned ci = fe.system_to_component_index(i).first;
+            e.f_static[ld[i]] += ffv.shape_value(i, q) *
+                                 (-tr.pressure * lambda * ffv.normal_vector(q)[ci]) * ffv.JxW(q);
+          }
+      }
+      // Lysmer & Kuhlemeyer (1969) dashpots, lumped: c_i = ∫ N_i ρ (c_p n_i² + c_s (1 − n_i²))
+      const auto bid = cell->face(f)->boundary_id();
+      if (!pb.absorbing || bid > 3 || !pb.absorbing_sides[bid]) continue;
+      ffv.reinit(cell, f);
+      const mc::Parameters& P = mat[id];
+      const double G = P.shear_modulus(), lam = P.lame();
+      const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
+      for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
+        const auto nrm = ffv.normal_vector(q);
+        for (unsigned i = 0; i < n; ++i) {
+          const unsigned ci = fe.system_to_component_index(i).first;
+          const double n2 = nrm[ci] * nrm[ci];
+          e.damp[ld[i]] += ffv.shape_value(i, q) * r * (cp * n2 + cs * (1 - n2)) * ffv.JxW(q);
+        }
+      }
+    }
+    if (rigid_cell) continue; // a small rigid motion has no strain: no stress, no internal force
+    cell_b(fv, cb);
+    e.cell_base.push_back(cell->active_cell_index() * nq());
+    e.cell_model.push_back(&model_of(cell->active_cell_index(), id));
+    e.cell_De.push_back(mc::elastic_tangent(mat[id]));
+    for (unsigned i = 0; i < n; ++i) e.cell_dofs.push_back(ld[i]);
+    for (unsigned q = 0; q < nq(); ++q) {
+      e.cell_w.push_back(fv.JxW(q));
+      for (unsigned i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) e.cell_B.push_back(cb(i, q)[k]);
+    }
+  }
+  // mass-proportional Rayleigh damping: c_i = α m_i (plus the dashpots)
+  for (std::size_t i = 0; i < N; ++i) e.damp[i] += pb.rayleigh_alpha * e.mass[i];
+
+  // dof classes from the constraints
+  e.kind.assign(N, 0);
+  e.follows.clear();
+  e.prescribed.clear();
+  e.bodies.clear();
+  for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+    if (rigid[r].is_dof.empty()) continue;
+    Explicit::Body b;
+    b.region = r;
+    const Region& reg = pb.regions[r];
+    for (const auto& [i, cp] : rigid[r].dofs) {
+      e.kind[i] = 4;
+      b.dofs.push_back(i);
+      const double rx = cp.second[0] - reg.pivot.x, rz = cp.second[1] - reg.pivot.z;
+      // u = (ux − θ(z − zp), uz + θ(x − xp))
+      b.rows.push_back(cp.first == 0 ? std::array<double, 3>{{1.0, 0.0, -rz}}
+                                     : std::array<double, 3>{{0.0, 1.0, rx}});
+    }
+    // generalised mass M_q = Σ_i m_i row_i row_iᵀ
+    for (std::size_t k = 0; k < b.dofs.size(); ++k)
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c) b.M[a][c] += e.mass[b.dofs[k]] * b.rows[k][a] * b.rows[k][c];
+    // start from the current displacement of the pivot
+    for (int a = 0; a < 3; ++a)
+      for (int j = 0; j < 3; ++j) b.q[a] += rigid[r].T[a][j] * e.u[rigid[r].master[j]];
+    for (int a = 0; a < 3; ++a) b.q_prev[a] = b.q[a];
+    e.bodies.push_back(std::move(b));
+  }
+  for (std::size_t i = 0; i < N; ++i) {
+    if (e.kind[i] == 4 || !hom.is_constrained(i)) continue;
+    const auto it = lines.find(i);
+    if (it != lines.end() && it->second.target) {
+      e.kind[i] = 2;
+      e.prescribed.emplace_back(i, it->second.target());
+      continue;
+    }
+    const auto* entries = hom.get_constraint_entries(i);
+    if (!entries || entries->empty()) {
+      e.kind[i] = 1;
+      continue;
+    }
+    if (entries->size() != 1 || e.kind[(*entries)[0].first] != 0 ||
+        std::abs((*entries)[0].second - 1.0) > 1e-12)
+      throw std::runtime_error("the explicit integrator supports only u_i = u_j constraints "
+                               "(periodic sides) besides rigid bodies and fixed dofs");
+    e.kind[i] = 3;
+    e.follows.emplace_back(i, (*entries)[0].first);
+  }
+  // u_i = u_j: condensed mass and damping of the master
+  for (const auto& [i, j] : e.follows) {
+    e.mass[j] += e.mass[i];
+    e.damp[j] += e.damp[i];
+  }
+  for (const auto& [i, val] : e.prescribed) e.u[i] = val;
+  e.dt_stable = explicit_stable_step();
+  e.ready = true;
+  log << "explicit: " << N << " dofs, " << e.cell_base.size() << " cells with stresses, "
+      << e.bodies.size() << " rigid bodies, ω_max ≤ " << e.omega_max
+      << " rad/s, Δt = " << e.dt_stable << " s (" << pb.explicit_safety
+      << " of the critical step)\n";
+}
+
+// Irons (1970): the largest eigenvalue of (K, M) is bounded by the largest element eigenvalue
+// of (K_e, M_e). Per distinct cell (size, material): power iteration on M_e^{-1/2} K_e M_e^{-1/2}
+// with the elastic tangent and the lumped element mass. Critical step of central differences:
+// Δt = 2/ω_max, with stiffness-proportional damping β: (2/ω)(√(1 + ξ²) − ξ), ξ = βω/2 (Belytschko,
+// Liu & Moran 2000 eq. 6.3.32).
+double Model::Impl::explicit_stable_step() {
+  FEValues<2> fv(mapping, fe, quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  const unsigned n = fe.n_dofs_per_cell();
+  CellB cb;
+  std::map<std::array<long long, 3>, double> cache;
+  double lmax = 0.0;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    const auto id = cell->material_id();
+    if (id > 0 && pb.regions[id - 1].rigid) continue;
+    const auto dx = cell->vertex(1) - cell->vertex(0), dz = cell->vertex(2) - cell->vertex(0);
+    const std::array<long long, 3> key{{std::llround(dx.norm() * 1e9),
+                                        std::llround(dz.norm() * 1e9),
+                                        (long long)(id)*2 + iface_cell[cell->active_cell_index()]}};
+    if (auto it = cache.find(key); it != cache.end()) {
+      lmax = std::max(lmax, it->second);
+      continue;
+    }
+    fv.reinit(cell);
+    cell_b(fv, cb);
+    const mc::Mat3 C = mc::elastic_tangent(mat[id]);
+    FullMatrix<double> Ke(n, n);
+    std::vector<double> m(n, 0.0);
+    for (unsigned q = 0; q < nq(); ++q) {
+      const double w = fv.JxW(q);
+      for (unsigned i = 0; i < n; ++i) {
+        m[i] += rho[id] * fv.shape_value(i, q) * w;
+        double BiC[3] = {0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) BiC[b] += cb(i, q)[a] * C[a][b];
+        for (unsigned j = 0; j < n; ++j)
+          Ke(i, j) += (BiC[0] * cb(j, q)[0] + BiC[1] * cb(j, q)[1] + BiC[2] * cb(j, q)[2]) * w;
+      }
+    }
+    // power iteration on S = D^{-1/2} K D^{-1/2}
+    std::vector<double> x(n), y(n);
+    for (unsigned i = 0; i < n; ++i) x[i] = 1.0 + 0.37 * i * ((i % 2) ? -1.0 : 1.0);
+    double lam = 0.0;
+    for (int it = 0; it < 500; ++it) {
+      double nx = 0;
+      for (double xi : x) nx += xi * xi;
+      nx = std::sqrt(nx);
+      for (double& xi : x) xi /= nx;
+      for (unsigned i = 0; i < n; ++i) {
+        double s = 0;
+        for (unsigned j = 0; j < n; ++j) s += Ke(i, j) * x[j] / std::sqrt(m[i] * m[j]);
+        y[i] = s;
+      }
+      double rq = 0;
+      for (unsigned i = 0; i < n; ++i) rq += x[i] * y[i];
+      const bool done = it > 20 && std::abs(rq - lam) <= 1e-10 * rq;
+      lam = rq;
+      x = y;
+      if (done) break;
+    }
+    cache[key] = lam;
+    lmax = std::max(lmax, lam);
+  }
+  ex.omega_max = std::sqrt(lmax);
+  const double w = ex.omega_max;
+  if (w <= 0) return 1e300;
+  const double xi = 0.5 * pb.rayleigh_beta * w;
+  return pb.explicit_safety * 2.0 / w * (std::sqrt(1 + xi * xi) - xi);
+}
+
+// a = M⁻¹ (f_ext(t) − f_int(u) − C v) with the constraints (rigid bodies in their generalised
+// coordinates, fixed and prescribed dofs at rest, u_i = u_j folded onto the master).
+void Model::Impl::explicit_accel(double dt) {
+  Explicit& e = ex;
+  const std::size_t N = e.u.size();
+  const unsigned n = e.n, nqp = e.nq;
+  std::vector<double>& f = e.f;
+  // external forces
+  const double shake = pb.shaking_component >= 0 ? pb.shaking(t) : 0.0;
+  for (std::size_t i = 0; i < N; ++i) f[i] = e.f_static[i] + shake * e.f_shake[i];
+  for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+    const Region& reg = pb.regions[r];
+    const double load[3] = {lambda * reg.force_x(t), lambda * reg.force_z(t),
+                            lambda * reg.moment(t)};
+    for (int k = 0; k < 3; ++k)
+      if (load[k] != 0.0)
+        for (std::size_t i = 0; i < N; ++i) f[i] += load[k] * e.f_region[r][k][i];
+  }
+  // internal forces cell by cell: stress update at every point through the constitutive seam
+  const double beta = pb.rayleigh_beta;
+  std::vector<double> ul(n), vl(n), fl(n);
+  constitutive::State ns;
+  const std::size_t ncell = e.cell_base.size();
+  for (std::size_t c = 0; c < ncell; ++c) {
+    const types::global_dof_index* ld = &e.cell_dofs[c * n];
+    for (unsigned i = 0; i < n; ++i) ul[i] = e.u[ld[i]];
+    if (beta > 0)
+      for (unsigned i = 0; i < n; ++i) vl[i] = e.v[ld[i]];
+    std::fill(fl.begin(), fl.end(), 0.0);
+    const constitutive::Material& model = *e.cell_model[c];
+    for (unsigned q = 0; q < nqp; ++q) {
+      const double* B = &e.cell_B[(c * nqp + q) * n * 3];
+      double eps[3] = {0, 0, 0}, rate[3] = {0, 0, 0};
+      for (unsigned i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) eps[k] += ul[i] * B[3 * i + k];
+      QpState& s = committed[e.cell_base[c] + q];
+      const mc::Vec3 de{{eps[0] - s.eps[0], eps[1] - s.eps[1], eps[2] - s.eps[2]}};
+      model.update(s, de, ns, nullptr);
+      static_cast<constitutive::State&>(s) = ns;
+      s.eps = {{eps[0], eps[1], eps[2]}};
+      double sig[3] = {ns.stress[0], ns.stress[1], ns.stress[2]};
+      if (beta > 0) { // stiffness-proportional Rayleigh damping stress β De ε̇
+        for (unsigned i = 0; i < n; ++i)
+          for (int k = 0; k < 3; ++k) rate[k] += vl[i] * B[3 * i + k];
+        const mc::Mat3& De = e.cell_De[c];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) sig[a] += beta * De[a][b] * rate[b];
+      }
+      const double w = e.cell_w[c * nqp + q];
+      for (unsigned i = 0; i < n; ++i)
+        fl[i] += (B[3 * i] * sig[0] + B[3 * i + 1] * sig[1] + B[3 * i + 2] * sig[2]) * w;
+    }
+    for (unsigned i = 0; i < n; ++i) f[ld[i]] -= fl[i];
+  }
+  // viscous damping (mass-proportional, dashpots) with the current velocity
+  for (std::size_t i = 0; i < N; ++i) f[i] -= e.damp[i] * e.v[i];
+  // fold u_i = u_j
+  for (const auto& [i, j] : e.follows) f[j] += f[i];
+  // free dofs, with FLAC-style local damping f_d = −α |f| sign(v) (Cundall 1987)
+  const double al = pb.local_damping;
+  for (std::size_t i = 0; i < N; ++i) {
+    if (e.kind[i] != 0) {
+      if (e.kind[i] != 3 && e.kind[i] != 4) e.a[i] = 0.0;
+      continue;
+    }
+    double fi = f[i];
+    if (al > 0 && e.v[i] != 0.0) fi -= al * std::abs(fi) * (e.v[i] > 0 ? 1.0 : -1.0);
+    e.a[i] = fi / e.mass[i];
+  }
+  for (const auto& [i, j] : e.follows) e.a[i] = e.a[j];
+  // rigid bodies: M_q a_q = F_q, F_q = Σ row_i f_i; fixed components at rest, prescribed ones
+  // with the motion's acceleration (second difference), free ones solved for
+  for (auto& b : e.bodies) {
+    const Region& reg = pb.regions[b.region];
+    double F[3] = {0, 0, 0};
+    for (std::size_t k = 0; k < b.dofs.size(); ++k)
+      for (int a = 0; a < 3; ++a) F[a] += b.rows[k][a] * f[b.dofs[k]];
+    double ap[3] = {0, 0, 0};
+    int fr[3], nf = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (reg.mode[a] == Region::Mode::Free)
+        fr[nf++] = a;
+      else if (reg.mode[a] == Region::Mode::Prescribed && dt > 0)
+        ap[a] = (reg.motion[a](t + dt) - 2 * reg.motion[a](t) + reg.motion[a](t - dt)) / (dt * dt);
+    }
+    double A[3][3], F_f[3];
+    for (int x = 0; x < nf; ++x) {
+      F_f[x] = F[fr[x]];
+      for (int c = 0; c < 3; ++c)
+        if (reg.mode[c] != Region::Mode::Free) F_f[x] -= b.M[fr[x]][c] * ap[c];
+      for (int y = 0; y < nf; ++y) A[x][y] = b.M[fr[x]][fr[y]];
+    }
+    if (nf > 0) solve_small(nf, A, F_f);
+    for (int a = 0; a < 3; ++a) b.qa[a] = ap[a];
+    for (int x = 0; x < nf; ++x) b.qa[fr[x]] = F_f[x];
+    for (std::size_t k = 0; k < b.dofs.size(); ++k) {
+      const auto& rw = b.rows[k];
+      e.a[b.dofs[k]] = rw[0] * b.qa[0] + rw[1] * b.qa[1] + rw[2] * b.qa[2];
+    }
+  }
+}
+
+// One step of the central-difference method in velocity-Verlet form (Belytschko, Liu & Moran
+// 2000 Box 6.1): v_{n+½} = v_n + ½Δt a_n, u_{n+1} = u_n + Δt v_{n+½}, a_{n+1} from u_{n+1} (and
+// the damping forces of v_{n+½}), v_{n+1} = v_{n+½} + ½Δt a_{n+1}.
+void Model::Impl::explicit_move(double dt) {
+  Explicit& e = ex;
+  const std::size_t N = e.u.size();
+  for (std::size_t i = 0; i < N; ++i)
+    if (e.kind[i] == 0) {
+      e.v[i] += 0.5 * dt * e.a[i];
+      e.u[i] += dt * e.v[i];
+    }
+  for (const auto& [i, j] : e.follows) {
+    e.v[i] = e.v[j];
+    e.u[i] = e.u[j];
+  }
+  for (auto& b : e.bodies) {
+    const Region& reg = pb.regions[b.region];
+    for (int a = 0; a < 3; ++a) {
+      if (reg.mode[a] == Region::Mode::Free) {
+        b.qv[a] += 0.5 * dt * b.qa[a];
+        b.q[a] += dt * b.qv[a];
+      } else if (reg.mode[a] == Region::Mode::Prescribed) {
+        b.q_prev[a] = b.q[a];
+        b.q[a] = reg.motion[a](t + dt);
+        b.qv[a] = (b.q[a] - b.q_prev[a]) / dt;
+      } else {
+        b.q[a] = b.qv[a] = 0.0;
+      }
+    }
+    for (std::size_t k = 0; k < b.dofs.size(); ++k) {
+      const auto& rw = b.rows[k];
+      e.u[b.dofs[k]] = rw[0] * b.q[0] + rw[1] * b.q[1] + rw[2] * b.q[2];
+      e.v[b.dofs[k]] = rw[0] * b.qv[0] + rw[1] * b.qv[1] + rw[2] * b.qv[2];
+    }
+  }
+  t += dt;
+  explicit_accel(dt);
+  for (std::size_t i = 0; i < N; ++i)
+    if (e.kind[i] == 0) e.v[i] += 0.5 * dt * e.a[i];
+  for (const auto& [i, j] : e.follows) e.v[i] = e.v[j];
+  for (auto& b : e.bodies) {
+    const Region& reg = pb.regions[b.region];
+    for (int a = 0; a < 3; ++a)
+      if (reg.mode[a] == Region::Mode::Free) b.qv[a] += 0.5 * dt * b.qa[a];
+    for (std::size_t k = 0; k < b.dofs.size(); ++k) {
+      const auto& rw = b.rows[k];
+      e.v[b.dofs[k]] = rw[0] * b.qv[0] + rw[1] * b.qv[1] + rw[2] * b.qv[2];
+    }
+  }
+  ++e.steps;
+}
+
+void Model::Impl::explicit_sync() {
+  for (const auto i : owned) {
+    u(i) = ex.u[i];
+    v(i) = ex.v[i];
+    acc(i) = ex.a[i];
+  }
+  u.compress(VectorOperation::insert);
+  v.compress(VectorOperation::insert);
+  acc.compress(VectorOperation::insert);
+  a_n = acc;
+  trial = committed;
+}
+
+StepStats Model::Impl::explicit_advance(double dt) {
+  StepStats st;
+  lambda = 1.0;
+  if (!ex.ready) {
+    explicit_setup();
+    explicit_accel(0.0); // a_0 = M⁻¹(f_ext − f_int(u_0) − C v_0)
+    dyn_init = true;
+  }
+  double h = ex.dt_stable;
+  if (pb.explicit_dt > 0) {
+    if (pb.explicit_dt > ex.dt_stable)
+      throw std::runtime_error(
+          "explicit time step " + std::to_string(pb.explicit_dt) + " s exceeds the stable step " +
+          std::to_string(ex.dt_stable) + " s (" + std::to_string(pb.explicit_safety) +
+          " × 2/ω_max); give a smaller continuum.dt or 0 for the automatic step");
+    h = pb.explicit_dt;
+  }
+  const long k = std::max(1L, static_cast<long>(std::ceil(dt / h - 1e-9)));
+  for (long s = 0; s < k; ++s) explicit_move(dt / double(k));
+  st.substeps = k;
+  double norm = 0;
+  for (double x : ex.u) norm += x * x;
+  if (!std::isfinite(norm)) {
+    st.converged = false;
+    log << "explicit integration diverged at t=" << t << "\n";
+  }
+  explicit_sync();
+  return st;
+}
+
+double Model::stable_time_step() {
+  Impl& m = *impl_;
+  if (!m.ex.ready) return m.explicit_stable_step();
+  return m.ex.dt_stable;
+}
+
+} // namespace demfem::continuum::fem

@@ -1,0 +1,374 @@
+// Implicit procedures: Newton, static load stepping, Newmark-β, the K0 procedure.
+#include "fem_impl.hpp"
+
+namespace demfem::continuum::fem {
+
+void Model::Impl::newmark_va(Vec& vel, Vec& accel) const {
+  const double b = pb.newmark_beta, g = pb.newmark_gamma;
+  accel = u;
+  accel -= u_n;
+  accel *= 1.0 / (b * dt_ * dt_);
+  accel.add(-1.0 / (b * dt_), v_n);
+  accel.add(-(1.0 / (2 * b) - 1.0), a_n);
+  vel = v_n;
+  vel.add(dt_ * (1 - g), a_n);
+  vel.add(dt_ * g, accel);
+}
+
+void Model::Impl::add_dynamic(bool matrix) {
+  Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm), tmp2(owned, comm);
+  newmark_va(vel, accel);
+  tmp = accel;
+  tmp.add(pb.rayleigh_alpha, vel);
+  M.vmult(tmp2, tmp);
+  K0.vmult(tmp, vel);
+  tmp2.add(pb.rayleigh_beta, tmp);
+  if (has_cabs) {
+    Cabs.vmult(tmp, vel);
+    tmp2 += tmp;
+  }
+  res += tmp2;
+  hom.set_zero(tmp2);
+  rhs -= tmp2;
+  if (matrix) {
+    const double b = pb.newmark_beta, g = pb.newmark_gamma;
+    const double a0 = 1.0 / (b * dt_ * dt_), a1 = g / (b * dt_);
+    K.add(a0 + a1 * pb.rayleigh_alpha, M);
+    K.add(a1 * pb.rayleigh_beta, K0);
+    if (has_cabs) K.add(a1, Cabs);
+  }
+}
+
+int Model::Impl::solve_linear(bool symmetric) {
+  // Krylov solves to 1e-8 of the Newton residual: enough for Newton to reach its tolerance
+  // (an inexact Newton step, Eisenstat & Walker 1996), far cheaper than 1e-12
+  SolverControl control(2000, std::max(1e-300, 1e-8 * rhs.l2_norm()));
+  const std::string& s = pb.linear_solver;
+  du = 0;
+  if (s == "direct") {
+    PETScWrappers::SparseDirectMUMPS solver(control, comm);
+    solver.solve(K, du, rhs);
+    return 1;
+  }
+  PETScWrappers::PreconditionBoomerAMG::AdditionalData data;
+  data.symmetric_operator = symmetric && s == "cg-amg";
+  data.strong_threshold = 0.5;
+  PETScWrappers::PreconditionBoomerAMG amg(K, data);
+  if (s == "cg-amg" && symmetric) {
+    PETScWrappers::SolverCG solver(control, comm);
+    solver.solve(K, du, rhs, amg);
+  } else {
+    // restart 100: the yielding backfill's non-symmetric tangent stalls GMRES(30)
+    PETScWrappers::SolverGMRES solver(control, comm,
+                                      PETScWrappers::SolverGMRES::AdditionalData(100));
+    solver.solve(K, du, rhs, amg);
+  }
+  return static_cast<int>(control.last_step());
+}
+
+bool Model::Impl::symmetric_tangent() const {
+  // non-associated flow (ψ ≠ φ) makes the consistent tangent non-symmetric: in the soil, and in
+  // the frictional interface layer (ψ = 0, φ_l > 0) when there is one
+  const bool soil_sym = !pb.soil.plastic || std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12;
+  const bool iface_sym = pb.interface_friction < 1e-12; // < 0: tied, no layer
+  return soil_sym && iface_sym;
+}
+
+double Model::Impl::free_norm(const Vec& r) const {
+  Vec tmp(r);
+  hom.set_zero(tmp);
+  return tmp.l2_norm();
+}
+
+StepStats Model::Impl::newton(bool dynamic) {
+  StepStats st;
+  // predictor: prescribed patch values through inhomogeneous constraints
+  inh.clear();
+  inh.reinit(relevant);
+  update_ghost();
+  for (types::global_dof_index i : relevant) {
+    if (!hom.is_constrained(i)) continue;
+    inh.add_line(i);
+    auto it = lines.find(i);
+    if (it == lines.end()) { // box/periodic: homogeneous, already resolved in hom
+      const auto* entries = hom.get_constraint_entries(i);
+      if (entries)
+        for (const auto& e : *entries) inh.add_entry(i, e.first, e.second);
+      continue;
+    }
+    // raw line (chains resolved by close()): du_i = Σ c du_j + target − (u_i − Σ c u_j)
+    double g = it->second.target ? it->second.target() : 0.0;
+    g -= u_ghost(i);
+    for (const auto& e : it->second.entries) {
+      inh.add_entry(i, e.first, e.second);
+      g += e.second * u_ghost(e.first);
+    }
+    if (it->second.target) inh.set_inhomogeneity(i, g);
+  }
+  inh.close();
+  const bool sym = symmetric_tangent();
+  double ref = 0.0;
+  int nondescent = 0;
+  std::ostringstream trace;
+  for (int it = 0; it <= pb.newton_max_iterations; ++it) {
+    const AffineConstraints<double>& cons = it == 0 ? inh : hom;
+    predictor_tangent = it == 0;
+    assemble(true, cons, dynamic);
+    predictor_tangent = false;
+    if (dynamic) add_dynamic(true);
+    // residual of the condensed system (periodic constraints fold rows): −rhs on free dofs
+    const double rn = it == 0 ? free_norm(res) : rhs.l2_norm();
+    ref = std::max({ref, f_internal.l2_norm(), res.l2_norm()});
+    st.residual = ref > 0 ? rn / ref : rn;
+    trace << "  it " << it << " |R|/ref=" << st.residual << return_counts();
+    if (it > 0 && (rn <= pb.newton_tolerance * ref || rn < 1e-300)) {
+      st.converged = true;
+      st.newton_iterations = it;
+      if (pb.newton_trace)
+        log << "newton t=" << t << " λ=" << lambda << "\n" << trace.str() << "\n";
+      return st;
+    }
+    if (it == pb.newton_max_iterations) break;
+    try {
+      st.linear_iterations += solve_linear(sym);
+    } catch (const std::exception& e) { // e.g. the Krylov solver did not converge: cut the step
+      log << "linear solver failed: " << std::string(e.what()).substr(0, 160) << "\n";
+      break;
+    }
+    cons.distribute(du);
+    if (!std::isfinite(du.l2_norm())) break;
+    if (pb.tangent_check && it > 0) { // directional derivative of R along du vs K du = −R
+      const Vec u0(u), r0(rhs);
+      double rel[3];
+      int k = 0;
+      auto rhs_at = [&](double s) { // rhs at u0 + s du
+        u = u0;
+        u.add(s, du);
+        assemble(false, hom, dynamic);
+        if (dynamic) add_dynamic(false);
+        return Vec(rhs);
+      };
+      for (double h : {1e-3, 1e-5, 1e-7}) {
+        Vec rp = rhs_at(h);
+        const Vec rm = rhs_at(-h);
+        // rhs = −R and K du = −R: a consistent K gives (rhs(u + h du) − rhs(u − h du))/(2h) =
+        // −dR[du] = −K du = R = −r0
+        rp -= rm;
+        rp *= 1.0 / (2 * h);
+        rp += r0;
+        rel[k++] = rp.l2_norm() / r0.l2_norm();
+      }
+      log << "tangent check t=" << t << " λ=" << lambda << " it=" << it
+          << ": |dR[du] + R|/|R| = " << rel[0] << " " << rel[1] << " " << rel[2]
+          << " (h = 1e-3, 1e-5, 1e-7 of the Newton step)\n";
+      u = u0;
+      assemble(true, hom, dynamic);
+      if (dynamic) add_dynamic(true);
+    }
+    // backtracking line search on the free residual norm
+    const Vec u0(u);
+    double alpha = 1.0, best = 0.0, best_alpha = 1.0;
+    for (int ls = 0; ls < 4; ++ls) {
+      u = u0;
+      u.add(alpha, du);
+      if (it == 0) break; // the predictor carries the prescribed jump: take it whole
+      assemble(false, hom, dynamic);
+      if (dynamic) add_dynamic(false);
+      const double rl = rhs.l2_norm();
+      if (ls == 0 || rl < best) {
+        best = rl;
+        best_alpha = alpha;
+      }
+      if (rl < rn) break;
+      alpha *= 0.5;
+    }
+    if (it > 0 && best >= rn && rn > 1e-3 * pb.newton_tolerance * ref) {
+      // no descent along the Newton direction. Non-smooth returns (points flipping between
+      // the apex and the cone) can stall Newton just above the tolerance: accept a stalled
+      // state below the stagnation tolerance (logged), else give up and let the caller cut.
+      u = u0;
+      if (rn <= stagnation_tolerance * ref) {
+        assemble(false, hom, dynamic);
+        if (dynamic) add_dynamic(false);
+        log << "accepted stalled Newton at |R|/ref=" << rn / ref << "\n";
+        st.converged = true;
+        st.newton_iterations = it;
+        return st;
+      }
+      // non-monotone escape: take the full Newton step anyway (a kink of the return map, not a
+      // wrong direction, usually blocks descent); give up after `max_nondescent` such steps
+      if (++nondescent > max_nondescent) break;
+      u.add(1.0, du);
+      trace << " α=1 (no descent)\n";
+      continue;
+    }
+    if (it > 0 && alpha != best_alpha) {
+      u = u0;
+      u.add(best_alpha, du);
+    }
+    trace << " α=" << best_alpha << "\n";
+  }
+  log << "newton failed: λ=" << lambda << " g=" << gfactor << " structures' weight=" << sfactor
+      << " t=" << t << " residual=" << st.residual << "\n"
+      << trace.str();
+  st.converged = false;
+  st.newton_iterations = pb.newton_max_iterations;
+  return st;
+}
+
+StepStats Model::Impl::halves(const StepStats& a, StepStats b) {
+  b.cuts += a.cuts + 1;
+  b.newton_iterations += a.newton_iterations;
+  b.linear_iterations += a.linear_iterations;
+  return b;
+}
+
+StepStats Model::Impl::static_to(double lam, double gf, int depth, double sf) {
+  const Vec u_save(u);
+  const double lam0 = lambda, gf0 = gfactor, sf0 = sfactor;
+  lambda = lam;
+  gfactor = gf;
+  sfactor = sf;
+  StepStats st = newton(false);
+  if (st.converged) {
+    commit();
+    log << "static step λ=" << lam << " g=" << gf << " newton=" << st.newton_iterations
+        << " linear=" << st.linear_iterations << " residual=" << st.residual << "\n";
+    return st;
+  }
+  u = u_save;
+  lambda = lam0;
+  gfactor = gf0;
+  sfactor = sf0;
+  trial = committed;
+  if (depth >= 8) return st;
+  log << "step cut at λ=" << lam << "\n";
+  StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1, 0.5 * (sf0 + sf));
+  if (!a.converged) return a;
+  return halves(a, static_to(lam, gf, depth + 1, sf));
+}
+
+StepStats Model::Impl::dynamic_to(double dt, int depth) {
+  const Vec u0(u), v0(v), a0(a_n);
+  const double t0 = t;
+  dt_ = dt;
+  u_n = u;
+  v_n = v;
+  lambda = 1.0;
+  t += dt;
+  // predictor u = u_n + dt v_n + dt²(½ − β) a_n (Newmark 1959)
+  u.add(dt, v_n);
+  u.add(dt * dt * (0.5 - pb.newmark_beta), a_n);
+  StepStats st = newton(true);
+  if (st.converged) {
+    newmark_va(v, acc);
+    a_n = acc;
+    commit();
+    return st;
+  }
+  u = u0;
+  v = v0;
+  a_n = a0;
+  t = t0;
+  trial = committed;
+  if (depth >= 5) return st;
+  log << "dynamic step cut at t=" << t0 << " dt=" << dt << "\n";
+  StepStats a = dynamic_to(0.5 * dt, depth + 1);
+  if (!a.converged) return a;
+  return halves(a, dynamic_to(0.5 * dt, depth + 1));
+}
+
+StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
+  Impl& m = *impl_;
+  StepStats total;
+  if (use_k0) {
+    // K0 procedure: σzz = −ρ g (z_top − z), σxx = σyy = K0 σzz (Jaky 1944 when K0 = 1 − sin φ)
+    FEValues<2> fv(m.mapping, m.fe, m.quad, update_quadrature_points);
+    for (const auto& cell : m.dof.active_cell_iterators()) {
+      if (!cell->is_locally_owned()) continue;
+      fv.reinit(cell);
+      const auto id = cell->material_id();
+      for (unsigned q = 0; q < m.nq(); ++q) {
+        const auto x = fv.quadrature_point(q);
+        const bool rigid_cell = id > 0 && m.pb.regions[id - 1].rigid; // stresses play no role
+        const double szz =
+            rigid_cell ? 0.0 : -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
+        QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
+        s.stress = mc::Vec3{{k0 * szz, szz, 0.0}};
+        s.syy = k0 * szz;
+        s.ee = mc::elastic_strain_from_stress(m.mat[id], s.stress, s.syy);
+      }
+    }
+    m.trial = m.committed;
+    // the soil's weight balances the K0 stresses (up to the correction); the structures are
+    // weightless here and their weight acts from the first dynamic step on, as in the DEM scenes,
+    // where a structure is held while the bed is deposited and released at t = 0 (so settlements
+    // include the settlement under the structure's own weight)
+    m.gfactor = 1.0;
+    m.sfactor = 0.0;
+    total = m.static_to(m.lambda, 1.0, 0, 0.0);
+    m.sfactor = 1.0;
+  } else {
+    steps = std::max(1, steps);
+    for (int k = 1; k <= steps; ++k) {
+      StepStats st = m.static_to(m.lambda, double(k) / steps);
+      total.newton_iterations += st.newton_iterations;
+      total.linear_iterations += st.linear_iterations;
+      total.converged = st.converged;
+      if (!st.converged) break;
+    }
+  }
+  // displacements restart from zero; stresses stay
+  m.u = 0;
+  for (auto& s : m.committed) s.eps = mc::Vec3{{0, 0, 0}};
+  m.trial = m.committed;
+  return total;
+}
+
+StepStats Model::static_step(double lambda) {
+  return impl_->static_to(lambda, impl_->gfactor);
+}
+
+void Model::set_displacement(const std::function<Point(Point)>& f) {
+  Impl& m = *impl_;
+  const auto& usp = m.fe.get_unit_support_points();
+  std::vector<types::global_dof_index> ld(m.fe.n_dofs_per_cell());
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    cell->get_dof_indices(ld);
+    for (unsigned i = 0; i < ld.size(); ++i) {
+      if (!m.owned.is_element(ld[i])) continue;
+      const auto p = m.mapping.transform_unit_to_real_cell(cell, usp[i]);
+      const Point d = f(Point{p[0], p[1]});
+      m.u(ld[i]) = m.fe.system_to_component_index(i).first == 0 ? d.x : d.z;
+    }
+  }
+  m.u.compress(VectorOperation::insert);
+  m.hom.distribute(m.u);
+  m.dyn_init = false;
+  // make the committed strains consistent with u
+  m.assemble(false, m.hom, false);
+  m.commit();
+}
+
+StepStats Model::dynamic_step(double dt) {
+  Impl& m = *impl_;
+  if (m.is_explicit()) return m.explicit_advance(dt);
+  if (!m.dyn_init) {
+    // initial acceleration: M a0 = fext − f_internal(u0)
+    m.assemble(false, m.hom, false);
+    m.v_n = m.v;
+    m.K = 0;
+    m.K.add(1.0, m.M);
+    m.rhs = m.res;
+    m.rhs *= -1.0;
+    m.hom.set_zero(m.rhs);
+    m.solve_linear(true);
+    m.hom.distribute(m.du);
+    m.a_n = m.du;
+    m.dyn_init = true;
+  }
+  return m.dynamic_to(dt, 0);
+}
+
+} // namespace demfem::continuum::fem

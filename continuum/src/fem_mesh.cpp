@@ -1,0 +1,414 @@
+// Mesh, degrees of freedom and constraints of the plane-strain model (see fem_impl.hpp).
+#include "fem_impl.hpp"
+
+namespace demfem::continuum::fem {
+
+// ---- MPI
+// -----------------------------------------------------------------------------------------
+struct MpiScope::Impl {
+  std::unique_ptr<Utilities::MPI::MPI_InitFinalize> init;
+};
+
+MpiScope::MpiScope(int& argc, char**& argv) : impl_(std::make_unique<Impl>()) {
+  int initialised = 0;
+  MPI_Initialized(&initialised);
+  if (!initialised) impl_->init = std::make_unique<Utilities::MPI::MPI_InitFinalize>(argc, argv, 1);
+}
+MpiScope::~MpiScope() = default;
+int MpiScope::rank() {
+  return static_cast<int>(Utilities::MPI::this_mpi_process(MPI_COMM_WORLD));
+}
+int MpiScope::size() {
+  return static_cast<int>(Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD));
+}
+
+void ensure_mpi() {
+  static int argc = 1;
+  static char name[] = "demfem";
+  static char* args[] = {name, nullptr};
+  static char** argv = args;
+  static MpiScope scope(argc, argv);
+}
+
+Model::Impl::Impl(const Problem& p)
+    : pb(p), fe(FE_Q<2>(static_cast<unsigned>(p.degree)), 2),
+      quad(static_cast<unsigned>(p.degree) + 1), face_quad(static_cast<unsigned>(p.degree) + 1) {
+  build_mesh();
+  setup();
+}
+
+void Model::Impl::build_mesh() {
+  const Mesh& m = pb.mesh;
+  const std::size_t nx = m.dx.size(), nz = m.dz.size();
+  Table<2, types::material_id> ids(nx, nz);
+  double x = m.x0;
+  for (std::size_t i = 0; i < nx; ++i) {
+    double z = m.z0;
+    for (std::size_t j = 0; j < nz; ++j) {
+      const double xc = x + 0.5 * m.dx[i], zc = z + 0.5 * m.dz[j];
+      types::material_id id = numbers::invalid_material_id;
+      if (m.domain.empty() || inside(m.domain, xc, zc)) id = 0;
+      for (std::size_t r = 0; r < pb.regions.size(); ++r)
+        if (inside(pb.regions[r].outline, xc, zc)) id = static_cast<types::material_id>(r + 1);
+      ids[i][j] = id;
+      z += m.dz[j];
+    }
+    x += m.dx[i];
+  }
+  GridGenerator::subdivided_hyper_rectangle(tria, {m.dx, m.dz}, dealii::Point<2>(m.x0, m.z0), ids,
+                                            false);
+  xmin = m.x0;
+  zmin = m.z0;
+  xmax = xmin;
+  for (double d : m.dx) xmax += d;
+  zmax = zmin;
+  for (double d : m.dz) zmax += d;
+  const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
+  for (const auto& cell : tria.active_cell_iterators())
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f)
+      if (cell->face(f)->at_boundary()) {
+        const auto c = cell->face(f)->center();
+        types::boundary_id b = 4;
+        if (std::abs(c[0] - xmin) < tol)
+          b = 0;
+        else if (std::abs(c[0] - xmax) < tol)
+          b = 1;
+        else if (std::abs(c[1] - zmin) < tol)
+          b = 2;
+        else if (std::abs(c[1] - zmax) < tol)
+          b = 3;
+        cell->face(f)->set_boundary_id(b);
+      }
+  tria.refine_global(static_cast<unsigned>(std::max(0, m.refinement)));
+}
+
+void Model::Impl::setup() {
+  dof.reinit(tria);
+  dof.distribute_dofs(fe);
+  owned = dof.locally_owned_dofs();
+  DoFTools::extract_locally_relevant_dofs(dof, relevant);
+
+  // frictional interface: the soil cells sharing a face with a rigid region form a thin
+  // Mohr–Coulomb layer of the interface's strength (one cell thick at the current refinement)
+  iface_cell.assign(tria.n_active_cells(), 0);
+  if (pb.interface_friction >= 0.0) {
+    iface_mat = pb.soil;
+    iface_mat.plastic = true;
+    iface_mat.friction = pb.interface_friction;
+    iface_mat.cohesion = pb.interface_cohesion;
+    iface_mat.dilation = 0.0;
+    iface_mat.tension_cutoff = pb.soil.plastic ? pb.soil.tension_cutoff : -1.0;
+    for (const auto& cell : tria.active_cell_iterators()) {
+      if (cell->material_id() != 0) continue;
+      for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+        if (cell->face(f)->at_boundary()) continue;
+        const auto id = cell->neighbor(f)->material_id();
+        if (id > 0 && pb.regions[id - 1].rigid) iface_cell[cell->active_cell_index()] = 1;
+      }
+    }
+  }
+  // materials
+  mat.assign(pb.regions.size() + 1, pb.soil);
+  rho.assign(pb.regions.size() + 1, pb.density);
+  for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+    mat[r + 1] = pb.regions[r].material;
+    mat[r + 1].plastic = false;
+    rho[r + 1] = pb.regions[r].density;
+  }
+  models.clear();
+  for (const auto& p : mat) models.push_back(constitutive::Material::from(p));
+  iface_model = constitutive::Material::from(iface_mat);
+  // region geometry (all cells: every rank holds the whole shared mesh)
+  geom.assign(pb.regions.size() + 1, RegionGeom{});
+  {
+    FEValues<2> fv(mapping, fe, quad, update_quadrature_points | update_JxW_values);
+    for (const auto& cell : dof.active_cell_iterators()) {
+      fv.reinit(cell);
+      auto& g = geom[cell->material_id()];
+      for (unsigned q = 0; q < nq(); ++q) {
+        g.area += fv.JxW(q);
+        g.xc += fv.quadrature_point(q)[0] * fv.JxW(q);
+        g.zc += fv.quadrature_point(q)[1] * fv.JxW(q);
+      }
+    }
+    for (auto& g : geom)
+      if (g.area > 0) {
+        g.xc /= g.area;
+        g.zc /= g.area;
+      }
+    for (const auto& cell : dof.active_cell_iterators()) {
+      fv.reinit(cell);
+      auto& g = geom[cell->material_id()];
+      for (unsigned q = 0; q < nq(); ++q) {
+        const double rx = fv.quadrature_point(q)[0] - g.xc, rz = fv.quadrature_point(q)[1] - g.zc;
+        g.J += (rx * rx + rz * rz) * fv.JxW(q);
+      }
+    }
+  }
+
+  // rigid regions: masters (2 dofs at the node nearest the pivot, 1 at the node farthest from
+  // it along the better-conditioned direction) and slaves
+  lines.clear();
+  rigid.assign(pb.regions.size(), Rigid{});
+  for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+    const Region& reg = pb.regions[r];
+    if (!reg.rigid) continue;
+    Rigid& R = rigid[r];
+    R.is_dof.assign(dof.n_dofs(), 0);
+    const auto& usp = fe.get_unit_support_points();
+    std::vector<types::global_dof_index> ld(fe.n_dofs_per_cell());
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (cell->material_id() != r + 1) continue;
+      cell->get_dof_indices(ld);
+      for (unsigned i = 0; i < ld.size(); ++i)
+        if (!R.is_dof[ld[i]]) {
+          R.is_dof[ld[i]] = 1;
+          R.dofs.push_back({ld[i],
+                            {fe.system_to_component_index(i).first,
+                             mapping.transform_unit_to_real_cell(cell, usp[i])}});
+        }
+    }
+    if (R.dofs.empty())
+      throw std::runtime_error("structure region '" + reg.name + "' has no cells");
+    const double xp = reg.pivot.x, zp = reg.pivot.z;
+    // A: nearest to the pivot (x and z dofs at the same support point)
+    std::size_t ia = 0;
+    double best = 1e300;
+    for (std::size_t k = 0; k < R.dofs.size(); ++k) {
+      const auto& P = R.dofs[k].second.second;
+      const double d = std::hypot(P[0] - xp, P[1] - zp);
+      if (R.dofs[k].second.first == 0 && d < best) {
+        best = d;
+        ia = k;
+      }
+    }
+    const dealii::Point<2> A = R.dofs[ia].second.second;
+    R.master[0] = R.dofs[ia].first;
+    for (const auto& d : R.dofs)
+      if (d.second.first == 1 && d.second.second.distance(A) < 1e-12 * (1 + A.norm()))
+        R.master[1] = d.first;
+    // B: maximise |det R| = |A_z − B_z| (x dof of B) or |B_x − A_x| (z dof of B)
+    best = -1;
+    std::size_t ib = 0;
+    for (std::size_t k = 0; k < R.dofs.size(); ++k) {
+      const auto& P = R.dofs[k].second.second;
+      const double d = R.dofs[k].second.first == 0 ? std::abs(P[1] - A[1]) : std::abs(P[0] - A[0]);
+      if (d > best) {
+        best = d;
+        ib = k;
+      }
+    }
+    R.master[2] = R.dofs[ib].first;
+    const unsigned cb = R.dofs[ib].second.first;
+    const dealii::Point<2> B = R.dofs[ib].second.second;
+    // m = S q with rows of the small rigid motion u = (ux − θ(z − zp), uz + θ(x − xp))
+    auto row = [&](unsigned c, const dealii::Point<2>& P, double out[3]) {
+      out[0] = c == 0 ? 1 : 0;
+      out[1] = c == 1 ? 1 : 0;
+      out[2] = c == 0 ? -(P[1] - zp) : (P[0] - xp);
+    };
+    double S[3][3];
+    row(0, A, S[0]);
+    row(1, A, S[1]);
+    row(cb, B, S[2]);
+    const double det = S[0][0] * (S[1][1] * S[2][2] - S[1][2] * S[2][1]) -
+                       S[0][1] * (S[1][0] * S[2][2] - S[1][2] * S[2][0]) +
+                       S[0][2] * (S[1][0] * S[2][1] - S[1][1] * S[2][0]);
+    if (std::abs(det) < 1e-12)
+      throw std::runtime_error("structure region '" + reg.name + "' is degenerate");
+    for (int i = 0; i < 3; ++i) // inverse by cofactors
+      for (int j = 0; j < 3; ++j) {
+        const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+        R.T[i][j] = (S[i1][j1] * S[i2][j2] - S[i1][j2] * S[i2][j1]) / det;
+      }
+    // slaves: u_P = row(P) · T · m
+    for (const auto& [i, cp] : R.dofs) {
+      if (i == R.master[0] || i == R.master[1] || i == R.master[2]) continue;
+      double rp[3];
+      row(cp.first, cp.second, rp);
+      Line l;
+      for (int j = 0; j < 3; ++j) {
+        const double c = rp[0] * R.T[0][j] + rp[1] * R.T[1][j] + rp[2] * R.T[2][j];
+        if (std::abs(c) > 1e-14) l.entries.push_back({R.master[j], c});
+      }
+      lines[i] = std::move(l);
+    }
+    // fixed / prescribed components: rows T_k m = g_k(t), solved for |C| masters by
+    // Gauss–Jordan elimination with column pivoting
+    std::vector<std::array<double, 3>> A_;
+    std::vector<std::array<double, 3>> W; // rhs weights on g = (g_x, g_z, g_θ)
+    for (int k = 0; k < 3; ++k)
+      if (reg.mode[k] != Region::Mode::Free) {
+        A_.push_back(std::array<double, 3>{{R.T[k][0], R.T[k][1], R.T[k][2]}});
+        std::array<double, 3> w{{0, 0, 0}};
+        w[static_cast<std::size_t>(k)] = 1;
+        W.push_back(w);
+      }
+    std::vector<int> pivcol(A_.size(), -1);
+    std::vector<char> used(3, 0);
+    for (std::size_t a = 0; a < A_.size(); ++a) {
+      int pc = -1;
+      for (int j = 0; j < 3; ++j)
+        if (!used[j] && (pc < 0 || std::abs(A_[a][j]) > std::abs(A_[a][pc]))) pc = j;
+      used[pc] = 1;
+      pivcol[a] = pc;
+      const double d = A_[a][pc];
+      for (int j = 0; j < 3; ++j) {
+        A_[a][j] /= d;
+        W[a][j] /= d;
+      }
+      for (std::size_t b = 0; b < A_.size(); ++b) {
+        if (b == a) continue;
+        const double f = A_[b][pc];
+        for (int j = 0; j < 3; ++j) {
+          A_[b][j] -= f * A_[a][j];
+          W[b][j] -= f * W[a][j];
+        }
+      }
+    }
+    for (std::size_t a = 0; a < A_.size(); ++a) {
+      Line l;
+      for (int j = 0; j < 3; ++j)
+        if (j != pivcol[a] && !used[j] && std::abs(A_[a][j]) > 1e-14)
+          l.entries.push_back({R.master[j], -A_[a][j]});
+      const std::array<double, 3> w = W[a];
+      l.target = [this, r, w]() {
+        double g = 0;
+        for (int k = 0; k < 3; ++k) {
+          const Region& rg = pb.regions[r];
+          if (rg.mode[k] == Region::Mode::Prescribed)
+            g += w[static_cast<std::size_t>(k)] * rg.motion[k](t);
+        }
+        return g;
+      };
+      lines[R.master[pivcol[a]]] = std::move(l);
+    }
+    for (auto m_ : R.master) relevant.add_index(m_);
+  }
+  relevant.compress();
+
+  // constraints: rigid bodies, box boundary conditions, patches, pure-shear kinematics,
+  // periodicity
+  hom.clear();
+  hom.reinit(relevant);
+  for (const auto& [i, l] : lines) {
+    if (!relevant.is_element(i)) continue;
+    hom.add_line(i);
+    hom.add_entries(i, l.entries);
+  }
+  auto in_rigid = [&](types::global_dof_index i) {
+    for (const auto& R : rigid)
+      if (!R.is_dof.empty() && R.is_dof[i]) return true;
+    return false;
+  };
+  auto constrain = [&](types::global_dof_index i) {
+    if (relevant.is_element(i) && !hom.is_constrained(i) && !in_rigid(i)) hom.add_line(i);
+  };
+  const Bc bcs[4] = {pb.left, pb.right, pb.bottom, pb.top};
+  for (types::boundary_id b = 0; b < 4; ++b) {
+    if (bcs[b] == Bc::Free) continue;
+    if (pb.mesh.periodic_x && b < 2) continue;
+    const unsigned normal = b < 2 ? 0u : 1u;
+    for (const auto& [i, cp] :
+         face_dofs([b](const dealii::Point<2>&, types::boundary_id id) { return id == b; }))
+      if (bcs[b] == Bc::Fixed || cp.first == normal) constrain(i);
+  }
+  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  patch_dofs.clear();
+  patch_target.clear();
+  for (const Patch& p : pb.patches) {
+    auto d = face_dofs([&](const dealii::Point<2>& c, types::boundary_id) {
+      return on_segment(p.a, p.b, c[0], c[1], tol);
+    });
+    std::map<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>> sel;
+    for (const auto& [i, cp] : d) {
+      if ((cp.first == 0 && !p.constrain_x) || (cp.first == 1 && !p.constrain_z)) continue;
+      sel[i] = cp;
+      const double rx = cp.second[0] - p.pivot.x, rz = cp.second[1] - p.pivot.z;
+      // small rigid rotation: u = (ux − θ rz, uz + θ rx)
+      patch_target[i] = cp.first == 0 ? p.ux - p.rotation * rz : p.uz + p.rotation * rx;
+      if (relevant.is_element(i) && !in_rigid(i)) { // (may already be a box constraint)
+        if (!hom.is_constrained(i)) hom.add_line(i);
+        Line l;
+        const double val = patch_target[i];
+        l.target = [this, val]() { return lambda * val; };
+        lines[i] = std::move(l);
+      }
+    }
+    patch_dofs.push_back(std::move(sel));
+  }
+  if (pb.fix_z_everywhere) {
+    std::vector<types::global_dof_index> ld(fe.n_dofs_per_cell());
+    for (const auto& cell : dof.active_cell_iterators()) {
+      if (cell->is_artificial()) continue;
+      cell->get_dof_indices(ld);
+      for (unsigned i = 0; i < ld.size(); ++i)
+        if (fe.system_to_component_index(i).first == 1) constrain(ld[i]);
+    }
+  }
+  if (pb.mesh.periodic_x) {
+    // u(right, z) = u(left, z), component by component (single-rank construction)
+    auto left = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 0; });
+    auto right = face_dofs([](const dealii::Point<2>&, types::boundary_id id) { return id == 1; });
+    const double ptol = 1e-9 * (zmax - zmin);
+    for (const auto& [r, rc] : right) {
+      if (hom.is_constrained(r) || !relevant.is_element(r)) continue;
+      for (const auto& [l, lc] : left)
+        if (lc.first == rc.first && std::abs(lc.second[1] - rc.second[1]) < ptol) {
+          hom.add_line(r);
+          if (!hom.is_constrained(l)) hom.add_entry(r, l, 1.0);
+          break;
+        }
+    }
+  }
+  hom.close();
+
+  DynamicSparsityPattern dsp(relevant);
+  DoFTools::make_sparsity_pattern(dof, dsp, hom, false);
+  SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
+  K.reinit(owned, owned, dsp, comm);
+  M.reinit(owned, owned, dsp, comm);
+  K0.reinit(owned, owned, dsp, comm);
+  for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n})
+    w->reinit(owned, comm);
+  u_ghost.reinit(owned, relevant, comm);
+
+  committed.assign(tria.n_active_cells() * nq(), QpState{});
+  trial = committed;
+  assemble_mass_and_elastic();
+}
+
+double Model::Impl::top_at(double x) const {
+  const auto& poly = pb.mesh.domain;
+  if (poly.empty()) return zmax;
+  double top = zmin;
+  for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const Point& a = poly[i];
+    const Point& b = poly[j];
+    if ((a.x <= x && b.x >= x) || (b.x <= x && a.x >= x)) {
+      const double zz = std::abs(b.x - a.x) < 1e-300 ? std::max(a.z, b.z)
+                                                     : a.z + (b.z - a.z) * (x - a.x) / (b.x - a.x);
+      top = std::max(top, zz);
+    }
+  }
+  return top;
+}
+
+Model::Model(const Problem& problem) : impl_(std::make_unique<Impl>(problem)) {}
+Model::~Model() = default;
+
+std::size_t Model::n_dofs() const {
+  return impl_->dof.n_dofs();
+}
+std::size_t Model::n_cells() const {
+  return impl_->tria.n_active_cells();
+}
+double Model::time() const {
+  return impl_->t;
+}
+const std::string& Model::log() const {
+  impl_->log_str = impl_->log.str();
+  return impl_->log_str;
+}
+
+} // namespace demfem::continuum::fem
