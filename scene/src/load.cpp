@@ -963,10 +963,11 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
              (sc.output.series.empty() || *v > sc.output.series.back());
         if (ok) sc.output.series.push_back(*v);
       }
-      if (!ok) r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
+      if (!ok)
+        r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
     }
-    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval",
-              "series"});
+    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures",
+              "checkpoint_interval", "series"});
   }
 
   // Cross references, located at the key that names the missing thing.
@@ -993,8 +994,8 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
                                e.time, e.group));
     if (e.action == EventAction::OpenWall && !sc.wall(e.wall))
       top.error_at(at("event", i, "wall"), fmt::format("event[{}].wall", i),
-                   fmt::format("event at t = {} names wall '{}', which no [[wall]] defines", e.time,
-                               e.wall));
+                   fmt::format("event at t = {} names wall '{}', which no [[wall]] defines",
+                               e.time, e.wall));
   }
   for (std::size_t i = 0; i < sc.probes.size(); ++i) {
     const auto& p = sc.probes[i];
@@ -1070,9 +1071,9 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
             if (const auto nm = (*et)["name"].value<std::string>()) names.push_back(*nm);
         const std::string shown = p.size() > 24 ? p.substr(0, 21) + "…" : p;
         if (a->empty()) return fmt::format("'{}' has no element '{}': it is empty", walked, shown);
-        return fmt::format(
-            "'{}' has no element '{}'; valid: an index 0–{}{}{}", walked, shown, a->size() - 1,
-            names.empty() ? "" : " or a name: ", fmt::format("{}", fmt::join(names, ", ")));
+        return fmt::format("'{}' has no element '{}'; valid: an index 0–{}{}{}", walked, shown,
+                           a->size() - 1, names.empty() ? "" : " or a name: ",
+                           fmt::format("{}", fmt::join(names, ", ")));
       }
       if (last) {
         a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), std::move(value));
