@@ -265,8 +265,8 @@ BiaxialResult biaxial(const Specimen& sp, double sigma_c, const ElementSettings&
   const double t_end = st.max_axial_strain / rate + 0.5 * t_r;
   const double v = 0.5 * rate * h0;
   std::vector<std::pair<double, double>> path;
-  for (int k = 0; k <= 20; ++k) {
-    const double t = t_r * k / 20.0;
+  for (int m = 0; m <= 20; ++m) {
+    const double t = t_r * m / 20.0;
     path.emplace_back(t, v * t * t / (2.0 * t_r)); // u = v t²/(2 t_r) while accelerating
   }
   path.emplace_back(t_end + 1.0, v * (t_end + 1.0 - 0.5 * t_r)); // then u = v (t − t_r/2)

@@ -641,6 +641,10 @@ ContinuumSoil read_continuum_soil(Reader& r) {
   for (const char* k : {"young", "poisson", "friction_angle", "cohesion", "dilation_angle",
                         "density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
+  // Written by the resolved dump (where each calibrated value came from); informational.
+  if (const auto* pv = r.table("provenance"))
+    for (auto&& [k, v] : *pv)
+      s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
   r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
             "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
   return s;

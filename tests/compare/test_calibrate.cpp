@@ -22,6 +22,7 @@ std::string tiny_scene(const fs::path& cache, const std::string& continuum_extra
   return R"(
 [scene]
 name = "tiny-calibration"
+duration = 1.0
 solvers = ["dem", "continuum"]
 seed = 7
 [domain]
@@ -186,13 +187,17 @@ TEST(Calibrate, IsDeterministic) {
 }
 
 TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
-  EXPECT_THROW(
-      {
-        const auto f = scene::parse_scene(
-            "[scene]\nname = \"x\"\nsolvers = [\"continuum\"]\n[domain]\npolygon = [[0, 0], "
-            "[1, 0], [1, 1], [0, 1]]\n[soil.continuum]\ncalibrate = \"lab\"\n",
-            "x.toml");
-        (void)f;
-      },
-      scene::SceneError);
+  const std::string text = "[scene]\nname = \"x\"\nduration = 1\nsolvers = [\"continuum\"]\n"
+                           "[domain]\npolygon = [[0, 0], [1, 0], [1, 1], [0, 1]]\n"
+                           "[soil.continuum]\ncalibrate = \"lab\"\n";
+  try {
+    (void)scene::parse_scene(text, "x.toml");
+    ADD_FAILURE() << "calibrate = \"lab\" was accepted";
+  } catch (const scene::SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown calibration 'lab'"), std::string::npos)
+        << e.what();
+  }
+  std::string ok = text;
+  ok.replace(ok.find("\"lab\""), 5, "\"dem\"");
+  EXPECT_TRUE(scene::parse_scene(ok, "x.toml").base.soil.continuum->calibrate_dem);
 }
