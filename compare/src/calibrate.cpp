@@ -24,7 +24,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 1; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 2; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -276,7 +276,8 @@ json to_json(const Calibration& c) {
                     {"k0", c.k0},
                     {"surface", c.surface},
                     {"young_source", c.young_source},
-                    {"young_small", c.young_small}};
+                    {"young_small", c.young_small},
+                    {"young_e50", c.young_e50}};
   return j;
 }
 
@@ -340,6 +341,7 @@ Calibration from_json(const json& j) {
   c.dilation_angle = k.at("dilation_angle_deg");
   c.young_source = k.at("young_source");
   c.young_small = k.at("young_small");
+  c.young_e50 = k.at("young_e50");
   return c;
 }
 
@@ -596,7 +598,18 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping});
     // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
     // the in-plane shear modulus is the same in 2D and in plane strain).
-    if (!c.cyclic.empty()) c.young_small = 2.0 * c.cyclic.front().g * (1.0 + c.poisson);
+    if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
+      c.young_small = 2.0 * c.cyclic.front().g * (1.0 + c.poisson);
+      // The continuum's elastic part stands for the soil before yield, and the scenes load it
+      // cyclically (shaking, rocking): the cyclic small-strain modulus, not the monotonic E50
+      // (which is mostly plastic contraction at 1–2 % strain), is the matching stiffness.
+      c.young_e50 = c.young;
+      c.young = c.young_small;
+      c.young_source = fmt::format(
+          "small-strain E0 = 2 G0 (1 + ν), G0 of the cyclic biaxial test at σ_c = {:.4g} kPa, "
+          "γ = {:.2g} (E50 = {:.4g} Pa)",
+          c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.young_e50);
+    }
   }
   c.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ofstream(cache_file(scene, o)) << to_json(c).dump(1) << "\n";
@@ -627,12 +640,11 @@ std::string continuum_block(const Calibration& c) {
                    "from the cache.\n",
                    c.scene_label, c.key, c.particles);
   s += "[soil.continuum]\nmodel = \"mohr-coulomb\"\n";
-  s += fmt::format("young = {:.4g}   # [Pa] plane strain, E = E'(1 − ν²) from the {}\n", c.young,
-                   c.young_source);
-  if (c.young_small > 0.0)
-    s += fmt::format(
-        "#   small-strain E0 = 2 G0 (1 + ν) = {:.4g} Pa (G0 at γ = {:.2g}, cyclic biaxial)\n",
-        c.young_small, c.cyclic.front().gamma);
+  s += fmt::format("young = {:.4g}   # [Pa] plane strain: {}\n", c.young, c.young_source);
+  if (c.young_e50 > 0.0)
+    s += fmt::format("#   monotonic: E50 = E50'(1 − ν²) = {:.4g} Pa (secant at 50 % of the peak "
+                     "deviator, σ_c at mid-depth)\n",
+                     c.young_e50);
   s += fmt::format("poisson = {:.3f}   # ν = ν'/(1 + ν'), ν' = −ε_xx/ε_zz at the same point\n",
                    c.poisson);
   std::string sig;

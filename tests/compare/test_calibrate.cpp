@@ -79,11 +79,11 @@ compare::CalibrateOptions tiny_options(const fs::path& dir) {
 //    resistance at μ = 0.5 is sin φ ≈ 0.25–0.3 (φ ≈ 15–18°; Estrada, Taboada & Radjai, PRE 78
 //    (2008) 021301); dense packings peak a few degrees higher. The band is wide because a
 //    200-disk specimen is noisy.
-//  * E: the measured in-plane initial tangent E' lies between 0.05 and 2 times the affine
-//    (Voigt) estimate. Affine is an upper bound of the elastic modulus of the contact network at
-//    the deposited Z; the consolidated specimen has more contacts than the bed (up to ≈ 1.5×)
-//    and disorder relaxes it by up to an order of magnitude near isostaticity (e.g. Somfai et
-//    al., PRE 72 (2005) 021301).
+//  * Stiffness: the small-strain shear modulus G0 (which gives the calibrated E) lies between
+//    0.1 and 1.2 times the affine (Voigt) estimate. Affine is an upper bound of the elastic
+//    modulus of the contact network at the deposited Z (the consolidated specimen may have a few
+//    more contacts, hence 1.2); non-affine relaxation of disordered packings lowers it by up to
+//    an order of magnitude near isostaticity (e.g. Somfai et al., PRE 72 (2005) 021301).
 //  * K0 in (0.3, 1.5); the mass-matched surface holds the DEM's soil mass within 1 %.
 //  * Cached second call: identical values, from the cache.
 TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
@@ -102,8 +102,6 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     EXPECT_GT(t.phi_peak, 12.0);
     EXPECT_LT(t.phi_peak, 32.0);
     EXPECT_GT(t.e50, 0.0);
-    EXPECT_GT(t.e_small, 0.05 * c.affine_e) << "E' " << t.e_small << " affine " << c.affine_e;
-    EXPECT_LT(t.e_small, 2.0 * c.affine_e) << "E' " << t.e_small << " affine " << c.affine_e;
     EXPECT_LE(t.phi_cv, t.phi_peak + 1e-9);
   }
   EXPECT_GT(c.young, 0.0);
@@ -121,8 +119,13 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_GT(c.surface, 0.3);
   EXPECT_LT(c.surface, 0.5);
   ASSERT_EQ(c.cyclic.size(), 2u);
-  EXPECT_GT(c.cyclic[0].g, 0.0);
-  EXPECT_LT(c.cyclic[0].g, 1.5 * c.affine_g); // G ≤ the affine (upper-bound) G
+  // The calibrated stiffness against the affine estimate: 0.1 ≤ G0/G_affine ≤ 1.2.
+  EXPECT_GT(c.cyclic[0].g, 0.1 * c.affine_g) << c.cyclic[0].g << " vs " << c.affine_g;
+  EXPECT_LT(c.cyclic[0].g, 1.2 * c.affine_g) << c.cyclic[0].g << " vs " << c.affine_g;
+  EXPECT_DOUBLE_EQ(c.young, 2.0 * c.cyclic[0].g * (1.0 + c.poisson)); // E0 = 2 G0 (1 + ν)
+  EXPECT_GT(c.young_e50, 0.0);
+  EXPECT_GE(c.cyclic[0].xi, -0.01); // ξ of the first harmonic; ≈ 0 in the elastic range
+  EXPECT_LT(c.cyclic[1].xi, 0.3);
 
   const auto t0 = std::chrono::steady_clock::now();
   const auto d = compare::load_or_calibrate(s, o);

@@ -12,6 +12,9 @@
 //     (mean over the last quarter of the test), ψ at the peak; over the tests: Mohr–Coulomb fit
 //     of the peak states (φ, c).
 //   * Cyclic biaxial at σ_c(H/2): secant shear modulus G and damping ratio ξ against amplitude.
+//   * The continuum's E: the small-strain E0 = 2 G0 (1 + ν) of the cyclic test (the scenes load
+//     the soil cyclically; the monotonic E50 is reported beside it), or E50 at mid-depth when
+//     the cyclic test is skipped; ν from the biaxial test at mid-depth (50 % of the peak).
 //   * Bed: K0 = σ_xx/σ_zz from the Love–Weber stress of the deposited packing away from walls and
 //     structures; bulk density ρ_s (1 − n) from dem::measure_packing; and the ground surface at
 //     which a continuum of that density holds the DEM's soil mass (matched height and mass).
@@ -96,6 +99,7 @@ struct Calibration {
          dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]
   std::string young_source;    // which test and measure E comes from
   double young_small = 0.0;    // 2 G0 (1 + ν): G0 of the smallest cyclic amplitude [Pa]
+  double young_e50 = 0.0;      // E50 (plane strain) at mid-depth when E is E0 [Pa]
 };
 
 // Digest of everything that shapes the calibration (16 hex digits).
