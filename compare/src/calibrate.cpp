@@ -427,6 +427,16 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
           std::clamp((P.x[i] - x0) / cw, 0.0, static_cast<double>(ncol - 1)));
       tops[k] = std::max(tops[k], P.z[i] + P.radius[i]);
     }
+    // columns over a structure hold the soil below it, not the surface
+    for (const auto& st : scene.structures) {
+      double sx0 = 1e300, sx1 = -1e300;
+      for (const auto& q : st.outline) {
+        sx0 = std::min(sx0, q.x);
+        sx1 = std::max(sx1, q.x);
+      }
+      for (std::size_t k = 0; k < ncol; ++k)
+        if (x0 + (k + 1) * cw > sx0 && x0 + k * cw < sx1) tops[k] = -1e300;
+    }
     std::erase_if(tops, [](double t) { return t < -1e299; });
     c.surface_top_mean = tops.empty() ? zb
                                       : std::accumulate(tops.begin(), tops.end(), 0.0) /
