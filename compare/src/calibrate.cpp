@@ -24,7 +24,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 2; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 3; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
