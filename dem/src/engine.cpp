@@ -13,7 +13,9 @@
 #include <omp.h>
 #endif
 
+#include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/validate.hpp"
 #include "state_bytes.hpp"
 
 namespace demfem::dem {
@@ -272,20 +274,9 @@ long Engine::index_of(std::uint32_t id) const {
 // ---- time step ----------------------------------------------------------------------------------
 
 double Engine::stable_dt() const {
-  double kmax = config_.kn;
-  switch (config_.law) {
-  case scene::ContactLaw::HertzMindlin: {
-    HertzMindlin h;
-    h.p.e_star = config_.young / (2.0 * (1.0 - config_.poisson * config_.poisson));
-    kmax = h.max_stiffness(r_min_);
-    break;
-  }
-  default:
-    kmax = std::max(config_.kn, config_.ks);
-    break;
-  }
-  if (p_.size() == 0 || !(kmax > 0.0)) return std::numeric_limits<double>::infinity();
-  return 2.0 * std::sqrt(m_min_ / kmax); // critical step of a mass on a spring, 2/ω
+  if (p_.size() == 0) return std::numeric_limits<double>::infinity();
+  // Pair reduced mass, shear–rotation mode, coordination margin, damping (stable_step.cpp).
+  return critical_step(step_params(config_, m_min_, r_min_)).dt;
 }
 
 void Engine::set_dt(double dt) {
@@ -293,9 +284,8 @@ void Engine::set_dt(double dt) {
   if (!(dt > 0.0) || dt > lim) {
     scene::Diagnostic d;
     d.key = "soil.dem.dt";
-    d.message = fmt::format("time step {:.4g} s is above the stable limit 2·sqrt(m_min/k_max) = "
-                            "{:.4g} s; use dt ≤ {:.4g} s or 0 for automatic ({:.4g} s)",
-                            dt, lim, lim, auto_dt());
+    d.message = scene::dem_step_refusal(
+        dt, {lim, critical_step(step_params(config_, m_min_, r_min_)).formula()}, auto_dt());
     throw scene::SceneError({d});
   }
   dt_ = dt;

@@ -161,7 +161,17 @@ std::string human_bytes(double b) {
   return k == 6 && b >= 1000.0 ? fmt::format("{:.3g} EB", b) : fmt::format("{:.3g} {}", b, units[k]);
 }
 
+DemStepLimitFn g_dem_step_limit = nullptr;
+
 } // namespace
+
+void set_dem_step_limit(DemStepLimitFn fn) { g_dem_step_limit = fn; }
+
+std::string dem_step_refusal(double dt, const DemStepLimit& limit, double auto_dt) {
+  return fmt::format("time step {:.4g} s is above the stable limit {:.4g} s ({}); use dt ≤ {:.4g} "
+                     "s or 0 for automatic ({:.4g} s)",
+                     dt, limit.dt, limit.formula, limit.dt, auto_dt);
+}
 
 Estimates estimate(const Scene& sc) {
   Estimates e;
@@ -181,25 +191,13 @@ Estimates estimate(const Scene& sc) {
     e.available_area = std::max(e.available_area, 0.0);
     e.packing_fraction = e.available_area > 0.0 ? e.solid_area / e.available_area
                                                 : std::numeric_limits<double>::infinity();
-    // Automatic Δt = safety · 2√(m_min/k_max) (critical step of a mass on a spring, 2/ω), as in
-    // dem::Engine::stable_dt; m = ρπr²t (PFC2D disk of thickness t).
-    double r_min = m.r_min;
-    for (const auto& q : d.particles) r_min = r_min > 0.0 ? std::min(r_min, q[2]) : q[2];
+    // Automatic Δt = dt_safety × the stable limit, from the DEM layer (set_dem_step_limit).
+    if (g_dem_step_limit) e.dt_limit = g_dem_step_limit(sc);
     if (d.dt > 0.0) {
       e.dt = d.dt;
-    } else if (r_min > 0.0) {
-      const double m_min = d.density * std::numbers::pi * r_min * r_min * d.thickness;
-      double k_max = std::max(d.kn, d.ks);
-      if (d.law == ContactLaw::HertzMindlin) {
-        // Hertz tangent stiffness at 5 % overlap of r_min (dem/contact_laws.hpp max_stiffness):
-        // k = 2E*√(R δ), E* = E / (2(1 − ν²)), R = r/2
-        const double e_star = d.young / (2.0 * (1.0 - d.poisson * d.poisson));
-        k_max = 2.0 * e_star * std::sqrt(0.5 * r_min * 0.05 * r_min);
-      }
-      if (k_max > 0.0) {
-        e.dt = d.dt_safety * 2.0 * std::sqrt(m_min / k_max);
-        e.dt_automatic = true;
-      }
+    } else if (e.dt_limit && std::isfinite(e.dt_limit->dt) && e.dt_limit->dt > 0.0) {
+      e.dt = d.dt_safety * e.dt_limit->dt;
+      e.dt_automatic = true;
     }
     if (e.dt && *e.dt > 0.0) {
       e.steps = duration / *e.dt;
@@ -397,6 +395,10 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                     e.solid_area / (kMaxPackingFraction * e.available_area)));
     return;
   }
+  // Δt above the stable limit (the DEM engine refuses the same step; issue 11).
+  if (d.dt > 0.0 && e.dt_limit && d.dt > e.dt_limit->dt)
+    add(locate(root, {"soil", "dem", "dt"}), "soil.dem.dt",
+        dem_step_refusal(d.dt, *e.dt_limit, d.dt_safety * e.dt_limit->dt));
   if (e.memory_bytes > kMaxMemoryBytes)
     add(count_where, "soil.dem.count",
         fmt::format("{:.0f} particles need about {} of memory ({} B each: state, neighbour "
@@ -412,7 +414,7 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                     "{:.0e} steps (at ~1e7 particle-steps/s for {} particles that is about {:.3g} "
                     "days); shorten the duration{}",
                     sc.info.duration, *e.dt,
-                    dt_given ? "soil.dem.dt" : "automatic: dt_safety · 2√(m_min/k_max)", e.steps,
+                    dt_given ? "soil.dem.dt" : "automatic: dt_safety × the stable limit", e.steps,
                     e.packing_steps > 0.0
                         ? fmt::format(" plus up to {:.4g} for the deposition", e.packing_steps)
                         : std::string(),

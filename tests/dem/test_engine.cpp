@@ -466,12 +466,13 @@ TEST(DemEnergy, BudgetClosesInFrictionalReboundingSettle) {
   }
 }
 
-// A scene time step above 2√(m_min/k_max) is refused with the limit in the message.
+// A scene time step above the stable limit √(m_min/max(2k_n, 6k_s)) (disks, stable_step.cpp) is
+// refused with the limit in the message.
 TEST(DemTimeStep, UnstableStepIsRefusedWithLimit) {
   Engine e(base_config());
   e.add_particle(0, 0, 0.05);
   const double lim = e.stable_dt();
-  EXPECT_NEAR(lim, 2 * std::sqrt(disk_mass(base_config(), 0.05) / 1.0e6), 1e-12);
+  EXPECT_NEAR(lim, std::sqrt(disk_mass(base_config(), 0.05) / 2.0e6), 1e-12); // k_s = 0.3 k_n
   try {
     e.set_dt(1.5 * lim);
     FAIL() << "expected SceneError";

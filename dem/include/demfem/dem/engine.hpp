@@ -47,7 +47,7 @@ struct EngineConfig {
   bool sphere_mass = false;
   double gravity = 9.81;    // along −z [m/s²]
   double max_overlap = 0.5; // blow-up: δ > max_overlap · r
-  double dt_safety = 0.05;
+  double dt_safety = 0.14; // automatic Δt = dt_safety · stable_dt() (scene.hpp)
   std::vector<Material> materials{Material{}}; // index 0: the soil
   // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
   bool shaking = false;
@@ -141,7 +141,8 @@ public:
   std::uint16_t add_material(Material m);
 
   // ---- time step --------------------------------------------------------------------------
-  [[nodiscard]] double stable_dt() const; // 2√(m_min/k_max)
+  // The critical step of the smallest particle in a dense packing (stable_step.hpp).
+  [[nodiscard]] double stable_dt() const;
   [[nodiscard]] double auto_dt() const { return config_.dt_safety * stable_dt(); }
   // Throws scene::SceneError (key soil.dem.dt) when dt exceeds stable_dt().
   void set_dt(double dt);

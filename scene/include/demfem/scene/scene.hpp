@@ -72,7 +72,14 @@ struct RadiusDistribution {
   std::vector<std::pair<double, double>> table; // (radius, relative frequency)
 };
 
+// How packing places the particles before they fall (issue 14): on a hexagonal lattice with
+// jitter (dense, nearly ordered beds), or at random sequential positions at a low placement
+// density (disordered beds; with raised deposition friction, loose ones).
+enum class Placement { Lattice, Random };
+inline constexpr std::array<const char*, 2> kPlacementNames = {"lattice", "random"};
+
 struct Packing {
+  Placement placement = Placement::Lattice;
   double ke_ratio = 1e-4; // stop depositing when kinetic energy < ke_ratio · released potential
   double max_time = 20.0; // give up depositing after this simulated time [s]
   double damping = 0.0;   // extra global damping ratio during deposition only
@@ -107,8 +114,10 @@ struct DemSoil {
   double damping_c = 0.0;        // global translational damping C (eq. 2.1) [1/s, per mass]
   double damping_d = 0.0;        // global rotational damping D (eq. 2.2) [1/s, per inertia]
   double dt = 0.0;               // 0 = automatic
-  double dt_safety =
-      0.05; // Δt = safety · 2√(m_min/k_max) = 0.1√(m_min/k_max): ≈ 22 steps per contact
+  // Automatic Δt = dt_safety × the stable limit (dem/stable_step.hpp; disks:
+  // √(m_min/max(2k_n, 6k_s))); 0.14 gives 0.099√(m_min/k_n) for k_s ≤ k_n/3, ≈ 22 steps per
+  // contact (the former default 0.05 × 2√(m_min/k_max) = 0.1√(m_min/k_n)).
+  double dt_safety = 0.14;
   double max_overlap = 0.5; // blow-up: overlap beyond this fraction of the radius
   Polygon fill;             // region filled by packing (default: the domain polygon)
   Packing packing;
@@ -252,6 +261,7 @@ struct Output {
 struct Scene {
   std::string source_file; // where it was read from
   std::string variant;     // "" for the base scene
+  std::string variant_description; // the [[variant]]'s description ("" if none)
   Info info;
   Polygon domain;
   Soil soil;

@@ -13,24 +13,39 @@
 namespace demfem::scene {
 
 // Ceilings: a scene above one of them is refused (exit 2) with the estimate and the reason.
-inline constexpr double kMaxSteps = 1e9;            // DEM steps (deposition + run) per scene
-inline constexpr double kMaxMemoryBytes = 64e9;     // estimated DEM memory
-inline constexpr double kMaxOutputBytes = 1e12;     // estimated snapshot + time-series output
+inline constexpr double kMaxSteps = 1e9;              // DEM steps (deposition + run) per scene
+inline constexpr double kMaxMemoryBytes = 64e9;       // estimated DEM memory
+inline constexpr double kMaxOutputBytes = 1e12;       // estimated snapshot + time-series output
 inline constexpr double kMaxPackingFraction = 0.9069; // π/(2√3): densest disk packing (Thue)
-inline constexpr double kBytesPerParticle = 1024.0; // state, neighbour lists, contact history
+inline constexpr double kBytesPerParticle = 1024.0;   // state, neighbour lists, contact history
 inline constexpr double kSnapshotBytesPerParticle = 160.0; // particles + force chains (.vtp)
+
+// The DEM's stable time-step limit of a scene, computed by the DEM layer (dem/stable_step.hpp:
+// pair reduced mass, shear–rotation mode, coordination, damping), which scene/ does not link.
+// The application installs it at start-up (app/src/main.cpp); then load_scene_file() refuses an
+// explicit soil.dem.dt above the limit at the dt key's file:line:col, exactly as `run` would, and
+// the automatic step is dt_safety × the limit. Not installed (scene-only tools): neither.
+struct DemStepLimit {
+  double dt = 0.0;     // the limit [s]
+  std::string formula; // how it was obtained, for messages
+};
+using DemStepLimitFn = std::optional<DemStepLimit> (*)(const Scene&);
+void set_dem_step_limit(DemStepLimitFn fn);
+// The message for a step above the limit (shared by the scene check and the DEM engine).
+[[nodiscard]] std::string dem_step_refusal(double dt, const DemStepLimit& limit, double auto_dt);
 
 struct Estimates {
   // DEM (only when the scene has [soil.dem]):
-  double solid_area = 0.0;     // Σ πr² over the expected radii [m²]
-  double available_area = 0.0; // domain area minus the structures inside it [m²]
+  double solid_area = 0.0;       // Σ πr² over the expected radii [m²]
+  double available_area = 0.0;   // domain area minus the structures inside it [m²]
   double packing_fraction = 0.0; // solid_area / available_area
-  std::optional<double> dt;    // the DEM step [s] (given, or the automatic one); unset: unknown
+  std::optional<double> dt;      // the DEM step [s] (given, or the automatic one); unset: unknown
   bool dt_automatic = false;
-  double steps = 0.0;          // duration / dt
-  double packing_steps = 0.0;  // packing.max_time / dt (at most; 0 with explicit particles)
+  std::optional<DemStepLimit> dt_limit; // the stable limit, when the DEM layer is installed
+  double steps = 0.0;                   // duration / dt
+  double packing_steps = 0.0; // packing.max_time / dt (at most; 0 with explicit particles)
   double memory_bytes = 0.0;
-  double snapshots = 0.0;   // duration / output.interval + 1
+  double snapshots = 0.0; // duration / output.interval + 1
   double output_bytes = 0.0;
 };
 
