@@ -215,8 +215,8 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
       for (const auto& t : c.tests)
         fmt::print("  biaxial σ_c = {:8.4g} kPa: φ_peak {:5.1f}°  φ_cv {:5.1f}°  ψ {:5.1f}°  "
                    "E50' {:.3g} MPa  ν' {:.3f}  n {:.4f}{}\n",
-                   t.sigma_c / 1e3, t.phi_peak, t.phi_cv, t.psi, t.e50 / 1e6,
-                   t.nu_inplane, t.porosity, t.failure.empty() ? "" : "  FAILED: " + t.failure);
+                   t.sigma_c / 1e3, t.phi_peak, t.phi_cv, t.psi, t.e50 / 1e6, t.nu_inplane,
+                   t.porosity, t.failure.empty() ? "" : "  FAILED: " + t.failure);
       fmt::print("  envelope: φ {:.2f}°, c {:.4g} kPa; affine E' {:.3g} MPa, G {:.3g} MPa\n",
                  c.phi_fit, c.cohesion_fit / 1e3, c.affine_e / 1e6, c.affine_g / 1e6);
       for (const auto& p : c.cyclic)

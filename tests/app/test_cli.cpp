@@ -152,8 +152,8 @@ TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
           "[[wall]]\nname = \"base\"\npoints = [[0, 0], [1.2, 0]]\n"
           "[[wall]]\nname = \"left\"\npoints = [[0, 0.8], [0, 0]]\n"
           "[[wall]]\nname = \"right\"\npoints = [[1.2, 0], [1.2, 0.8]]\n");
-  const std::string args = "calibrate " + p.string() + " --particles 100 --no-cyclic --out " +
-                           (out / "cal").string();
+  const std::string args =
+      "calibrate " + p.string() + " --particles 100 --no-cyclic --out " + (out / "cal").string();
   const auto r = run(args);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("[soil.continuum]"), std::string::npos) << r.out;
