@@ -18,6 +18,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/dem/pack.hpp"
@@ -306,6 +307,81 @@ int start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
   return kOk;
 }
 
+// `demfem calibrate` (issue 9): DEM element tests → calibration.json, calibration.toml, figures.
+struct CalibrateArgs {
+  int particles = 1000;
+  bool cyclic = true;
+  bool force = false;
+};
+int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
+  int rc = kOk;
+  const auto file = load_or_report(a.scene, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  for (const scene::Scene* s : scenes) {
+    fs::path out =
+        a.out.empty() ? fs::path("runs") / s->info.name / "calibration" : fs::path(a.out);
+    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
+      out /= s->variant.empty() ? "base" : s->variant;
+    compare::CalibrateOptions o;
+    o.out_dir = out;
+    o.particles = ca.particles;
+    o.cyclic = ca.cyclic;
+    app::ProgressReporter reporter;
+    o.progress = [&](const scene::Progress& p) { reporter(p); };
+    try {
+      const auto c = ca.force ? compare::calibrate(*s, o) : compare::load_or_calibrate(*s, o);
+      reporter.finish();
+      const auto files = compare::write_calibration(c, out, true);
+      fmt::print("{}: calibration {} ({}, {:.1f} s when computed)\n", s->label(), c.key,
+                 c.from_cache ? "found in the cache" : "computed", c.wall_seconds);
+      fmt::print("  bed: porosity {:.4f}, bulk density {:.5g} kg/m³, K0 {:.3f}, surface {:.4g} m "
+                 "(mass-matched; mean column top {:.4g} m)\n",
+                 c.porosity, c.bulk_density, c.k0, c.surface, c.surface_top_mean);
+      for (const auto& t : c.tests)
+        fmt::print("  biaxial σ_c = {:8.4g} kPa: φ_peak {:5.1f}°  φ_cv {:5.1f}°  ψ {:5.1f}°  "
+                   "E50' {:.3g} MPa  ν' {:.3f}  n {:.4f}{}\n",
+                   t.sigma_c / 1e3, t.phi_peak, t.phi_cv, t.psi, t.e50 / 1e6, t.nu_inplane,
+                   t.porosity, t.failure.empty() ? "" : "  FAILED: " + t.failure);
+      fmt::print("  envelope: φ {:.2f}°, c {:.4g} kPa; affine E' {:.3g} MPa, G {:.3g} MPa\n",
+                 c.phi_fit, c.cohesion_fit / 1e3, c.affine_e / 1e6, c.affine_g / 1e6);
+      for (const auto& p : c.cyclic)
+        fmt::print("  cyclic γ = {:.3g}: G {:.3g} MPa, ξ {:.1f} %\n", p.gamma, p.g / 1e6,
+                   100.0 * p.xi);
+      fmt::print("{}", compare::continuum_block(c));
+      for (const auto& f : files.written) fmt::print("  wrote {}\n", f.string());
+      for (const auto& p : files.problems) fmt::print(stderr, "figure: {}\n", p);
+    } catch (const scene::SceneError& e) {
+      reporter.finish();
+      fmt::print(stderr, "{}\n", e.what());
+      return kBadInput;
+    }
+  }
+  return kOk;
+}
+
+// [soil.continuum] calibrate = "dem": the scene with the calibrated values filled in (computed,
+// or read from the cache). Logs one line per key; `notes` gets them for the report.
+scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
+                              std::vector<std::string>* notes = nullptr) {
+  scene::Scene r = s;
+  if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !r.uses(scene::Solver::Continuum))
+    return r;
+  compare::CalibrateOptions o;
+  o.out_dir = out / "calibration";
+  app::ProgressReporter reporter;
+  o.progress = [&](const scene::Progress& p) { reporter(p); };
+  const auto c = compare::load_or_calibrate(s, o);
+  reporter.finish();
+  compare::write_calibration(c, o.out_dir, !c.from_cache);
+  for (const auto& line : compare::apply_calibration(r, c)) {
+    spdlog::info("{}: continuum {}", s.label(), line);
+    if (notes) notes->push_back("Continuum " + line);
+  }
+  return r;
+}
+
 // What the solvers, figures and report write into a run directory (what --force clears).
 constexpr const char* kRunOutputs[] = {"dem",          "continuum",   "figures",
                                        "summary.json", "report.html", "metrics.json"};
@@ -403,17 +479,20 @@ int cmd_run(const RunArgs& a) {
       return kBadInput;
     }
     const fs::path out = run_dir_for(*s, a, scenes.size());
+    // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
+    // the same directory record the same resolved scene
+    const scene::Scene sc = with_calibration(*s, out);
     if (const int p =
-            prepare_run_dir(*s, out, a, "run",
+            prepare_run_dir(sc, out, a, "run",
                             solver == scene::Solver::Dem
                                 ? std::vector<std::string>{"dem", "figures", "summary.json"}
                                 : std::vector<std::string>{"continuum"});
         p != kOk)
       return p;
-    if (const int d = start_run_dir(*s, out, a.resume); d != kOk) return d;
+    if (const int d = start_run_dir(sc, out, a.resume); d != kOk) return d;
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
-    const auto r = run_solver(*s, solver, out, a);
+    const auto r = run_solver(sc, solver, out, a);
     if (r.bad_input) {
       fmt::print(stderr, "{}\n", r.message);
       return kBadInput;
@@ -437,8 +516,11 @@ int cmd_compare(const RunArgs& a) {
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
   int worst = kOk;
-  for (const scene::Scene* s : scenes) {
-    const fs::path out = run_dir_for(*s, a, scenes.size());
+  for (const scene::Scene* s0 : scenes) {
+    const fs::path out = run_dir_for(*s0, a, scenes.size());
+    std::vector<std::string> calibrated;
+    const scene::Scene cs = a.report_only ? *s0 : with_calibration(*s0, out, &calibrated);
+    const scene::Scene* s = &cs; // issue 9: calibrate = "dem" resolved
     if (a.report_only) {
       if (!fs::is_directory(out)) {
         fmt::print(stderr, "demfem compare --report-only: no run directory {}\n", out.string());
@@ -455,6 +537,7 @@ int cmd_compare(const RunArgs& a) {
     ro.scene = s;
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
+    for (const auto& n : calibrated) ro.notes.push_back(n);
     bool any_ok = false;
     for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
       const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";
@@ -725,9 +808,19 @@ int main(int argc, char** argv) {
   study->add_option("scene", other_scene, "Scene file")->required();
   study->add_option("--out", ra.out, "Output directory");
   study->footer(kExitCodes);
+  CalibrateArgs ca;
   auto* calibrate = app.add_subcommand(
-      "calibrate", "Continuum parameters from a DEM element test. (not built yet)");
-  calibrate->add_option("scene", other_scene, "Scene file")->required();
+      "calibrate", "Continuum parameters from DEM element tests (biaxial, cyclic) on specimens "
+                   "of the scene's packing, and the deposited bed's density, K0 and surface; "
+                   "writes calibration.json, calibration.toml and figures (cached).");
+  calibrate->add_option("scene", ra.scene, "Scene file")->required()->check(CLI::ExistingFile);
+  calibrate->add_option("--variant", ra.variants, "Variant name (repeatable)");
+  calibrate->add_option("--out", ra.out, "Output directory (default runs/<scene>/calibration)");
+  calibrate->add_option("--particles", ca.particles, "Specimen size (disks)")
+      ->default_val(1000)
+      ->check(CLI::Range(50, 100000));
+  calibrate->add_flag("!--no-cyclic", ca.cyclic, "Skip the cyclic tests (G/G0, damping)");
+  calibrate->add_flag("--force", ca.force, "Recompute even when the calibration is cached");
   calibrate->footer(kExitCodes);
   auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing "
                                           "(reused from the cache when it exists).");
@@ -759,7 +852,7 @@ int main(int argc, char** argv) {
     if (*compare) return cmd_compare(ra);
     if (*study)
       return not_built("study", "the error-vs-time and stability studies are a later issue");
-    if (*calibrate) return not_built("calibrate", "calibration is a later issue");
+    if (*calibrate) return cmd_calibrate(ra, ca);
     if (*pack) return cmd_pack(ra);
   } catch (const std::exception& e) {
     fmt::print(stderr, "demfem: error: {}\n", e.what());

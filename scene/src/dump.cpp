@@ -187,6 +187,12 @@ std::string to_toml(const Scene& s) {
                                          {"density", c->density},
                                          {"k0", c->k0}});
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
+    if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
+    if (!c->provenance.empty()) { // where each value came from (issue 9)
+      toml::table prov;
+      for (const auto& [k, v] : c->provenance) prov.insert_or_assign(k, v);
+      soil.get_as<toml::table>("continuum")->insert("provenance", prov);
+    }
   }
   if (!soil.empty()) root.insert("soil", soil);
 

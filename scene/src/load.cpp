@@ -631,8 +631,23 @@ ContinuumSoil read_continuum_soil(Reader& r) {
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
+  if (const auto cal = r.opt_string("calibrate")) {
+    if (*cal == "dem")
+      s.calibrate_dem = true;
+    else if (*cal != "none")
+      r.error("calibrate", fmt::format("unknown calibration '{}'; valid: \"dem\" (parameters from "
+                                       "`demfem calibrate`) or \"none\"",
+                                       *cal));
+  }
+  for (const char* k : {"young", "poisson", "friction_angle", "cohesion", "dilation_angle",
+                        "density", "k0", "surface"})
+    if (r.has(k)) s.given.emplace_back(k);
+  // Written by the resolved dump (where each calibrated value came from); informational.
+  if (const auto* pv = r.table("provenance"))
+    for (auto&& [k, v] : *pv)
+      s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
   r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "tension_cutoff", "density", "k0", "surface"});
+            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
   return s;
 }
 

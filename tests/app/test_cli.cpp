@@ -114,11 +114,42 @@ TEST(Cli, RunUnknownSolverIsBadInput) {
 
 TEST(Cli, UnbuiltSubcommandsSaySoAndExit2) {
   const std::string scene = (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string();
-  for (const std::string& args : {"study stability " + scene, "calibrate " + scene}) {
+  for (const std::string& args : {"study stability " + scene}) {
     const auto r = run(args);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.out.find("not built yet"), std::string::npos) << args << "\n" << r.out;
   }
+}
+
+// `demfem calibrate` (issue 9) on a tiny bed: prints the [soil.continuum] block and writes its
+// files; a second call reads the cache; an unknown variant is bad input.
+TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
+  const fs::path out = fs::temp_directory_path() / "demfem_cli_calibrate";
+  fs::remove_all(out);
+  const auto p = write_temp(
+      "demfem_cli_calibrate.toml",
+      "[scene]\nname = \"tiny\"\nduration = 1\nseed = 3\nsolvers = [\"dem\", \"continuum\"]\n"
+      "[domain]\npolygon = [[0, 0], [1.2, 0], [1.2, 0.8], [0, 0.8]]\n"
+      "[soil.dem]\ncount = 200\nradius = { uniform = [0.015, 0.025] }\nkn = 1.0e6\n"
+      "ks = 3.0e5\n[soil.dem.packing]\ndamping = 0.05\nmax_time = 10\ncache = \"" +
+          (out / "cache").string() +
+          "\"\n[soil.continuum]\ncalibrate = \"dem\"\n"
+          "[[wall]]\nname = \"base\"\npoints = [[0, 0], [1.2, 0]]\n"
+          "[[wall]]\nname = \"left\"\npoints = [[0, 0.8], [0, 0]]\n"
+          "[[wall]]\nname = \"right\"\npoints = [[1.2, 0], [1.2, 0.8]]\n");
+  const std::string args =
+      "calibrate " + p.string() + " --particles 100 --no-cyclic --out " + (out / "cal").string();
+  const auto r = run(args);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("[soil.continuum]"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("computed"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "cal" / "calibration.json"));
+  EXPECT_TRUE(fs::exists(out / "cal" / "calibration.toml"));
+  const auto again = run(args);
+  EXPECT_EQ(again.code, 0);
+  EXPECT_NE(again.out.find("found in the cache"), std::string::npos) << again.out;
+  EXPECT_EQ(run("calibrate " + p.string() + " --variant nope").code, 2);
+  fs::remove(p);
 }
 
 // Ctrl-C writes a checkpoint and stops; --resume continues it to the end.

@@ -146,6 +146,13 @@ struct ContinuumSoil {
   // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
   // height of the deposited DEM bed); unset: the whole domain polygon
   std::optional<double> surface;
+  // calibrate = "dem" (issue 9): young, poisson, friction_angle, cohesion, dilation_angle,
+  // density, k0 and surface come from `demfem calibrate` (the app fills them in before the
+  // continuum runs, compare::apply_calibration); a value stated in the file wins.
+  bool calibrate_dem = false;
+  std::vector<std::string> given; // the keys stated in the file (or set by a variant)
+  // key → where its value came from (filled by apply_calibration; dumped as a table)
+  std::vector<std::pair<std::string, std::string>> provenance;
 };
 
 struct ContinuumOptions {

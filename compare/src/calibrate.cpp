@@ -1,0 +1,818 @@
+#include "demfem/compare/calibrate.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <numeric>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "calibrate_element.hpp"
+#include "demfem/compare/plot.hpp"
+#include "demfem/dem/engine.hpp"
+#include "demfem/dem/pack.hpp"
+#include "demfem/scene/load.hpp"
+
+namespace demfem::compare {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr int kCalibrationFormat = 3; // bump when the tests or their evaluation change
+constexpr double kPi = std::numbers::pi;
+double deg(double rad) {
+  return rad * 180.0 / kPi;
+}
+
+struct Fnv {
+  std::uint64_t h = 0xcbf29ce484222325ull; // FNV-1a 64 offset basis
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) {
+      h ^= b[i];
+      h *= 0x100000001b3ull; // FNV-1a 64 prime
+    }
+  }
+  void num(double v) { bytes(&v, sizeof v); }
+  void str(const std::string& s) { bytes(s.data(), s.size()); }
+};
+
+[[noreturn]] void scene_error(const scene::Scene& s, const std::string& key,
+                              const std::string& msg) {
+  scene::Diagnostic d;
+  d.file = s.source_file;
+  d.key = key;
+  d.message = msg;
+  throw scene::SceneError({d});
+}
+
+// The element-test specimen: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited by
+// the scene's packing procedure (its walls are the box's base and sides).
+scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache) {
+  scene::Scene sp = s;
+  auto& d = sp.soil.dem.value();
+  d.count = n;
+  d.particles.clear();
+  d.particles_file.clear();
+  const auto radii = dem::draw_radii(d.radius, n, s.info.seed);
+  double area = 0.0;
+  for (double r : radii) area += kPi * r * r;
+  const double box = area / 0.82; // settled at a packing fraction ≈ 0.82 (2D disks)
+  const double w = std::sqrt(box / 1.5), h = 1.5 * w;
+  sp.domain = {{0, 0}, {w, 0}, {w, h}, {0, h}};
+  d.fill = sp.domain;
+  d.packing.cache = cache.string();
+  sp.walls.clear();
+  scene::Wall base, left, right;
+  base.name = "base";
+  base.points = {{0, 0}, {w, 0}};
+  left.name = "left";
+  left.points = {{0, h}, {0, 0}};
+  right.name = "right";
+  right.points = {{w, 0}, {w, h}};
+  sp.walls = {base, left, right};
+  sp.structures.clear();
+  sp.groups.clear();
+  sp.events.clear();
+  sp.probes.clear();
+  sp.load.shaking.reset();
+  sp.info.name = s.info.name + "-specimen";
+  sp.variant.clear();
+  return sp;
+}
+
+// Area of the polygon below height z (Sutherland–Hodgman clip, then the shoelace formula).
+double area_below(const scene::Polygon& poly, double z) {
+  std::vector<scene::Vec2> out;
+  const std::size_t n = poly.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto p = poly[k], q = poly[(k + 1) % n];
+    const bool pin = p.z <= z, qin = q.z <= z;
+    if (pin) out.push_back(p);
+    if (pin != qin) out.push_back({p.x + (z - p.z) / (q.z - p.z) * (q.x - p.x), z});
+  }
+  double s = 0.0;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    const auto p = out[k], q = out[(k + 1) % out.size()];
+    s += p.x * q.z - q.x * p.z; // shoelace
+  }
+  return 0.5 * std::abs(s);
+}
+
+struct Fit {
+  double slope = 0.0, intercept = 0.0;
+  bool ok = false;
+};
+Fit linear_fit(const std::vector<double>& x, const std::vector<double>& y) {
+  Fit f;
+  const std::size_t n = x.size();
+  if (n < 2) return f;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sx += x[i];
+    sy += y[i];
+    sxx += x[i] * x[i];
+    sxy += x[i] * y[i];
+  }
+  const double den = n * sxx - sx * sx;
+  if (!(std::abs(den) > 0.0)) return f;
+  f.slope = (n * sxy - sx * sy) / den; // least squares
+  f.intercept = (sy - f.slope * sx) / n;
+  f.ok = true;
+  return f;
+}
+
+// Evaluates one biaxial test (samples compression positive).
+BiaxialCurve evaluate(double depth, const calib::BiaxialResult& r, double max_strain) {
+  BiaxialCurve c;
+  c.depth = depth;
+  c.sigma_c = r.sigma_c;
+  c.porosity = r.porosity;
+  c.strain_rate = r.strain_rate;
+  c.failure = r.failure;
+  const std::size_t n = r.samples.size();
+  for (const auto& s : r.samples) {
+    c.ea.push_back(s.e_axial);
+    c.el.push_back(s.e_lateral);
+    c.sa.push_back(s.s_axial);
+    c.sl.push_back(s.s_lateral);
+  }
+  if (n >= 8) {
+    std::vector<double> q(n), ratio(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      q[i] = c.sa[i] - c.sl[i];
+      ratio[i] = q[i] / (c.sa[i] + c.sl[i]); // sin φ_mobilised = (σ1 − σ3)/(σ1 + σ3)
+    }
+    // Stick-slip makes the platen stresses noisy: peaks are taken on running means over 1 %
+    // axial strain.
+    const auto win = static_cast<std::size_t>(
+        std::max(1.0, 0.01 / std::max(max_strain, 1e-6) * static_cast<double>(n)));
+    const auto qs = running_mean(q, win), rs = running_mean(ratio, win);
+    std::size_t ip = 0, iq = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (rs[i] > rs[ip]) ip = i;
+      if (qs[i] > qs[iq]) iq = i;
+    }
+    c.phi_peak = deg(std::asin(std::clamp(rs[ip], 0.0, 1.0)));
+    const double smean = 0.5 * (c.sa[ip] + c.sl[ip]);
+    c.s_peak = smean; // s = (σ1 + σ3)/2, t = s sin φ_mobilised at the (smoothed) peak
+    c.t_peak = smean * rs[ip];
+    c.strain_at_peak = c.ea[ip];
+    // Residual / critical state: mean mobilised ratio over the last quarter.
+    double sum = 0.0;
+    std::size_t cnt = 0;
+    std::vector<double> xe, ye;
+    for (std::size_t i = 0; i < n; ++i)
+      if (c.ea[i] >= 0.75 * max_strain) {
+        sum += ratio[i];
+        ++cnt;
+        xe.push_back(c.ea[i]);
+        ye.push_back(c.ea[i] + c.el[i]);
+      }
+    if (cnt) c.phi_cv = deg(std::asin(std::clamp(sum / static_cast<double>(cnt), 0.0, 1.0)));
+    c.end_dilatancy = linear_fit(xe, ye).slope;
+    // Dilatancy at the peak: sin ψ = −ε̇_v/(ε̇_1 − ε̇_3) = −s/(2 − s), s = dε_v/dε_1 over ±1 %
+    // axial strain around the peak (Vermeer & de Borst, Heron 29 (1984), compression positive).
+    std::vector<double> xp, yp;
+    for (std::size_t i = 0; i < n; ++i)
+      if (std::abs(c.ea[i] - c.ea[ip]) <= 0.01) {
+        xp.push_back(c.ea[i]);
+        yp.push_back(c.ea[i] + c.el[i]);
+      }
+    const Fit fp = linear_fit(xp, yp);
+    if (fp.ok) c.psi = deg(std::asin(std::clamp(-fp.slope / (2.0 - fp.slope), -1.0, 1.0)));
+    // Initial tangent: least squares of q over ε_a ≤ 0.1 % (at least the first 4 samples).
+    std::vector<double> x0, y0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (c.ea[i] <= 1e-3 || x0.size() < 4) {
+        x0.push_back(c.ea[i]);
+        y0.push_back(q[i]);
+      }
+    c.e_small = linear_fit(x0, y0).slope;
+    // Secant at 50 % of the peak deviator (smoothed; q = 0 at ε = 0: isotropic start).
+    for (std::size_t i = 0; i < n; ++i)
+      if (qs[i] >= 0.5 * qs[iq] && c.ea[i] > 0.0) {
+        c.e50 = qs[i] / c.ea[i];
+        c.nu_inplane = -c.el[i] / c.ea[i];
+        break;
+      }
+  }
+  // at most ≈ 600 samples kept for the figures and the JSON
+  const std::size_t stride = std::max<std::size_t>(1, n / 600);
+  if (stride > 1) {
+    auto thin = [&](std::vector<double>& v) {
+      std::vector<double> o;
+      for (std::size_t k = 0; k < v.size(); k += stride) o.push_back(v[k]);
+      v = std::move(o);
+    };
+    thin(c.ea);
+    thin(c.el);
+    thin(c.sa);
+    thin(c.sl);
+  }
+  return c;
+}
+
+json to_json(const Calibration& c) {
+  json j;
+  j["format"] = kCalibrationFormat;
+  j["key"] = c.key;
+  j["scene"] = c.scene_label;
+  j["wall_seconds"] = c.wall_seconds;
+  j["bed"] = {{"bottom_m", c.bed_bottom},
+              {"height_m", c.bed_height},
+              {"surface_mass_matched_m", c.surface},
+              {"surface_top_mean_m", c.surface_top_mean},
+              {"porosity", c.porosity},
+              {"bulk_density_kg_m3", c.bulk_density},
+              {"coordination", c.coordination},
+              {"soil_mass_kg", c.soil_mass},
+              {"continuum_mass_kg", c.continuum_mass},
+              {"k0", c.k0},
+              {"k0_profile", c.k0_profile}};
+  json tests = json::array();
+  for (const auto& t : c.tests)
+    tests.push_back({{"depth_m", t.depth},
+                     {"sigma_c_pa", t.sigma_c},
+                     {"porosity", t.porosity},
+                     {"strain_rate", t.strain_rate},
+                     {"e_small_inplane_pa", t.e_small},
+                     {"e50_inplane_pa", t.e50},
+                     {"nu_inplane", t.nu_inplane},
+                     {"phi_peak_deg", t.phi_peak},
+                     {"phi_cv_deg", t.phi_cv},
+                     {"psi_deg", t.psi},
+                     {"s_peak_pa", t.s_peak},
+                     {"t_peak_pa", t.t_peak},
+                     {"strain_at_peak", t.strain_at_peak},
+                     {"end_dilatancy", t.end_dilatancy},
+                     {"failure", t.failure},
+                     {"e_axial", t.ea},
+                     {"e_lateral", t.el},
+                     {"s_axial_pa", t.sa},
+                     {"s_lateral_pa", t.sl}});
+  j["biaxial"] = tests;
+  j["specimen"] = {{"particles", c.particles}, {"porosity_deposited", c.specimen_porosity}};
+  j["envelope"] = {{"phi_deg", c.phi_fit},
+                   {"cohesion_pa", c.cohesion_fit},
+                   {"phi_cv_deg", c.phi_cv},
+                   {"psi_deg", c.psi}};
+  j["affine"] = {{"e_inplane_pa", c.affine_e}, {"g_pa", c.affine_g}};
+  json cyc = json::array();
+  for (const auto& p : c.cyclic) cyc.push_back({{"gamma", p.gamma}, {"g_pa", p.g}, {"xi", p.xi}});
+  j["cyclic"] = {{"sigma_c_pa", c.cyclic_sigma}, {"loops", cyc}};
+  j["continuum"] = {{"young", c.young},
+                    {"poisson", c.poisson},
+                    {"friction_angle_deg", c.friction_angle},
+                    {"cohesion", c.cohesion},
+                    {"dilation_angle_deg", c.dilation_angle},
+                    {"density", c.bulk_density},
+                    {"k0", c.k0},
+                    {"surface", c.surface},
+                    {"young_source", c.young_source},
+                    {"young_small", c.young_small},
+                    {"young_e50", c.young_e50}};
+  return j;
+}
+
+Calibration from_json(const json& j) {
+  Calibration c;
+  c.key = j.at("key");
+  c.scene_label = j.at("scene");
+  c.wall_seconds = j.at("wall_seconds");
+  const auto& b = j.at("bed");
+  c.bed_bottom = b.at("bottom_m");
+  c.bed_height = b.at("height_m");
+  c.surface = b.at("surface_mass_matched_m");
+  c.surface_top_mean = b.at("surface_top_mean_m");
+  c.porosity = b.at("porosity");
+  c.bulk_density = b.at("bulk_density_kg_m3");
+  c.coordination = b.at("coordination");
+  c.soil_mass = b.at("soil_mass_kg");
+  c.continuum_mass = b.at("continuum_mass_kg");
+  c.k0 = b.at("k0");
+  c.k0_profile = b.at("k0_profile").get<std::vector<std::pair<double, double>>>();
+  for (const auto& t : j.at("biaxial")) {
+    BiaxialCurve x;
+    x.depth = t.at("depth_m");
+    x.sigma_c = t.at("sigma_c_pa");
+    x.porosity = t.at("porosity");
+    x.strain_rate = t.at("strain_rate");
+    x.e_small = t.at("e_small_inplane_pa");
+    x.e50 = t.at("e50_inplane_pa");
+    x.nu_inplane = t.at("nu_inplane");
+    x.phi_peak = t.at("phi_peak_deg");
+    x.phi_cv = t.at("phi_cv_deg");
+    x.psi = t.at("psi_deg");
+    x.s_peak = t.at("s_peak_pa");
+    x.t_peak = t.at("t_peak_pa");
+    x.strain_at_peak = t.at("strain_at_peak");
+    x.end_dilatancy = t.at("end_dilatancy");
+    x.failure = t.at("failure");
+    x.ea = t.at("e_axial").get<std::vector<double>>();
+    x.el = t.at("e_lateral").get<std::vector<double>>();
+    x.sa = t.at("s_axial_pa").get<std::vector<double>>();
+    x.sl = t.at("s_lateral_pa").get<std::vector<double>>();
+    c.tests.push_back(std::move(x));
+  }
+  c.particles = j.at("specimen").at("particles");
+  c.specimen_porosity = j.at("specimen").at("porosity_deposited");
+  const auto& e = j.at("envelope");
+  c.phi_fit = e.at("phi_deg");
+  c.cohesion_fit = e.at("cohesion_pa");
+  c.phi_cv = e.at("phi_cv_deg");
+  c.psi = e.at("psi_deg");
+  c.affine_e = j.at("affine").at("e_inplane_pa");
+  c.affine_g = j.at("affine").at("g_pa");
+  c.cyclic_sigma = j.at("cyclic").at("sigma_c_pa");
+  for (const auto& p : j.at("cyclic").at("loops"))
+    c.cyclic.push_back({p.at("gamma"), p.at("g_pa"), p.at("xi")});
+  const auto& k = j.at("continuum");
+  c.young = k.at("young");
+  c.poisson = k.at("poisson");
+  c.friction_angle = k.at("friction_angle_deg");
+  c.cohesion = k.at("cohesion");
+  c.dilation_angle = k.at("dilation_angle_deg");
+  c.young_source = k.at("young_source");
+  c.young_small = k.at("young_small");
+  c.young_e50 = k.at("young_e50");
+  return c;
+}
+
+fs::path cache_file(const scene::Scene& s, const CalibrateOptions& o) {
+  return calibration_cache_dir(s, o) / ("calibration-" + calibration_key(s, o) + ".json");
+}
+
+} // namespace
+
+fs::path calibration_cache_dir(const scene::Scene& s, const CalibrateOptions& o) {
+  if (!o.cache_dir.empty()) return o.cache_dir;
+  if (s.soil.dem && !s.soil.dem->packing.cache.empty()) return s.soil.dem->packing.cache;
+  return o.out_dir / "cache";
+}
+
+std::string calibration_key(const scene::Scene& s, const CalibrateOptions& o) {
+  if (!s.soil.dem) return "none";
+  Fnv f;
+  const int fmt_version = kCalibrationFormat;
+  f.bytes(&fmt_version, sizeof fmt_version);
+  f.str(dem::packing_key(s)); // the bed: everything that shapes the deposited packing
+  f.str(dem::packing_key(specimen_scene(s, o.particles, {})));
+  f.bytes(&o.particles, sizeof o.particles);
+  for (double v : o.depth_fractions) f.num(v);
+  f.num(o.max_axial_strain);
+  f.num(o.inertial_number);
+  f.num(o.cyclic ? 1.0 : 0.0);
+  if (o.cyclic)
+    for (double v : o.cyclic_amplitudes) f.num(v);
+  f.num(s.soil.dem->max_overlap);
+  return fmt::format("{:016x}", f.h);
+}
+
+Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!scene.soil.dem)
+    scene_error(scene, "soil.dem", "demfem calibrate needs a [soil.dem] table (the DEM soil)");
+  const auto& d = *scene.soil.dem;
+  if (!d.particles.empty())
+    scene_error(scene, "soil.dem.particles",
+                "demfem calibrate needs a packed soil (count and radius), not explicit particles");
+  Calibration c;
+  c.key = calibration_key(scene, o);
+  c.scene_label = scene.label();
+  c.particles = o.particles;
+  const fs::path cache = calibration_cache_dir(scene, o);
+  fs::create_directories(cache);
+  auto report = [&](const std::string& stage, double frac) {
+    if (!o.progress) return;
+    scene::Progress p;
+    p.stage = stage;
+    p.time = frac;
+    p.end_time = 1.0;
+    p.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    o.progress(p);
+  };
+
+  // ---- the scene's deposited bed: density, surface, K0 -------------------------------------
+  const auto bed = dem::pack_or_load(scene, o.out_dir.empty() ? cache : o.out_dir, o.progress);
+  const auto& P = bed.particles;
+  const auto& fill = d.fill.empty() ? scene.domain : d.fill;
+  double x0 = 1e300, x1 = -1e300, zb = 1e300, rmax = 0.0;
+  for (const auto& q : fill) {
+    x0 = std::min(x0, q.x);
+    x1 = std::max(x1, q.x);
+    zb = std::min(zb, q.z);
+  }
+  for (std::size_t i = 0; i < P.size(); ++i) {
+    c.soil_mass += P.mass[i];
+    rmax = std::max(rmax, P.radius[i]);
+  }
+  c.porosity = bed.measure.porosity;
+  c.coordination = bed.measure.coordination;
+  c.bulk_density = d.density * (1.0 - c.porosity); // ρ_b = ρ_s (1 − n)
+  c.bed_bottom = zb;
+  {
+    // Mean of the column tops (columns 2 r_max wide), as measure_packing's surface columns.
+    const double cw = 2.0 * rmax;
+    const auto ncol = static_cast<std::size_t>(std::max(1.0, std::ceil((x1 - x0) / cw)));
+    std::vector<double> tops(ncol, -1e300);
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      const auto k = static_cast<std::size_t>(
+          std::clamp((P.x[i] - x0) / cw, 0.0, static_cast<double>(ncol - 1)));
+      tops[k] = std::max(tops[k], P.z[i] + P.radius[i]);
+    }
+    // columns over a structure hold the soil below it, not the surface
+    for (const auto& st : scene.structures) {
+      double sx0 = 1e300, sx1 = -1e300;
+      for (const auto& q : st.outline) {
+        sx0 = std::min(sx0, q.x);
+        sx1 = std::max(sx1, q.x);
+      }
+      for (std::size_t k = 0; k < ncol; ++k)
+        if (x0 + (k + 1) * cw > sx0 && x0 + k * cw < sx1) tops[k] = -1e300;
+    }
+    std::erase_if(tops, [](double t) { return t < -1e299; });
+    c.surface_top_mean = tops.empty() ? zb
+                                      : std::accumulate(tops.begin(), tops.end(), 0.0) /
+                                            static_cast<double>(tops.size());
+  }
+  // Mass-matched surface: the height z_s at which (fill area below z_s − structures) ρ_b t
+  // equals the DEM soil mass (bisection).
+  {
+    const double target = c.soil_mass / (c.bulk_density * d.thickness);
+    auto soil_area = [&](double z) {
+      double a = area_below(fill, z);
+      for (const auto& st : scene.structures) a -= area_below(st.outline, z);
+      return a;
+    };
+    double ztop = zb;
+    for (const auto& q : fill) ztop = std::max(ztop, q.z);
+    double lo = zb, hi = ztop;
+    if (soil_area(hi) <= target) {
+      lo = hi; // the bed fills the polygon: the continuum soil is all of it
+    } else {
+      for (int it = 0; it < 80; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (soil_area(mid) < target ? lo : hi) = mid;
+      }
+    }
+    c.surface = 0.5 * (lo + hi);
+    c.continuum_mass = c.bulk_density * d.thickness * soil_area(c.surface);
+  }
+  c.bed_height = c.surface - c.bed_bottom;
+  {
+    // K0: Love–Weber stress of the bed at rest under gravity, with the scene's walls and its
+    // structures held fixed (as during deposition), away from walls and structures.
+    dem::EngineConfig cfg = dem::make_config(scene);
+    cfg.shaking = false;
+    dem::Engine e(cfg);
+    for (std::size_t i = 0; i < P.size(); ++i) e.add_particle(P.x[i], P.z[i], P.radius[i]);
+    for (const auto& w : scene.walls) e.add_wall(w);
+    std::vector<calib::StressWindow> exclude;
+    const double margin = 10.0 * rmax; // 5 diameters around each structure
+    for (auto st : scene.structures) {
+      st.dof_x = st.dof_z = st.dof_rotation = scene::DofMode::Fixed;
+      st.force_x = st.force_z = st.moment = scene::TimeFunction{};
+      e.add_structure(st);
+      calib::StressWindow b{1e300, -1e300, 1e300, -1e300};
+      for (const auto& q : st.outline) {
+        b.x0 = std::min(b.x0, q.x - margin);
+        b.x1 = std::max(b.x1, q.x + margin);
+        b.z0 = std::min(b.z0, q.z - margin);
+        b.z1 = std::max(b.z1, q.z + margin);
+      }
+      exclude.push_back(b);
+    }
+    if (!bed.contact_history.empty()) e.load_contact_history(bed.contact_history);
+    e.set_dt(d.dt > 0.0 ? d.dt : e.auto_dt());
+    e.run_steps(200);
+    const double W = x1 - x0, H = c.bed_height;
+    const calib::StressWindow win{x0 + 0.1 * W, x1 - 0.1 * W, zb + 4.0 * rmax,
+                                  c.surface - 6.0 * rmax};
+    const auto s = calib::bed_stress(e, win, d.thickness, exclude);
+    c.k0 = s.szz > 0.0 ? s.sxx / s.szz : 0.0;
+    for (int band = 0; band < 4; ++band) {
+      const double za = zb + 4.0 * rmax + band * (H - 10.0 * rmax) / 4.0;
+      const double zc = za + (H - 10.0 * rmax) / 4.0;
+      const auto sb =
+          calib::bed_stress(e, {x0 + 0.1 * W, x1 - 0.1 * W, za, zc}, d.thickness, exclude);
+      if (sb.szz > 0.0) c.k0_profile.emplace_back(c.surface - 0.5 * (za + zc), sb.sxx / sb.szz);
+    }
+  }
+  report("calibrate: bed", 0.05);
+
+  // ---- the specimen ------------------------------------------------------------------------
+  const scene::Scene sps = specimen_scene(scene, o.particles, cache);
+  const auto spec = dem::pack_or_load(sps, cache, o.progress);
+  c.specimen_porosity = spec.measure.porosity;
+  calib::Specimen S;
+  S.config = dem::make_config(sps);
+  S.config.gravity = 0.0; // element test: no body force
+  S.config.shaking = false;
+  S.particles = spec.particles;
+  S.thickness = d.thickness;
+  for (double r : S.particles.radius) S.d_mean += 2.0 * r;
+  S.d_mean /= static_cast<double>(std::max<std::size_t>(S.particles.size(), 1));
+  const double g = scene.load.gravity;
+  calib::ElementSettings es;
+  es.inertial_number = o.inertial_number;
+  es.max_axial_strain = o.max_axial_strain;
+  const std::size_t ntest = o.depth_fractions.size() + (o.cyclic ? 1 : 0);
+  for (std::size_t k = 0; k < o.depth_fractions.size(); ++k) {
+    const double z = o.depth_fractions[k] * c.bed_height;
+    const double sigma = c.bulk_density * g * z; // geostatic vertical stress σ_v = ρ_b g z
+    es.progress = [&](const std::string& stage, double f) {
+      report(fmt::format("calibrate: {} σ_c = {:.4g} kPa", stage, sigma / 1e3),
+             0.05 + 0.95 * (static_cast<double>(k) + f) / static_cast<double>(ntest));
+    };
+    const auto r = calib::biaxial(S, sigma, es);
+    c.tests.push_back(evaluate(z, r, o.max_axial_strain));
+    spdlog::info(
+        "{}: biaxial σ_c = {:.4g} kPa: φ_peak {:.1f}°, φ_cv {:.1f}°, ψ {:.1f}°, E50' {:.3g} "
+        "MPa{}",
+        scene.label(), sigma / 1e3, c.tests.back().phi_peak, c.tests.back().phi_cv,
+        c.tests.back().psi, c.tests.back().e50 / 1e6,
+        r.failure.empty() ? "" : " — FAILED: " + r.failure);
+  }
+  // Mohr–Coulomb envelope through the peaks: t = s sin φ + c cos φ.
+  {
+    std::vector<double> xs, ys;
+    double cv = 0.0, ps = 0.0;
+    for (const auto& t : c.tests) {
+      if (!t.failure.empty() || t.ea.empty()) continue;
+      xs.push_back(t.s_peak);
+      ys.push_back(t.t_peak);
+      cv += t.phi_cv;
+      ps += t.psi;
+    }
+    if (!xs.empty()) {
+      c.phi_cv = cv / static_cast<double>(xs.size());
+      c.psi = ps / static_cast<double>(xs.size());
+    }
+    const Fit f = linear_fit(xs, ys);
+    if (f.ok && f.slope > 0.0 && f.slope < 1.0) {
+      const double phi = std::asin(f.slope);
+      c.phi_fit = deg(phi);
+      c.cohesion_fit = f.intercept / std::cos(phi);
+    } else if (!xs.empty()) { // one test: cohesionless through its peak
+      c.phi_fit = deg(std::asin(std::clamp(ys[0] / xs[0], 0.0, 1.0)));
+      c.cohesion_fit = 0.0;
+    }
+  }
+  // Affine (Voigt) estimate of the in-plane moduli for an isotropic 2D contact network with Z
+  // contacts per particle and solid fraction φ_s: λ = κ(k_n − k_s)/8, G = κ(k_n + k_s)/8,
+  // κ = 2 Z φ_s/(π t) (branch length 2r̄; e.g. Kruyt & Rothenburg, IJSS 41 (2004) 5763);
+  // E' = 4G(λ + G)/(λ + 2G).
+  {
+    const double kap = 2.0 * c.coordination * (1.0 - c.porosity) / (kPi * d.thickness);
+    const double lam = kap * (d.kn - d.ks) / 8.0, G = kap * (d.kn + d.ks) / 8.0;
+    c.affine_g = G;
+    c.affine_e = 4.0 * G * (lam + G) / (lam + 2.0 * G);
+  }
+  // The continuum's E and ν: the test nearest to mid-depth, secant at 50 % of the peak (the
+  // usual Mohr–Coulomb stiffness, e.g. PLAXIS's E50), converted to plane strain.
+  {
+    std::size_t best = 0;
+    for (std::size_t k = 0; k < c.tests.size(); ++k)
+      if (std::abs(c.tests[k].depth - 0.5 * c.bed_height) <
+          std::abs(c.tests[best].depth - 0.5 * c.bed_height))
+        best = k;
+    if (!c.tests.empty()) {
+      const auto& t = c.tests[best];
+      const double nup = std::max(0.0, t.nu_inplane);
+      c.poisson = std::min(0.49, nup / (1.0 + nup));   // ν = ν'/(1 + ν')
+      c.young = t.e50 * (1.0 - c.poisson * c.poisson); // E = E'(1 − ν²)
+      c.young_source = fmt::format("secant at 50 % of the peak deviator, biaxial test at σ_c = "
+                                   "{:.4g} kPa (z = {:.3g} m)",
+                                   t.sigma_c / 1e3, t.depth);
+    }
+    c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
+    c.cohesion = std::max(0.0, c.cohesion_fit);
+    c.dilation_angle = std::clamp(c.psi, 0.0, c.friction_angle);
+  }
+  // ---- cyclic ------------------------------------------------------------------------------
+  if (o.cyclic && !o.cyclic_amplitudes.empty()) {
+    const double sigma = c.bulk_density * g * 0.5 * c.bed_height;
+    c.cyclic_sigma = sigma;
+    es.progress = [&](const std::string& stage, double f) {
+      report(fmt::format("calibrate: {} σ_c = {:.4g} kPa", stage, sigma / 1e3),
+             0.05 + 0.95 * (static_cast<double>(ntest - 1) + f) / static_cast<double>(ntest));
+    };
+    for (const auto& l : calib::cyclic(S, sigma, o.cyclic_amplitudes, es))
+      c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping});
+    // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
+    // the in-plane shear modulus is the same in 2D and in plane strain).
+    if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
+      c.young_small = 2.0 * c.cyclic.front().g * (1.0 + c.poisson);
+      // The continuum's elastic part stands for the soil before yield, and the scenes load it
+      // cyclically (shaking, rocking): the cyclic small-strain modulus, not the monotonic E50
+      // (which is mostly plastic contraction at 1–2 % strain), is the matching stiffness.
+      c.young_e50 = c.young;
+      c.young = c.young_small;
+      c.young_source = fmt::format(
+          "small-strain E0 = 2 G0 (1 + ν), G0 of the cyclic biaxial test at σ_c = {:.4g} kPa, "
+          "γ = {:.2g} (E50 = {:.4g} Pa)",
+          c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.young_e50);
+    }
+  }
+  c.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::ofstream(cache_file(scene, o)) << to_json(c).dump(1) << "\n";
+  return c;
+}
+
+Calibration load_or_calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
+  const fs::path f = cache_file(scene, o);
+  if (fs::exists(f)) {
+    try {
+      std::ifstream in(f);
+      Calibration c = from_json(json::parse(in));
+      c.from_cache = true;
+      c.scene_label = scene.label();
+      return c;
+    } catch (const std::exception& e) {
+      spdlog::warn("calibration cache {} unreadable ({}); calibrating again", f.string(), e.what());
+    }
+  }
+  return calibrate(scene, o);
+}
+
+std::string continuum_block(const Calibration& c) {
+  std::string s;
+  s += fmt::format("# Calibrated by `demfem calibrate` ({}; key {}): DEM element tests on a "
+                   "{}-disk specimen\n# made by the scene's packing procedure, and its deposited "
+                   "bed. Paste into the scene, or set\n# calibrate = \"dem\" to take these values "
+                   "from the cache.\n",
+                   c.scene_label, c.key, c.particles);
+  s += "[soil.continuum]\nmodel = \"mohr-coulomb\"\n";
+  s += fmt::format("young = {:.4g}   # [Pa] plane strain: {}\n", c.young, c.young_source);
+  if (c.young_e50 > 0.0)
+    s += fmt::format("#   monotonic: E50 = E50'(1 − ν²) = {:.4g} Pa (secant at 50 % of the peak "
+                     "deviator, σ_c at mid-depth)\n",
+                     c.young_e50);
+  s += fmt::format("poisson = {:.3f}   # ν = ν'/(1 + ν'), ν' = −ε_xx/ε_zz at the same point\n",
+                   c.poisson);
+  std::string sig;
+  for (const auto& t : c.tests)
+    sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", t.sigma_c / 1e3);
+  s += fmt::format("friction_angle = {:.2f}   # [deg] Mohr–Coulomb fit of the biaxial peaks at "
+                   "σ_c = {} kPa (φ_cv = {:.1f}°)\n",
+                   c.friction_angle, sig, c.phi_cv);
+  s += fmt::format("cohesion = {:.4g}   # [Pa] the fit's intercept c = {:.4g} Pa, ≥ 0\n",
+                   c.cohesion, c.cohesion_fit);
+  s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
+                   "(clamped to [0, φ])\n",
+                   c.dilation_angle);
+  s += fmt::format("density = {:.5g}   # [kg/m³] ρ_s (1 − n), porosity n = {:.4f} of the "
+                   "deposited bed\n",
+                   c.bulk_density, c.porosity);
+  s += fmt::format("k0 = {:.3f}   # σ_xx/σ_zz of the deposited bed (Love–Weber stress)\n", c.k0);
+  s += fmt::format("surface = {:.4g}   # [m] holds the DEM bed's soil mass at this density, "
+                   "capped at the fill's top\n#   (mean column top {:.4g} m; masses: DEM {:.5g} "
+                   "kg, continuum {:.5g} kg per m thickness)\n",
+                   c.surface, c.surface_top_mean, c.soil_mass, c.continuum_mass);
+  return s;
+}
+
+CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bool figures) {
+  CalibrationFiles out;
+  fs::create_directories(dir);
+  std::ofstream(dir / "calibration.json") << to_json(c).dump(1) << "\n";
+  out.written.push_back(dir / "calibration.json");
+  std::ofstream(dir / "calibration.toml") << continuum_block(c);
+  out.written.push_back(dir / "calibration.toml");
+  if (!figures) return out;
+  const fs::path fd = dir / "figures";
+  fs::create_directories(fd);
+  auto emit = [&](const PlotSpec& p, const std::string& name) {
+    std::string err;
+    if (plot(p, fd / (name + ".png"), &err))
+      out.written.push_back(fd / (name + ".png"));
+    else
+      out.problems.push_back(err);
+  };
+  PlotSpec ss{"Biaxial compression: deviator stress",
+              "axial strain ε_zz [%]",
+              "σ_zz − σ_xx [kPa]",
+              {},
+              false,
+              1000,
+              600};
+  PlotSpec vs{"Biaxial compression: volumetric strain (compression positive)",
+              "axial strain ε_zz [%]",
+              "ε_v = ε_zz + ε_xx [%]",
+              {},
+              false,
+              1000,
+              600};
+  PlotSpec env{fmt::format("Failure envelope: φ = {:.1f}°, c = {:.3g} kPa (peaks)", c.phi_fit,
+                           c.cohesion_fit / 1e3),
+               "s = (σ1 + σ3)/2 [kPa]",
+               "t = (σ1 − σ3)/2 [kPa]",
+               {},
+               false,
+               1000,
+               600};
+  Series pk{"peaks", {}, {}, "points", "pt 7 ps 1.5"};
+  double smax = 0.0;
+  for (const auto& t : c.tests) {
+    Series a{fmt::format("σ_c = {:.4g} kPa", t.sigma_c / 1e3), {}, {}, "lines", ""};
+    Series b = a;
+    for (std::size_t i = 0; i < t.ea.size(); ++i) {
+      a.x.push_back(100.0 * t.ea[i]);
+      a.y.push_back((t.sa[i] - t.sl[i]) / 1e3);
+      b.x.push_back(100.0 * t.ea[i]);
+      b.y.push_back(100.0 * (t.ea[i] + t.el[i]));
+    }
+    ss.series.push_back(a);
+    vs.series.push_back(b);
+    pk.x.push_back(t.s_peak / 1e3);
+    pk.y.push_back(t.t_peak / 1e3);
+    smax = std::max(smax, t.s_peak / 1e3);
+  }
+  const double sp = std::sin(c.phi_fit * kPi / 180.0), cp = std::cos(c.phi_fit * kPi / 180.0);
+  Series fit{"fit t = s sin φ + c cos φ",
+             {0.0, 1.1 * smax},
+             {c.cohesion_fit * cp / 1e3, (1.1 * smax * sp + c.cohesion_fit * cp / 1e3)},
+             "lines",
+             "dt 2"};
+  env.series = {pk, fit};
+  emit(ss, "stress_strain");
+  emit(vs, "volumetric_strain");
+  emit(env, "failure_envelope");
+  if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
+    PlotSpec gg{fmt::format("Cyclic biaxial at σ_c = {:.4g} kPa: G/G0 (G0 = {:.3g} MPa)",
+                            c.cyclic_sigma / 1e3, c.cyclic.front().g / 1e6),
+                "log10 shear strain amplitude γ",
+                "G/G0",
+                {},
+                false,
+                1000,
+                600};
+    PlotSpec xi{"Cyclic biaxial: damping ratio",
+                "log10 shear strain amplitude γ",
+                "ξ [%]",
+                {},
+                false,
+                1000,
+                600};
+    Series a{"DEM", {}, {}, "linespoints", "pt 7"}, b = a;
+    for (const auto& p : c.cyclic) {
+      if (!(p.gamma > 0.0)) continue;
+      a.x.push_back(std::log10(p.gamma));
+      a.y.push_back(p.g / c.cyclic.front().g);
+      b.x.push_back(std::log10(p.gamma));
+      b.y.push_back(100.0 * p.xi);
+    }
+    gg.series = {a};
+    xi.series = {b};
+    emit(gg, "modulus_reduction");
+    emit(xi, "damping");
+  }
+  return out;
+}
+
+std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibration& c) {
+  std::vector<std::string> lines;
+  if (!scene.soil.continuum) return lines;
+  auto& s = *scene.soil.continuum;
+  const std::string src = fmt::format("dem calibration {}", c.key);
+  auto set = [&](const char* key, double& slot, double value, const std::string& shown,
+                 const std::string& how) {
+    const bool given = std::find(s.given.begin(), s.given.end(), key) != s.given.end();
+    std::string note;
+    if (given) {
+      note = fmt::format("stated in the scene (the calibration gives {})", shown);
+    } else {
+      slot = value;
+      note = fmt::format("{}: {}", src, how);
+    }
+    s.provenance.emplace_back(key, note);
+    lines.push_back(fmt::format("{} = {}: {}", key, given ? "(scene)" : shown, note));
+  };
+  set("young", s.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
+  set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson),
+      "ν'/(1 + ν') at the same point");
+  set("friction_angle", s.friction_angle, c.friction_angle * kPi / 180.0,
+      fmt::format("{:.2f}°", c.friction_angle), "Mohr–Coulomb fit of the biaxial peaks");
+  set("cohesion", s.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
+      "intercept of the fit, ≥ 0");
+  set("dilation_angle", s.dilation_angle, c.dilation_angle * kPi / 180.0,
+      fmt::format("{:.2f}°", c.dilation_angle), "mean dilatancy angle at the peaks");
+  set("density", s.density, c.bulk_density, fmt::format("{:.5g} kg/m³", c.bulk_density),
+      fmt::format("ρ_s (1 − n) of the deposited bed, n = {:.4f}", c.porosity));
+  set("k0", s.k0, c.k0, fmt::format("{:.3f}", c.k0), "σ_xx/σ_zz of the deposited bed");
+  double surf = s.surface.value_or(0.0);
+  set("surface", surf, c.surface, fmt::format("{:.4g} m", c.surface),
+      "height holding the DEM bed's soil mass at that density");
+  s.surface = surf;
+  if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
+  return lines;
+}
+
+} // namespace demfem::compare
