@@ -72,8 +72,8 @@ std::pair<double, double> chord_normal(const std::vector<scene::Vec2>& v) {
 // Energy budget at the end of a run: printed (spdlog, info) and written to energy_budget.json.
 // Closure error = |ΔE_total| / (|gravity work| + |external work|), ΔE_total the change of
 // kinetic + potential + springs + dissipated − external work since the first probe.
-void log_energy_budget(const EnergyBudget& b, double e0, double t,
-                       const std::filesystem::path& json_path) {
+double log_energy_budget(const EnergyBudget& b, double e0, double t,
+                         const std::filesystem::path& json_path) {
   const double injected = std::abs(b.gravity_work) + std::abs(b.external_work);
   const double imbalance = b.total() - e0;
   const double closure = injected > 0.0 ? std::abs(imbalance) / injected : 0.0;
@@ -105,6 +105,7 @@ void log_energy_budget(const EnergyBudget& b, double e0, double t,
   std::ofstream f(json_path);
   f << js;
   if (!f) spdlog::warn("could not write {}", json_path.string());
+  return closure;
 }
 
 // Run-loop state stored next to the engine state in a checkpoint's extra blob.
@@ -468,8 +469,25 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       }
       wall_csv->append(row);
     }
-    const bool need_contacts = !pressure_csv.empty() || coord_csv;
-    if (need_contacts) e.contacts(contacts);
+    // Largest overlap ratio δ/r (issue 11 studies): pairs from the positions, boundary contacts
+    // from the linear spring force δ = f_n/K_n (eq. 2.6).
+    e.contacts(contacts);
+    {
+      const auto& p = e.particles();
+      const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
+      for (const auto& c : contacts) {
+        const double ri = p.radius[c.i];
+        if (c.j >= 0) {
+          const auto j = static_cast<std::size_t>(c.j);
+          const double d = std::hypot(p.x[c.i] - p.x[j], p.z[c.i] - p.z[j]);
+          summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
+                                               (ri + p.radius[j] - d) / std::min(ri, p.radius[j]));
+        } else if (linear && c.fn > 0.0) {
+          summary.max_overlap_ratio =
+              std::max(summary.max_overlap_ratio, c.fn / e.config().kn / ri);
+        }
+      }
+    }
     for (auto& [k, w] : pressure_csv) {
       const auto& pr = scene.probes[k];
       const int bi = e.boundary_index(pr.target);
@@ -660,7 +678,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   }
   energy_csv.flush();
   report("dem");
-  log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
+  summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a particle checkpoint (readable without the engine).
   try {
     io::CheckpointMeta meta;
@@ -675,6 +693,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   summary.steps = e.stats().steps;
   summary.simulated_time = e.time();
   summary.wall_seconds = seconds_since(t_start);
+  summary.dt = e.dt();
   if (failure.empty()) {
     summary.ok = true;
   } else {
