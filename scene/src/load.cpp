@@ -508,6 +508,7 @@ DemSoil read_dem_soil(Reader& r) {
     s.packing.max_time = p.positive("max_time", s.packing.max_time);
     s.packing.damping = p.non_negative("damping", s.packing.damping);
     s.packing.cache = p.string("cache", s.packing.cache);
+    s.packing.placement = read_enum(p, "placement", kPlacementNames, s.packing.placement);
     if (const toml::node* tn = p.node("target")) {
       if (const auto* str = tn->as_string()) {
         if (str->get() != "none")
@@ -531,7 +532,7 @@ DemSoil read_dem_soil(Reader& r) {
         p.error("target", "expected \"none\" or a table { porosity = n } / { void_ratio = e }");
       }
     }
-    p.finish({"ke_ratio", "max_time", "damping", "cache", "target"});
+    p.finish({"ke_ratio", "max_time", "damping", "cache", "target", "placement"});
   }
   if (const toml::node* n = r.node("particles")) {
     const auto* a = n->as_array();
@@ -956,11 +957,10 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
              (sc.output.series.empty() || *v > sc.output.series.back());
         if (ok) sc.output.series.push_back(*v);
       }
-      if (!ok)
-        r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
+      if (!ok) r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
     }
-    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures",
-              "checkpoint_interval", "series"});
+    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval",
+              "series"});
   }
 
   // Cross references, located at the key that names the missing thing.
@@ -987,8 +987,8 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
                                e.time, e.group));
     if (e.action == EventAction::OpenWall && !sc.wall(e.wall))
       top.error_at(at("event", i, "wall"), fmt::format("event[{}].wall", i),
-                   fmt::format("event at t = {} names wall '{}', which no [[wall]] defines",
-                               e.time, e.wall));
+                   fmt::format("event at t = {} names wall '{}', which no [[wall]] defines", e.time,
+                               e.wall));
   }
   for (std::size_t i = 0; i < sc.probes.size(); ++i) {
     const auto& p = sc.probes[i];
@@ -1064,9 +1064,9 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
             if (const auto nm = (*et)["name"].value<std::string>()) names.push_back(*nm);
         const std::string shown = p.size() > 24 ? p.substr(0, 21) + "…" : p;
         if (a->empty()) return fmt::format("'{}' has no element '{}': it is empty", walked, shown);
-        return fmt::format("'{}' has no element '{}'; valid: an index 0–{}{}{}", walked, shown,
-                           a->size() - 1, names.empty() ? "" : " or a name: ",
-                           fmt::format("{}", fmt::join(names, ", ")));
+        return fmt::format(
+            "'{}' has no element '{}'; valid: an index 0–{}{}{}", walked, shown, a->size() - 1,
+            names.empty() ? "" : " or a name: ", fmt::format("{}", fmt::join(names, ", ")));
       }
       if (last) {
         a->replace(a->begin() + static_cast<std::ptrdiff_t>(idx), std::move(value));
@@ -1197,6 +1197,7 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
         copy.erase("variant");
         Scene s = resolve(copy, source_name, diags);
         s.variant = *name;
+        s.variant_description = vt["description"].value_or(std::string());
         out.variants.push_back(std::move(s));
       }
     }

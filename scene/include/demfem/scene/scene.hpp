@@ -72,7 +72,14 @@ struct RadiusDistribution {
   std::vector<std::pair<double, double>> table; // (radius, relative frequency)
 };
 
+// How packing places the particles before they fall (issue 14): on a hexagonal lattice with
+// jitter (dense, nearly ordered beds), or at random sequential positions at a low placement
+// density (disordered beds; with raised deposition friction, loose ones).
+enum class Placement { Lattice, Random };
+inline constexpr std::array<const char*, 2> kPlacementNames = {"lattice", "random"};
+
 struct Packing {
+  Placement placement = Placement::Lattice;
   double ke_ratio = 1e-4; // stop depositing when kinetic energy < ke_ratio · released potential
   double max_time = 20.0; // give up depositing after this simulated time [s]
   double damping = 0.0;   // extra global damping ratio during deposition only
@@ -253,6 +260,7 @@ struct Output {
 struct Scene {
   std::string source_file; // where it was read from
   std::string variant;     // "" for the base scene
+  std::string variant_description; // the [[variant]]'s description ("" if none)
   Info info;
   Polygon domain;
   Soil soil;
