@@ -5,7 +5,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <signal.h>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -33,20 +35,50 @@ using namespace demfem;
 
 namespace {
 
-// Ctrl-C: the first SIGINT asks the running solver to write a checkpoint and stop; a second one
-// kills the process the usual way.
+// Ctrl-C, a batch scheduler's stop (SIGTERM) and a closed terminal (SIGHUP): the first of them
+// asks the running solver to finish its step, write a checkpoint and stop (exit kInterrupted); a
+// second one kills the process the usual way.
 std::atomic<bool> g_interrupt{false};
-extern "C" void on_sigint(int) {
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_stop_signal(int sig) {
+  g_signal = sig;
   g_interrupt.store(true);
-  std::signal(SIGINT, SIG_DFL);
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &dfl, nullptr);
+}
+
+void install_stop_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &sa, nullptr);
+}
+
+const char* signal_name(int sig) {
+  switch (sig) {
+  case SIGINT:
+    return "SIGINT";
+  case SIGTERM:
+    return "SIGTERM";
+  case SIGHUP:
+    return "SIGHUP";
+  default:
+    return "a stop signal";
+  }
 }
 
 // Exit codes, documented in --help and the README.
 constexpr int kOk = 0;
 constexpr int kRunFailed = 1;
 constexpr int kBadInput = 2;
+constexpr int kInterrupted = 3;
 
-const char* kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage.";
+const char* kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage, 3 stopped "
+                         "by SIGINT/SIGTERM/SIGHUP after writing a checkpoint (continue with "
+                         "--resume).";
 
 struct RunArgs {
   std::string scene;
@@ -59,6 +91,7 @@ struct RunArgs {
   int refinement = -1;
   int degree = -1;
   bool report_only = false; // compare: rewrite the report from the run directory's outputs
+  bool force = false;       // run into a directory that holds another scene's results
 };
 
 int not_built(const std::string& what, const std::string& issue_hint) {
@@ -113,7 +146,8 @@ std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& 
 struct SolverOutcome {
   bool ran = false; // false: not built or not listed by the scene
   bool ok = false;
-  bool bad_input = false; // the solver refused the scene (SceneError)
+  bool bad_input = false;   // the solver refused the scene (SceneError)
+  bool interrupted = false; // stopped by a signal after writing a checkpoint
   std::string message;
   std::string note; // a successful run that ended early (e.g. a model validity limit)
 };
@@ -135,6 +169,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       const auto x = dem::run(s, o);
       r.ran = true;
       r.ok = x.ok;
+      r.interrupted = x.interrupted;
       r.message = x.message;
       if (x.ok && s.output.figures) { // issue 4: the run's figures and summary.json
         const auto f = compare::write_run_figures(s, out, x.wall_seconds, x.steps);
@@ -168,6 +203,35 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
   return r;
 }
 
+std::string shell_quote(const std::string& w) {
+  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                        "0123456789_-./=:+,@%") == std::string::npos)
+    return w;
+  std::string q = "'";
+  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// The command that continues an interrupted run of one scene (variant) in `out`.
+std::string resume_command(const char* sub, const scene::Scene& s, const fs::path& out,
+                           const RunArgs& a) {
+  std::string c = fmt::format("demfem {} {}", sub, shell_quote(a.scene));
+  if (std::string(sub) == "run" && a.solver != "dem") c += " --solver " + shell_quote(a.solver);
+  if (!s.variant.empty()) c += " --variant " + shell_quote(s.variant);
+  c += " --out " + shell_quote(out.string());
+  if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+  return c + " --resume";
+}
+
+// Logs the stop and how to continue; returns kInterrupted.
+int report_interrupted(const char* sub, const scene::Scene& s, const fs::path& out,
+                       const RunArgs& a, const std::string& message) {
+  spdlog::warn("{}: stopped by {}: {}", s.label(), signal_name(g_signal), message);
+  spdlog::warn("{}: checkpoint {}; continue with:\n  {}", s.label(),
+               (out / "dem" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
+  return kInterrupted;
+}
+
 fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count) {
   fs::path out = a.out.empty() ? fs::path("runs") / s.info.name : fs::path(a.out);
   if (count > 1 || (!s.variant.empty() && a.out.empty()))
@@ -178,6 +242,79 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
 void start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
   setup_run_log(out, resume);
   std::ofstream(out / "scene.resolved.toml") << scene::to_toml(s);
+}
+
+// What the solvers, figures and report write into a run directory (what --force clears).
+constexpr const char* kRunOutputs[] = {"dem",          "continuum",   "figures",
+                                       "summary.json", "report.html", "metrics.json"};
+
+// The resolved scene without its comment lines (they name the file it came from).
+std::vector<std::string> scene_lines(const std::string& toml) {
+  std::vector<std::string> lines;
+  std::istringstream in(toml);
+  for (std::string l; std::getline(in, l);)
+    if (l.rfind('#', 0) != 0) lines.push_back(l);
+  return lines;
+}
+
+void remove_outputs(const fs::path& out, const std::vector<std::string>& names) {
+  for (const auto& n : names) {
+    std::error_code ec;
+    fs::remove_all(out / n, ec);
+    if (ec)
+      throw std::runtime_error(
+          fmt::format("cannot clear {}: {}", (out / n).string(), ec.message()));
+  }
+}
+
+// Before a run writes into `out`: a directory holding another scene's results (its
+// scene.resolved.toml differs, or it has solver outputs and no scene.resolved.toml) is refused
+// unless --force, which clears every solver output first. A fresh run of the same scene clears
+// the outputs it is about to write (`fresh`), so figures and summaries are built only from files
+// this run wrote; --resume keeps them. Returns kOk or kBadInput (message printed).
+int prepare_run_dir(const scene::Scene& s, const fs::path& out, const RunArgs& a, const char* sub,
+                    const std::vector<std::string>& fresh) {
+  if (a.resume || !fs::exists(out)) return kOk;
+  const fs::path resolved = out / "scene.resolved.toml";
+  std::string why;
+  if (fs::exists(resolved)) {
+    std::ifstream in(resolved);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const auto old_lines = scene_lines(ss.str()), new_lines = scene_lines(scene::to_toml(s));
+    if (old_lines != new_lines) {
+      std::size_t i = 0;
+      while (i < old_lines.size() && i < new_lines.size() && old_lines[i] == new_lines[i]) ++i;
+      // "# resolved scene: <label> (from <file>)", the first line to_toml writes
+      std::string label = ss.str().substr(0, ss.str().find('\n'));
+      const std::string tag = "# resolved scene: ";
+      label = label.rfind(tag, 0) == 0
+                  ? label.substr(tag.size(), label.rfind(" (from") - tag.size())
+                  : std::string("?");
+      why = fmt::format("{} is scene '{}' (first difference: `{}` there, `{}` here)",
+                        resolved.string(), label, i < old_lines.size() ? old_lines[i] : "",
+                        i < new_lines.size() ? new_lines[i] : "");
+    }
+  } else {
+    for (const char* n : {"dem", "continuum"})
+      if (fs::exists(out / n) && why.empty())
+        why = fmt::format("it holds {}/ but no scene.resolved.toml saying which scene wrote it",
+                          (out / n).string());
+  }
+  if (!why.empty()) {
+    if (!a.force) {
+      fmt::print(stderr,
+                 "demfem {}: {} holds the results of a different scene: {}. Nothing was run. Use "
+                 "another --out, or --force to clear its results ({}) first.\n",
+                 sub, out.string(), why, fmt::join(kRunOutputs, ", "));
+      return kBadInput;
+    }
+    fmt::print(stderr, "demfem {}: --force: clearing the results of another scene in {} ({})\n",
+               sub, out.string(), why);
+    remove_outputs(out, {std::begin(kRunOutputs), std::end(kRunOutputs)});
+  }
+  remove_outputs(out, fresh);
+  return kOk;
 }
 
 int cmd_run(const RunArgs& a) {
@@ -204,6 +341,13 @@ int cmd_run(const RunArgs& a) {
       return kBadInput;
     }
     const fs::path out = run_dir_for(*s, a, scenes.size());
+    if (const int p =
+            prepare_run_dir(*s, out, a, "run",
+                            solver == scene::Solver::Dem
+                                ? std::vector<std::string>{"dem", "figures", "summary.json"}
+                                : std::vector<std::string>{"continuum"});
+        p != kOk)
+      return p;
     start_run_dir(*s, out, a.resume);
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
@@ -212,6 +356,7 @@ int cmd_run(const RunArgs& a) {
       fmt::print(stderr, "{}\n", r.message);
       return kBadInput;
     }
+    if (r.interrupted) return report_interrupted("run", *s, out, a, r.message);
     if (r.ok) {
       spdlog::info("{}: done; outputs in {}", s->label(), out.string());
     } else {
@@ -238,6 +383,10 @@ int cmd_compare(const RunArgs& a) {
         return kBadInput;
       }
     } else {
+      if (const int p = prepare_run_dir(*s, out, a, "compare",
+                                        {std::begin(kRunOutputs), std::end(kRunOutputs)});
+          p != kOk)
+        return p;
       start_run_dir(*s, out, a.resume);
     }
     compare::ReportOptions ro;
@@ -261,6 +410,7 @@ int cmd_compare(const RunArgs& a) {
         fmt::print(stderr, "{}\n", r.message);
         return kBadInput;
       }
+      if (r.interrupted) return report_interrupted("compare", *s, out, a, r.message);
       if (r.ok) {
         any_ok = true;
         if (!r.note.empty()) ro.notes.push_back(fmt::format("The {} run {}.", name, r.note));
@@ -495,6 +645,8 @@ int main(int argc, char** argv) {
   run->add_flag("--all-variants", ra.all_variants, "Run every [[variant]] of the file");
   run->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   run->add_flag("--resume", ra.resume, "Continue from the last checkpoint in the run directory");
+  run->add_flag("--force", ra.force,
+                "Run into a directory that holds another scene's results, clearing them first");
   run->add_option(
          "--threads", ra.threads,
          "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
@@ -526,6 +678,8 @@ int main(int argc, char** argv) {
   compare->add_flag("--all-variants", ra.all_variants, "All variants");
   compare->add_option("--out", ra.out, "Run directory (default runs/<scene>[/<variant>])");
   compare->add_flag("--resume", ra.resume, "DEM: continue from the last checkpoint");
+  compare->add_flag("--force", ra.force,
+                    "Run into a directory that holds another scene's results, clearing them first");
   compare->add_flag("--report-only", ra.report_only,
                     "Run nothing: rewrite report.html and metrics.json from the run directory");
   compare->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")
@@ -563,7 +717,7 @@ int main(int argc, char** argv) {
                    "packing goes to packing.cache or <out>/packing");
   pack->footer(kExitCodes);
 
-  std::signal(SIGINT, on_sigint);
+  install_stop_signals();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -668,6 +668,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     summary.steps = e.stats().steps;
     summary.simulated_time = e.time();
     summary.wall_seconds = seconds_since(t_start);
+    summary.interrupted = true;
     summary.message = fmt::format("interrupted at t = {:.6g} s; continue with --resume", e.time());
     return summary;
   }

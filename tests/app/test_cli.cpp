@@ -10,42 +10,14 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_util.hpp"
+
 namespace fs = std::filesystem;
 
-namespace {
-
-struct Result {
-  int code = -1;
-  std::string out; // stdout and stderr together
-};
-
-// Runs a shell command line, capturing stdout and stderr together.
-Result run_raw(const std::string& command) {
-  const fs::path log =
-      fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
-  const std::string cmd = command + " > " + log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.out = ss.str();
-  fs::remove(log);
-  return r;
-}
-
-Result run(const std::string& args) {
-  return run_raw(std::string(DEMFEM_BINARY) + " " + args);
-}
-
-fs::path write_temp(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
-  std::ofstream(p) << text;
-  return p;
-}
-
-} // namespace
+using demfem::test::Result;
+using demfem::test::run;
+using demfem::test::run_raw;
+using demfem::test::write_temp;
 
 TEST(Cli, VersionExitsZero) {
   const auto r = run("--version");
@@ -93,11 +65,21 @@ TEST(Cli, CheckAcceptsEveryCaseFile) {
 }
 
 TEST(Cli, CheckPrintsResolvedVariants) {
-  const auto r =
-      run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  const auto r = run("check --resolved " +
+                     (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.out.find("# ===== variant case-12 ====="), std::string::npos);
   EXPECT_NE(r.out.find("amplitude = 8.0"), std::string::npos); // case-2's override
+}
+
+TEST(Cli, CheckSummarisesWhatEachVariantChanges) {
+  const auto r =
+      run("check " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string());
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out.find("# ===== variant"), std::string::npos) << "the summary is not the dump";
+  EXPECT_NE(r.out.find("load.shaking.amplitude 4.0 → 8.0"), std::string::npos) << r.out; // case-2
+  EXPECT_NE(r.out.find("soil.dem.mu_static 0.5 → 1.0"), std::string::npos) << r.out;     // case-11
+  EXPECT_NE(r.out.find("scene.duration 26.0 → 7.0"), std::string::npos) << r.out;        // quick
 }
 
 TEST(Cli, CheckRejectsMalformedSceneWithLine) {

@@ -12,28 +12,15 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_util.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code = -1;
-  std::string out;
-};
-
+using demfem::test::Result;
 Result run_demfem(const std::string& args) {
-  const fs::path log =
-      fs::temp_directory_path() / ("demfem_malformed_" + std::to_string(::getpid()) + ".log");
-  const std::string cmd = std::string(DEMFEM_BINARY) + " " + args + " > " + log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.out = ss.str();
-  fs::remove(log);
-  return r;
+  return demfem::test::run(args);
 }
 
 std::vector<std::string> malformed_cases() {

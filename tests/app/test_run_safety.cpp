@@ -1,0 +1,140 @@
+// Issue 13: a run never reports success over missing or stale results. Stop signals checkpoint
+// and resume bit for bit; a used run directory of another scene is refused unless --force; a
+// failed write ends the run with exit 1 naming the file.
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "cli_util.hpp"
+
+namespace fs = std::filesystem;
+using namespace demfem::test;
+
+namespace {
+
+const fs::path kSource = DEMFEM_SOURCE_DIR;
+
+fs::path scratch(const std::string& name) {
+  const fs::path p =
+      fs::temp_directory_path() / ("demfem_safety_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+// The settle-box scene (120 disks, a footing, probes and VTK snapshots) for `duration` seconds,
+// without figures (they are not what these tests are about, and gnuplot is slow).
+fs::path settle_box(const std::string& name, double duration) {
+  auto text = with_values(slurp(kSource / "cases/verification/settle_box.toml"),
+                          {{"duration", std::to_string(duration)}});
+  const auto pos = text.find("\n[output]\n");
+  if (pos != std::string::npos) text.insert(pos + 10, "figures = false\n");
+  return write_temp("demfem_safety_" + name + "_" + std::to_string(::getpid()) + ".toml", text);
+}
+
+} // namespace
+
+// SIGTERM (a batch scheduler's stop) and SIGHUP (a closed terminal) behave like Ctrl-C: the run
+// finishes its step, writes a checkpoint, prints the resume command and exits 3; `--resume` then
+// ends with every file under dem/ byte-identical to an uninterrupted run's.
+TEST(RunSignals, StopSignalsCheckpointAndResumeByteIdentical) {
+  const auto scene = settle_box("signals", 8.0);
+  const fs::path ref = scratch("signals_ref");
+  const auto r0 = run("run " + scene.string() + " --out " + ref.string());
+  ASSERT_EQ(r0.code, 0) << r0.out;
+  const auto expected = files_under(ref / "dem");
+  ASSERT_TRUE(expected.count("final.ckpt"));
+  ASSERT_TRUE(expected.count("structures.csv"));
+
+  for (const int sig : {SIGTERM, SIGHUP}) {
+    SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGHUP");
+    const fs::path out = scratch("signals_split");
+    {
+      Child c({"run", scene.string(), "--out", out.string()}, out.string() + ".log");
+      ASSERT_TRUE(c.started());
+      // Signal once the time loop is running: energy.csv has had its first rows flushed.
+      const auto energy = out / "dem" / "energy.csv";
+      while (c.running()) {
+        std::error_code ec;
+        if (fs::file_size(energy, ec) > 2000 && !ec) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      c.signal(sig);
+      const auto r = c.wait();
+      ASSERT_EQ(r.code, 3) << r.out;
+      EXPECT_NE(r.out.find("interrupted at t ="), std::string::npos) << r.out;
+      EXPECT_NE(r.out.find(sig == SIGTERM ? "stopped by SIGTERM" : "stopped by SIGHUP"),
+                std::string::npos)
+          << r.out;
+      EXPECT_NE(r.out.find("--out " + out.string() + " --resume"), std::string::npos) << r.out;
+      EXPECT_TRUE(fs::exists(out / "dem" / "checkpoint.ckpt"));
+      EXPECT_FALSE(fs::exists(out / "dem" / "final.ckpt"));
+      EXPECT_FALSE(fs::exists(out / "dem" / "checkpoint.ckpt.tmp"));
+      fs::remove(out.string() + ".log");
+    }
+    const auto r2 = run("run " + scene.string() + " --out " + out.string() + " --resume");
+    ASSERT_EQ(r2.code, 0) << r2.out;
+    const auto got = files_under(out / "dem");
+    EXPECT_EQ(got.size(), expected.size());
+    for (const auto& [name, bytes] : expected) {
+      const auto it = got.find(name);
+      ASSERT_NE(it, got.end()) << name << " missing after the resume";
+      EXPECT_TRUE(it->second == bytes) << name << " differs from the uninterrupted run";
+    }
+    fs::remove_all(out);
+  }
+  fs::remove_all(ref);
+  fs::remove(scene);
+}
+
+// A second scene run into a used directory is refused (exit 2, nothing touched); with --force the
+// old results are cleared first, so its summary holds only its own quantities. The same scene
+// again overwrites.
+TEST(RunDirectory, AnotherSceneIsRefusedUnlessForced) {
+  const auto a = settle_box("dir_a", 0.3);
+  auto a_text = slurp(a);
+  a_text.replace(a_text.find("figures = false\n"), 16, "");
+  std::ofstream(a) << a_text; // with figures and summary.json
+  const auto b =
+      write_temp("demfem_safety_dir_b_" + std::to_string(::getpid()) + ".toml",
+                 with_values(slurp(kSource / "cases/verification/rebounding_settle.toml"),
+                             {{"duration", "0.3"}}));
+  const fs::path out = scratch("dir");
+  const auto ra = run("run " + a.string() + " --out " + out.string());
+  ASSERT_EQ(ra.code, 0) << ra.out;
+  ASSERT_TRUE(fs::exists(out / "dem" / "structures.csv"));
+
+  // The same scene again: overwritten, exit 0.
+  const auto again = run("run " + a.string() + " --out " + out.string());
+  EXPECT_EQ(again.code, 0) << again.out;
+  const auto summary_a = slurp(out / "summary.json");
+  ASSERT_NE(summary_a.find("\"footing\""), std::string::npos) << summary_a;
+
+  const auto refused = run("run " + b.string() + " --out " + out.string());
+  EXPECT_EQ(refused.code, 2) << refused.out;
+  EXPECT_NE(refused.out.find("holds the results of a different scene"), std::string::npos)
+      << refused.out;
+  EXPECT_NE(refused.out.find("--force"), std::string::npos) << refused.out;
+  EXPECT_EQ(slurp(out / "summary.json"), summary_a) << "a refused run touched the directory";
+  EXPECT_NE(slurp(out / "scene.resolved.toml").find("settle-box"), std::string::npos);
+
+  const auto forced = run("run " + b.string() + " --out " + out.string() + " --force");
+  ASSERT_EQ(forced.code, 0) << forced.out;
+  const auto summary_b = slurp(out / "summary.json");
+  EXPECT_NE(summary_b.find("\"rebounding-settle\""), std::string::npos) << summary_b;
+  for (const char* stale : {"footing", "settle-box", "base.thrust", "\"surface\""})
+    EXPECT_EQ(summary_b.find(stale), std::string::npos) << stale << " in\n" << summary_b;
+  for (const char* stale : {"structures.csv", "walls.csv", "surface.csv", "coordination.csv"})
+    EXPECT_FALSE(fs::exists(out / "dem" / stale)) << stale;
+  // Every snapshot is the new run's: 0.3 s at interval 0.25 → 0, 0.25 and the end.
+  int snapshots = 0;
+  for (const auto& e : fs::directory_iterator(out / "dem" / "vtk"))
+    snapshots += e.path().filename().string().rfind("particles_", 0) == 0;
+  EXPECT_EQ(snapshots, 3);
+  fs::remove_all(out);
+  fs::remove(a);
+  fs::remove(b);
+}
