@@ -25,6 +25,7 @@
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "demfem/continuum/run.hpp"
@@ -152,6 +153,47 @@ struct SolverOutcome {
   std::string note; // a successful run that ended early (e.g. a model validity limit)
 };
 
+// PNG: ends with its IEND chunk; SVG: with </svg>. A figure cut short by a full disk or a file size
+// limit fails both.
+bool image_complete(const fs::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  if (!in) return false;
+  in.seekg(0, std::ios::end);
+  const auto size = static_cast<long long>(in.tellg());
+  const long long tail = std::min<long long>(size, 64);
+  std::string t(static_cast<std::size_t>(tail), '\0');
+  in.seekg(size - tail);
+  in.read(t.data(), tail);
+  if (!in) return false;
+  if (f.extension() == ".png")
+    return size >= 12 &&
+           t.compare(t.size() - 12, 12, std::string("\0\0\0\0IEND\xae\x42\x60\x82", 12)) == 0;
+  if (f.extension() == ".svg") return t.find("</svg>") != std::string::npos;
+  return size > 0;
+}
+
+// Every figure the run lists exists and is complete (with its SVG twin, when there is one), and
+// gnuplot did not fail on any; else scene::WriteError naming the file.
+void check_figures(const compare::RunFigures& f) {
+  for (const auto& p : f.problems)
+    if (p.find("gnuplot failed") != std::string::npos)
+      throw scene::WriteError(fmt::format("figure not written: {} (set [output] figures = false "
+                                          "to run without figures)",
+                                          p));
+  for (const auto& png : f.figures) {
+    if (!image_complete(png))
+      throw scene::WriteError(fmt::format(
+          "cannot write {}: the figure is missing or cut short (a full disk or a file size limit?)",
+          png.string()));
+    auto svg = png;
+    svg.replace_extension(".svg");
+    if (fs::exists(svg) && !image_complete(svg))
+      throw scene::WriteError(fmt::format(
+          "cannot write {}: the figure is cut short (a full disk or a file size limit?)",
+          svg.string()));
+  }
+}
+
 // Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum).
 SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::path& out,
                          const RunArgs& a) {
@@ -173,9 +215,10 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       r.message = x.message;
       if (x.ok && s.output.figures) { // issue 4: the run's figures and summary.json
         const auto f = compare::write_run_figures(s, out, x.wall_seconds, x.steps);
+        for (const auto& p : f.problems) spdlog::warn("figure: {}", p);
+        check_figures(f);
         spdlog::info("{}: {} figure(s) in {}, {}", s.label(), f.figures.size(),
                      (out / "figures").string(), f.summary.string());
-        for (const auto& p : f.problems) spdlog::warn("figure: {}", p);
       }
     } else {
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -197,6 +240,10 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
   } catch (const scene::SceneError& e) {
     r.ran = true;
     r.bad_input = true;
+    r.message = e.what();
+  } catch (const std::exception& e) { // a failed write (naming the file and the cause), …
+    r.ran = true;
+    r.ok = false;
     r.message = e.what();
   }
   reporter.finish();
@@ -239,9 +286,25 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
   return out;
 }
 
-void start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
-  setup_run_log(out, resume);
-  std::ofstream(out / "scene.resolved.toml") << scene::to_toml(s);
+// Creates the run directory, writes scene.resolved.toml and opens log.txt. Returns kOk, or
+// kRunFailed with a message naming the directory or file and the cause (e.g. an unwritable --out).
+int start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) {
+    fmt::print(stderr, "demfem: cannot create the run directory {}: {}\n", out.string(),
+               ec.message());
+    return kRunFailed;
+  }
+  try {
+    scene::write_file_atomic(out / "scene.resolved.toml", scene::to_toml(s));
+    setup_run_log(out, resume);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "demfem: cannot write into the run directory {}: {}\n", out.string(),
+               e.what());
+    return kRunFailed;
+  }
+  return kOk;
 }
 
 // What the solvers, figures and report write into a run directory (what --force clears).
@@ -348,7 +411,7 @@ int cmd_run(const RunArgs& a) {
                                 : std::vector<std::string>{"continuum"});
         p != kOk)
       return p;
-    start_run_dir(*s, out, a.resume);
+    if (const int d = start_run_dir(*s, out, a.resume); d != kOk) return d;
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
     const auto r = run_solver(*s, solver, out, a);
@@ -387,9 +450,10 @@ int cmd_compare(const RunArgs& a) {
                                         {std::begin(kRunOutputs), std::end(kRunOutputs)});
           p != kOk)
         return p;
-      start_run_dir(*s, out, a.resume);
+      if (const int d = start_run_dir(*s, out, a.resume); d != kOk) return d;
     }
     compare::ReportOptions ro;
+    ro.scene = s;
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
     bool any_ok = false;
@@ -420,7 +484,14 @@ int cmd_compare(const RunArgs& a) {
         spdlog::error("{}: {} solver: {}", s->label(), name, r.message);
       }
     }
-    const auto rep = compare::write_report(out, ro);
+    compare::ReportResult rep;
+    try {
+      rep = compare::write_report(out, ro);
+    } catch (const std::exception& e) {
+      spdlog::error("{}: report: {}", s->label(), e.what());
+      worst = kRunFailed;
+      continue;
+    }
     spdlog::info("{}: report {} ({} quantities compared), metrics {}", s->label(),
                  rep.html.string(), rep.compared.size(), rep.metrics_json.string());
     if (!any_ok) worst = kRunFailed;

@@ -17,6 +17,7 @@
 #include "demfem/compare/series.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -453,7 +454,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
 
   if (!out.problems.empty()) sum["figure_problems"] = out.problems;
   out.summary = run_dir / "summary.json";
-  std::ofstream(out.summary) << sum.dump(2) << "\n";
+  scene::write_file_atomic(out.summary, sum.dump(2) + "\n"); // throws WriteError naming it
   return out;
 }
 

@@ -1,6 +1,7 @@
 #include "demfem/compare/report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -10,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/plot.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -162,17 +164,6 @@ bool is_profile_bin(const std::string& name, std::string* wall = nullptr, int* b
   return true;
 }
 
-// The quantities a reader looks for first come first.
-int priority(const std::string& name) {
-  for (const auto& [key, rank] : {std::pair<const char*, int>{".thrust", 0},
-                                  {".rotation", 1},
-                                  {".settlement", 2},
-                                  {".moment", 3},
-                                  {".force", 4}})
-    if (name.find(key) != std::string::npos) return rank;
-  return 10;
-}
-
 double mean_over(const std::vector<double>& t, const std::vector<double>& y, double a, double b) {
   double sum = 0.0;
   int n = 0;
@@ -184,161 +175,394 @@ double mean_over(const std::vector<double>& t, const std::vector<double>& y, dou
   return n ? sum / n : NAN;
 }
 
-double finite_or_zero(double v) {
-  return std::isfinite(v) ? v : 0.0;
+} // namespace
+
+namespace {
+
+std::string num(double v) {
+  return std::isfinite(v) ? fmt::format("{:.3g}", v) : std::string("—");
+}
+std::string pct(double v) {
+  return std::isfinite(v) ? fmt::format("{:+.0f} %", 100 * v) : std::string("—");
+}
+std::string when(double t) {
+  return t >= 0 ? fmt::format("{:.3g}", t) : std::string("never");
+}
+
+nlohmann::json part_json(const Part& p) {
+  auto f = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  return {{"dem", f(p.dem)},
+          {"continuum", f(p.continuum)},
+          {"difference", f(p.difference())},
+          {"relative", f(p.relative())}};
 }
 
 } // namespace
 
 ReportResult write_report(const fs::path& run_dir, const ReportOptions& options) {
   ReportResult res;
-  const auto dem = collect(run_dir / "dem");
-  const auto cont = collect(run_dir / "continuum");
-  res.dem_series = dem.size();
-  res.continuum_series = cont.size();
+  res.dem_series = collect(run_dir / "dem").size();
+  res.continuum_series = collect(run_dir / "continuum").size();
   const fs::path figdir = run_dir / "compare"; // the report's own folder: rewritten whole
   fs::remove_all(figdir);
   fs::create_directories(figdir);
+  const double thr = options.divergence_threshold;
 
+  // ---- the metric table and the rows --------------------------------------------------------
+  MetricSet set = collect_metrics(run_dir, options.scene);
+  res.aliases = set.aliases;
+  res.zero = set.zero;
+  double t_end = 0.0;
+  for (const auto& m : set.series)
+    if (!m.dem.t.empty() && !m.continuum.t.empty())
+      t_end = std::max(t_end, std::min(m.dem.t.back(), m.continuum.t.back()));
+  const SplitOptions so = split_options(options.scene, t_end);
   nlohmann::json metrics = nlohmann::json::object();
   metrics["run_dir"] = run_dir.string();
-  metrics["divergence_threshold"] = options.divergence_threshold;
-  metrics["series"] = nlohmann::json::array();
-
-  std::vector<std::string> names;
-  for (const auto& [name, d] : dem)
-    if (cont.count(name) && !is_profile_bin(name)) names.push_back(name);
-  std::stable_sort(names.begin(), names.end(), [](const std::string& a, const std::string& b) {
-    return priority(a) < priority(b);
-  });
-  for (const auto& name : names) {
-    const auto& d = dem.at(name);
-    const auto& c = cont.at(name);
-    double scale = 0.0;
-    for (double v : d.y) scale = std::max(scale, std::abs(finite_or_zero(v)));
-    for (double v : c.y) scale = std::max(scale, std::abs(finite_or_zero(v)));
-    if (scale == 0.0) continue; // identically zero in both (e.g. a fixed wall's rotation)
-    SeriesMetrics m;
-    m.name = name;
-    // Common time base: the DEM samples inside the continuum's time span.
-    const double t0 = std::max(d.t.front(), c.t.front());
-    const double t1 = std::min(d.t.back(), c.t.back());
-    double sum2 = 0.0;
-    std::size_t n = 0;
-    for (double v : d.y) m.max_abs_dem = std::max(m.max_abs_dem, std::abs(v));
-    std::vector<double> tt, diff;
-    for (std::size_t k = 0; k < d.t.size(); ++k) {
-      if (d.t[k] < t0 || d.t[k] > t1) continue;
-      const double e = interpolate(c.t, c.y, d.t[k]) - d.y[k];
-      sum2 += e * e;
-      ++n;
-      tt.push_back(d.t[k]);
-      diff.push_back(e);
-      if (m.first_divergence_time < 0 && m.max_abs_dem > 0 &&
-          std::abs(e) > options.divergence_threshold * m.max_abs_dem)
-        m.first_divergence_time = d.t[k];
-    }
-    m.rms_difference = n ? std::sqrt(sum2 / static_cast<double>(n)) : NAN;
-    m.relative_rms = m.max_abs_dem > 0 ? m.rms_difference / m.max_abs_dem : NAN;
-    m.final_dem = d.y.empty() ? NAN : d.y.back();
-    m.final_continuum = c.y.empty() ? NAN : c.y.back();
-    // Mean over the last third of the common span: the slowly varying (DC) part of a shaken signal.
-    m.late_mean_dem = mean_over(d.t, d.y, t1 - (t1 - t0) / 3.0, t1);
-    m.late_mean_continuum = mean_over(c.t, c.y, t1 - (t1 - t0) / 3.0, t1);
+  metrics["divergence_threshold"] = thr;
+  metrics["split"] = {{"load_start_s", so.load_start},
+                      {"moving_average_window_s", so.window},
+                      {"late_window_s", {so.late_from, so.late_to}},
+                      {"loading_period_s", so.period}};
+  metrics["metric_table"] = nlohmann::json::array();
+  metrics["rows"] = nlohmann::json::array();
+  for (const auto& m : set.series) {
+    MetricRow row = compare_metric(m, so, thr);
+    metrics["metric_table"].push_back({{"key", m.def.key},
+                                       {"quantity", m.def.quantity},
+                                       {"unit", m.def.unit},
+                                       {"dem", m.def.dem_source},
+                                       {"continuum", m.def.continuum_source},
+                                       {"meaning", m.def.meaning}});
+    // Figure: the increments from rest of both solvers with their moving averages.
     PlotSpec spec;
-    spec.title = name + ": DEM vs continuum";
+    spec.title =
+        fmt::format("{}: increment from rest (static: DEM {:.4g}, continuum {:.4g} {})",
+                    m.def.quantity, row.static_part.dem, row.static_part.continuum, m.def.unit);
     spec.xlabel = "time [s]";
-    spec.ylabel = name;
-    spec.series.push_back({"DEM", d.t, d.y, "lines", "lw 1.5 lc rgb '#1f78b4'"});
-    spec.series.push_back({"continuum", c.t, c.y, "lines", "lw 2 lc rgb '#e31a1c'"});
-    spec.series.push_back({"continuum − DEM", tt, diff, "lines", "dt 2 lc rgb '#777777'"});
-    const fs::path png = figdir / (safe_name(name) + ".png");
+    spec.ylabel = fmt::format("{} − static [{}]", m.def.quantity, m.def.unit);
+    spec.height = 450;
+    spec.series.push_back(
+        {"DEM", m.dem.t, row.dem_split.increment, "lines", "lw 1 lc rgb '#a6cee3'"});
+    spec.series.push_back({"continuum", m.continuum.t, row.continuum_split.increment, "lines",
+                           "lw 1 lc rgb '#fb9a99'"});
+    spec.series.push_back({fmt::format("DEM, moving mean ({:.3g} s)", so.window), m.dem.t,
+                           row.dem_split.mean, "lines", "lw 3 lc rgb '#1f78b4'"});
+    spec.series.push_back({"continuum, moving mean", m.continuum.t, row.continuum_split.mean,
+                           "lines", "lw 3 lc rgb '#e31a1c'"});
+    const fs::path png = figdir / (safe_name(m.def.key) + ".png");
     std::string err;
-    if (plot(spec, png, &err)) m.figure = fs::relative(png, run_dir).string();
-    metrics["series"].push_back({{"name", m.name},
-                                 {"rms_difference", m.rms_difference},
-                                 {"relative_rms", m.relative_rms},
-                                 {"max_abs_dem", m.max_abs_dem},
-                                 {"final_dem", m.final_dem},
-                                 {"final_continuum", m.final_continuum},
-                                 {"first_divergence_time", m.first_divergence_time},
-                                 {"late_mean_dem", m.late_mean_dem},
-                                 {"late_mean_continuum", m.late_mean_continuum},
-                                 {"figure", m.figure}});
-    res.compared.push_back(std::move(m));
+    std::string figure;
+    if (plot(spec, png, &err)) figure = fs::relative(png, run_dir).string();
+    metrics["rows"].push_back({{"key", m.def.key},
+                               {"quantity", m.def.quantity},
+                               {"unit", m.def.unit},
+                               {"static", part_json(row.static_part)},
+                               {"mean_increment", part_json(row.increment)},
+                               {"oscillation_amplitude", part_json(row.amplitude)},
+                               {"first_divergence_increment_s", row.first_divergence},
+                               {"first_divergence_mean_increment_s", row.first_divergence_mean},
+                               {"diverges", row.diverges},
+                               {"comparable", row.comparable},
+                               {"verdict", row.verdict},
+                               {"figure", figure}});
+    res.compared.push_back(std::move(row));
+  }
+  metrics["aliases"] = nlohmann::json::array();
+  for (const auto& a : set.aliases)
+    metrics["aliases"].push_back({{"column", a.column}, {"same_as", a.same_as}, {"why", a.why}});
+  metrics["warnings"] = set.warnings;
+  metrics["zero_in_both"] = nlohmann::json::array();
+  for (const auto& z : set.zero)
+    metrics["zero_in_both"].push_back({{"key", z.def.key}, {"note", z.note}});
+
+  // ---- pressure profiles: at rest and late mean, bin 0 at the bottom ---------------------------
+  {
+    std::map<std::string, std::map<int, std::array<double, 4>>> prof; // wall → bin → values
+    for (const char* solver : {"dem", "continuum"}) {
+      const auto all = collect(run_dir / solver);
+      for (const auto& [name, d] : all) {
+        std::string wall;
+        int bin = 0;
+        if (!is_profile_bin(name, &wall, &bin) || d.file.rfind("pressure_", 0) != 0) continue;
+        const double rest_a = so.load_start > 0.2 ? 0.5 * so.load_start : 0.0;
+        const double rest_b =
+            so.load_start > 0.2 ? so.load_start * (1 - 1e-9) - 1e-12 : d.t.front();
+        const int o = std::string(solver) == "dem" ? 0 : 2;
+        auto& v = prof[wall][bin];
+        if (prof[wall].size() == 1 && o == 0) v.fill(NAN);
+        v[static_cast<std::size_t>(o)] = mean_over(d.t, d.y, rest_a, rest_b);
+        v[static_cast<std::size_t>(o + 1)] = mean_over(d.t, d.y, so.late_from, so.late_to);
+      }
+    }
+    for (const auto& [wall, bins] : prof) {
+      const int n = bins.rbegin()->first + 1;
+      double hw = 1.0;
+      if (options.scene)
+        for (const auto& s : options.scene->structures)
+          if (s.name == wall) {
+            double lo = 1e300, hi = -1e300;
+            for (const auto& q : s.outline) {
+              lo = std::min(lo, q.z);
+              hi = std::max(hi, q.z);
+            }
+            hw = hi > lo ? hi - lo : 1.0;
+          }
+      const char* names[4] = {"DEM at rest", "DEM, late mean", "continuum at rest",
+                              "continuum, late mean"};
+      const char* styles[4] = {"dt 2 lw 2 pt 6 lc rgb '#1f78b4'", "lw 2 pt 7 lc rgb '#1f78b4'",
+                               "dt 2 lw 2 pt 4 lc rgb '#e31a1c'", "lw 2 pt 5 lc rgb '#e31a1c'"};
+      std::vector<Series> ss(4);
+      nlohmann::json jp = nlohmann::json::array();
+      for (int c = 0; c < 4; ++c)
+        ss[static_cast<std::size_t>(c)] = {names[c], {}, {}, "linespoints", styles[c]};
+      for (const auto& [k, v] : bins) {
+        const double h = (k + 0.5) / n * hw; // bin centre above the wall's base
+        for (std::size_t c = 0; c < 4; ++c) {
+          ss[c].x.push_back(v[c] * 1e-3);
+          ss[c].y.push_back(h);
+        }
+        jp.push_back({{"height_m", h},
+                      {"dem_rest_Pa", v[0]},
+                      {"dem_late_Pa", v[1]},
+                      {"continuum_rest_Pa", v[2]},
+                      {"continuum_late_Pa", v[3]}});
+      }
+      PlotSpec spec;
+      spec.title =
+          fmt::format("{}: normal pressure along the wall, at rest and late mean ({:.3g}–{:.3g} s)",
+                      wall, so.late_from, so.late_to);
+      spec.xlabel = "pressure [kPa] (compression positive)";
+      spec.ylabel = "height above the wall base [m]";
+      spec.series = ss;
+      spec.height = 500;
+      const fs::path png = figdir / (safe_name(wall) + "_pressure_profile.png");
+      std::string err;
+      if (plot(spec, png, &err)) res.profile_figures.push_back(fs::relative(png, run_dir).string());
+      metrics["pressure_profiles"][wall] = jp;
+    }
   }
 
-  // ---- pressure profiles: time-mean pressure per bin along each wall, bin 0 at the bottom -----
-  std::map<std::string, std::map<int, std::pair<double, double>>>
-      profiles; // wall → bin → (dem, cont)
-  for (const auto& [name, d] : dem) {
-    std::string wall;
-    int bin = 0;
-    if (!is_profile_bin(name, &wall, &bin) || !cont.count(name)) continue;
-    const auto& c = cont.at(name);
-    const double t1 = std::min(d.t.back(), c.t.back());
-    profiles[wall][bin] = {mean_over(d.t, d.y, 0.0, t1), mean_over(c.t, c.y, 0.0, t1)};
-  }
-  for (const auto& [wall, bins] : profiles) {
-    const int n = bins.rbegin()->first + 1;
-    Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
-    Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
-    nlohmann::json jp = nlohmann::json::array();
-    for (const auto& [k, v] : bins) {
-      const double h = (k + 0.5) / n; // bin centre as a fraction of the wall height
-      sd.x.push_back(v.first);
-      sd.y.push_back(h);
-      sc.x.push_back(v.second);
-      sc.y.push_back(h);
-      jp.push_back({{"height_fraction", h}, {"dem_Pa", v.first}, {"continuum_Pa", v.second}});
+  // ---- surface subsidence profile: end − rest, both solvers ------------------------------------
+  {
+    const fs::path sf = run_dir / "dem" / "surface.csv";
+    const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
+    if (fs::exists(sf) && !snaps.empty()) {
+      const CsvTable t = read_csv(sf);
+      const auto time = t.column("time");
+      const std::size_t nb = t.columns.size() > 1 ? t.columns.size() - 1 : 0;
+      double x0 = 0.0, x1 = 1.0;
+      if (options.scene && !options.scene->domain.empty()) {
+        x0 = x1 = options.scene->domain[0].x;
+        for (const auto& q : options.scene->domain) {
+          x0 = std::min(x0, q.x);
+          x1 = std::max(x1, q.x);
+        }
+      }
+      auto row_at = [&](double at) {
+        std::size_t best = 0;
+        for (std::size_t r = 0; r < time.size(); ++r)
+          if (std::abs(time[r] - at) < std::abs(time[best] - at)) best = r;
+        return best;
+      };
+      auto snap_at = [&](double at) {
+        std::size_t best = 0;
+        for (std::size_t k = 0; k < snaps.size(); ++k)
+          if (std::abs(snaps[k].time - at) < std::abs(snaps[best].time - at)) best = k;
+        return best;
+      };
+      if (nb > 0 && !time.empty()) {
+        const double tr = so.load_start, te = std::min(time.back(), snaps.back().time);
+        const auto r0 = row_at(tr), r1 = row_at(te);
+        std::vector<double> zc0, zc1;
+        try {
+          zc0 = continuum_surface(read_continuum_vtu(snaps[snap_at(tr)].file), x0, x1,
+                                  static_cast<int>(nb));
+          zc1 = continuum_surface(read_continuum_vtu(snaps[snap_at(te)].file), x0, x1,
+                                  static_cast<int>(nb));
+        } catch (const std::exception&) {
+        }
+        if (zc0.size() == nb && zc1.size() == nb) {
+          Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
+          Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
+          nlohmann::json js = nlohmann::json::array();
+          double dmax = 0.0, cmax = 0.0;
+          for (std::size_t b = 0; b < nb; ++b) {
+            const double x =
+                x0 + (x1 - x0) * (static_cast<double>(b) + 0.5) / static_cast<double>(nb);
+            const double d = t.rows[r0][b + 1] - t.rows[r1][b + 1]; // subsidence: rest − end
+            const double c = zc0[b] - zc1[b];
+            sd.x.push_back(x);
+            sd.y.push_back(d * 100);
+            sc.x.push_back(x);
+            sc.y.push_back(c * 100);
+            if (std::isfinite(d)) dmax = std::max(dmax, d);
+            if (std::isfinite(c)) cmax = std::max(cmax, c);
+            js.push_back(
+                {{"x_m", x},
+                 {"dem_m", std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(nullptr)},
+                 {"continuum_m", std::isfinite(c) ? nlohmann::json(c) : nlohmann::json(nullptr)}});
+          }
+          PlotSpec spec;
+          spec.title = fmt::format("surface subsidence, t = {:.3g} s − t = {:.3g} s (largest: DEM "
+                                   "{:.3g} m, continuum {:.3g} m)",
+                                   te, tr, dmax, cmax);
+          spec.xlabel = "x [m]";
+          spec.ylabel = "subsidence [cm] (down positive)";
+          spec.series = {sd, sc};
+          spec.height = 450;
+          const fs::path png = figdir / "surface_subsidence_profile.png";
+          std::string err;
+          if (plot(spec, png, &err))
+            res.profile_figures.push_back(fs::relative(png, run_dir).string());
+          metrics["surface_subsidence_profile"] = {{"rest_s", tr},
+                                                   {"end_s", te},
+                                                   {"largest_dem_m", dmax},
+                                                   {"largest_continuum_m", cmax},
+                                                   {"bins", js}};
+        }
+      }
     }
-    PlotSpec spec;
-    spec.title = wall + ": time-mean pressure along the wall";
-    spec.xlabel = "pressure [Pa] (compression positive)";
-    spec.ylabel = "height / wall height";
-    spec.series = {sd, sc};
-    const fs::path png = figdir / (safe_name(wall) + "_pressure_profile.png");
-    std::string err;
-    if (plot(spec, png, &err)) res.profile_figures.push_back(fs::relative(png, run_dir).string());
-    metrics["pressure_profiles"][wall] = jp;
+  }
+
+  // ---- coarse-grained fields ---------------------------------------------------------------
+  if (options.fields) {
+    double rho = 2650.0;
+    if (options.scene && options.scene->soil.dem) rho = options.scene->soil.dem->density;
+    res.fields = compare_fields(run_dir, so.load_start, rho, options.kernel_width);
+    nlohmann::json jf = nlohmann::json::array();
+    for (const auto& s : res.fields.summaries)
+      jf.push_back({{"field", s.field},
+                    {"mean_dem", s.mean_dem},
+                    {"mean_continuum", s.mean_continuum},
+                    {"rms_difference", s.rms_difference}});
+    metrics["fields"] = {{"kernel", "Lucy (1977), 2D"},
+                         {"support_radius_m", res.fields.width},
+                         {"rest_s", res.fields.rest_time},
+                         {"end_s", res.fields.end_time},
+                         {"summaries", jf},
+                         {"figures", res.fields.figures}};
   }
 
   res.metrics_json = run_dir / "metrics.json";
-  std::ofstream(res.metrics_json) << metrics.dump(2) << "\n";
+  scene::write_file_atomic(res.metrics_json, metrics.dump(2) + "\n"); // throws WriteError
 
   // ---- HTML -------------------------------------------------------------------------------
   std::string h;
   h += "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" + html_escape(options.title) +
-       "</title><style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-       "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 8px;"
-       "text-align:right}th{background:#f3f3f3}td:first-child{text-align:left}figure{margin:1em 0}"
-       "img{max-width:100%;border:1px solid #eee}.note{background:#fff6d6;padding:.6em 1em;"
-       "border-left:4px solid #e6b800}.div{color:#b00}</style></head><body>\n";
+       "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222;"
+       "padding:0 1em}table{border-collapse:collapse;margin:1em 0;font-size:90%}td,th{border:1px "
+       "solid #ccc;padding:3px 6px;text-align:right;vertical-align:top}th{background:#f3f3f3}"
+       "table.v{font-size:78%}table.v td{white-space:nowrap}table.v "
+       "td.l{white-space:normal;min-width:9em}td.l,th.l{text-align:left}figure{margin:1em "
+       "0}img{max-width:100%;border:1px solid #eee}"
+       ".note{background:#fff6d6;padding:.6em 1em;border-left:4px solid #e6b800}"
+       ".div{color:#b00;font-weight:bold}.ok{color:#070;font-weight:bold}"
+       "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
+  h += "<!--report-body-->\n";
   h += "<h1>" + html_escape(options.title) + "</h1>\n";
   for (const auto& note : options.notes) h += "<p class=\"note\">" + html_escape(note) + "</p>\n";
-  h += fmt::format("<p>Run directory: <code>{}</code>. DEM series: {}; continuum series: {}; "
-                   "compared (same name in both): {}.</p>\n",
-                   html_escape(run_dir.string()), res.dem_series, res.continuum_series,
-                   res.compared.size());
+  for (const auto& w : set.warnings) h += "<p class=\"note\">" + html_escape(w) + "</p>\n";
+  h += fmt::format("<p>Run directory: <code>{}</code>. Quantities compared: {} (each once; "
+                   "{} solver column(s) folded into them, {} zero in both).</p>\n",
+                   html_escape(run_dir.string()), res.compared.size(), res.aliases.size(),
+                   res.zero.size());
   if (!res.compared.empty()) {
-    h += fmt::format("<h2>Where the two answers diverge</h2><p>Divergence: |continuum − DEM| above "
-                     "{:.0f} % of the largest DEM magnitude.</p><table><tr><th>quantity</th>"
-                     "<th>final DEM</th><th>final continuum</th><th>late mean DEM</th>"
-                     "<th>late mean continuum</th><th>RMS difference</th>"
-                     "<th>relative RMS</th><th>first divergence [s]</th></tr>\n",
-                     100 * options.divergence_threshold);
-    for (const auto& m : res.compared)
-      h += fmt::format("<tr><td>{}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td>"
-                       "<td>{:.4g}</td><td>{:.1f} %</td><td class=\"{}\">{}</td></tr>\n",
-                       html_escape(m.name), m.final_dem, m.final_continuum, m.late_mean_dem,
-                       m.late_mean_continuum, m.rms_difference, 100 * m.relative_rms,
-                       m.first_divergence_time >= 0 ? "div" : "",
-                       m.first_divergence_time >= 0 ? fmt::format("{:.3g}", m.first_divergence_time)
-                                                    : std::string("never"));
+    h += fmt::format(
+        "<h2>Verdicts</h2><p>Each series is split into its <b>static</b> value ({}), its "
+        "<b>increment</b> (series − "
+        "static; the table gives its mean over the late window {:.3g}–{:.3g} s) and its "
+        "<b>oscillation</b> (increment − its moving mean over {:.3g} s of whole loading periods; "
+        "the table gives the amplitude √2·RMS over the late window). Relative difference = "
+        "(continuum − DEM)/|DEM|. A quantity <b>agrees</b> when the mean increments and the "
+        "oscillation amplitudes are both within ±{:.0f} % of the DEM's, and <b>diverges</b> "
+        "otherwise. First divergence: the first time after the load starts at which |continuum − "
+        "DEM| of the increments (of their moving means) exceeds {:.0f} % of the DEM's largest "
+        "|increment| (|moving mean|).</p>\n",
+        so.load_start > 0.2
+            ? fmt::format(
+                  "the mean at rest, {:.3g}–{:.3g} s, before the loading starts at {:.3g} s",
+                  0.5 * so.load_start, so.load_start, so.load_start)
+            : fmt::format("the sample at t = {:.3g} s: the loading starts then", so.load_start),
+        so.late_from, so.late_to, so.window, 100 * thr, 100 * thr);
+    h += "<div style=\"overflow-x:auto\"><table class=\"v\"><tr><th class=\"l\" rowspan=\"2\">"
+         "quantity [unit]</th>"
+         "<th colspan=\"4\">static (at rest)</th><th colspan=\"4\">mean increment (late)</th>"
+         "<th colspan=\"4\">oscillation amplitude (late)</th><th colspan=\"2\">first divergence "
+         "[s]</th><th rowspan=\"2\">verdict</th></tr><tr>";
+    for (int k = 0; k < 3; ++k) h += "<th>DEM</th><th>continuum</th><th>diff.</th><th>rel.</th>";
+    h += "<th>incr.</th><th>mean</th></tr>\n";
+    for (const auto& r : res.compared) {
+      h += fmt::format("<tr><td class=\"l\">{} [{}]</td>", html_escape(r.def.quantity),
+                       html_escape(r.def.unit));
+      for (const Part* p : {&r.static_part, &r.increment, &r.amplitude})
+        h += fmt::format("<td>{}</td><td>{}</td><td>{}</td><td>{}</td>", num(p->dem),
+                         num(p->continuum), num(p->difference()), pct(p->relative()));
+      h += fmt::format("<td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
+                       when(r.first_divergence), when(r.first_divergence_mean),
+                       !r.comparable ? ""
+                       : r.diverges  ? "div"
+                                     : "ok",
+                       !r.comparable ? "n/a"
+                       : r.diverges  ? "diverge"
+                                     : "agree");
+    }
+    h += "</table></div>\n<ul>\n";
+    for (const auto& r : res.compared)
+      h += "<li><b>" + html_escape(r.def.quantity) + "</b>: " + html_escape(r.verdict) + "</li>\n";
+    h += "</ul>\n";
+  }
+  if (!res.zero.empty()) {
+    h += "<p>Not compared (zero in both solvers): ";
+    for (std::size_t k = 0; k < res.zero.size(); ++k)
+      h += (k ? "; " : "") + html_escape(res.zero[k].def.quantity) + " (" +
+           html_escape(res.zero[k].note) + ")";
+    h += ".</p>\n";
+  }
+  if (!res.compared.empty()) {
+    h += "<h2>Metric table</h2><p>Each quantity is defined once; the columns of the solvers' "
+         "files it is read from are named.</p><table><tr><th class=\"l\">key</th>"
+         "<th class=\"l\">quantity</th><th>unit</th><th class=\"l\">DEM</th>"
+         "<th class=\"l\">continuum</th><th class=\"l\">meaning</th></tr>\n";
+    for (const auto& r : res.compared)
+      h += fmt::format(
+          "<tr><td class=\"l\"><code>{}</code></td><td class=\"l\">{}</td><td>{}</td>"
+          "<td class=\"l\">{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td></tr>\n",
+          html_escape(r.def.key), html_escape(r.def.quantity), html_escape(r.def.unit),
+          html_escape(r.def.dem_source), html_escape(r.def.continuum_source),
+          html_escape(r.def.meaning));
     h += "</table>\n";
+    if (!res.aliases.empty()) {
+      h += "<p>Solver columns that are one of these quantities under another name (not compared "
+           "twice):</p><ul>\n";
+      for (const auto& a : res.aliases)
+        h += fmt::format("<li><code>{}</code> = <code>{}</code>: {}</li>\n", html_escape(a.column),
+                         html_escape(a.same_as), html_escape(a.why));
+      h += "</ul>\n";
+    }
+    h += "<h2>Time series</h2>\n";
+    for (const auto& r : res.compared) {
+      const fs::path png = figdir / (safe_name(r.def.key) + ".png");
+      h += img(png, r.def.quantity + ": increment from rest, DEM and continuum");
+    }
+  }
+  if (!res.profile_figures.empty()) {
+    h += "<h2>Profiles</h2>\n";
     for (const auto& f : res.profile_figures) h += img(run_dir / f, fs::path(f).stem().string());
-    for (const auto& m : res.compared)
-      if (!m.figure.empty()) h += img(run_dir / m.figure, m.name);
+  }
+  if (!res.fields.figures.empty() || !res.fields.notes.empty()) {
+    h += "<h2>Fields: coarse-grained DEM against the continuum</h2>\n";
+    for (const auto& n : res.fields.notes) h += "<p>" + html_escape(n) + "</p>\n";
+    if (!res.fields.summaries.empty()) {
+      h += "<table><tr><th class=\"l\">field</th><th>mean DEM</th><th>mean continuum</th>"
+           "<th>RMS difference</th></tr>\n";
+      for (const auto& s : res.fields.summaries)
+        h += fmt::format("<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+                         html_escape(s.field), num(s.mean_dem), num(s.mean_continuum),
+                         num(s.rms_difference));
+      h += "</table>\n";
+    }
+    for (const auto& f : res.fields.figures) h += img(run_dir / f, fs::path(f).stem().string());
   }
   for (const char* solver : {"dem", "continuum"}) {
     const fs::path sd = run_dir / solver;
@@ -354,11 +578,23 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
         for (const auto& e : fs::directory_iterator(fd))
           if (e.path().extension() == ".png") pngs.push_back(e.path());
     std::sort(pngs.begin(), pngs.end());
-    for (const auto& p : pngs) h += img(p, p.stem().string());
+    // Figures above 1 MB (the snapshot series) are linked, not embedded, to keep the page small.
+    std::string linked;
+    for (const auto& p : pngs) {
+      std::error_code ec;
+      const auto size = fs::file_size(p, ec);
+      if (!ec && size > 1000000)
+        linked += fmt::format("{}<a href=\"{}\">{}</a> ({:.1f} MB)", linked.empty() ? "" : ", ",
+                              html_escape(fs::relative(p, run_dir).string()),
+                              html_escape(p.stem().string()), static_cast<double>(size) / 1e6);
+      else
+        h += img(p, p.stem().string());
+    }
+    if (!linked.empty()) h += "<p>Not embedded (large): " + linked + ".</p>\n";
   }
-  h += "</body></html>\n";
+  h += "<!--/report-body-->\n</body></html>\n";
   res.html = run_dir / "report.html";
-  std::ofstream(res.html) << h;
+  scene::write_file_atomic(res.html, h);
   return res;
 }
 

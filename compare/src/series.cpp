@@ -92,8 +92,7 @@ vtkSmartPointer<vtkPolyData> read_vtp(const fs::path& f) {
 // particles, boundaries and chains together).
 bool load_frame(const std::vector<std::pair<double, fs::path>>& particles,
                 const std::vector<std::pair<double, fs::path>>& chains,
-                const std::vector<std::pair<double, fs::path>>& bounds, std::size_t k,
-                Frame& out) {
+                const std::vector<std::pair<double, fs::path>>& bounds, std::size_t k, Frame& out) {
   out.time = particles[k].first;
   const auto pd = read_vtp(particles[k].second);
   if (!pd || !pd->GetPointData()) return false;
@@ -179,8 +178,8 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     if (load_frame(parts, chains, bounds, k, f))
       frames.push_back(std::move(f));
     else
-      res.problems.push_back(fmt::format("snapshot series: cannot read {}",
-                                         parts[k].second.string()));
+      res.problems.push_back(
+          fmt::format("snapshot series: cannot read {}", parts[k].second.string()));
   }
   if (frames.empty()) return res;
   for (const auto& f : frames) res.times.push_back(f.time);
@@ -241,8 +240,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
       d.precision(7);
       for (int block = 0; block < 2 * kClasses; ++block) {
         const bool tension = block >= kClasses;
-        d << "# " << (tension ? "tension" : "compression") << " class " << block % kClasses
-          << "\n";
+        d << "# " << (tension ? "tension" : "compression") << " class " << block % kClasses << "\n";
         bool any = false;
         for (const auto& c : f.chains) {
           if (c.tensile != tension || fmax <= 0.0) continue;
@@ -335,8 +333,8 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     }
     g << "unset multiplot\nset output\n";
     g.close();
-    const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote(gp.string()),
-                                        quote(gp.string() + ".log"));
+    const std::string cmd =
+        fmt::format("gnuplot {} > {} 2>&1", quote(gp.string()), quote(gp.string() + ".log"));
     if (std::system(cmd.c_str()) == 0) {
       fs::remove(gp.string() + ".log");
       res.figures.push_back(png);

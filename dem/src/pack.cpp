@@ -18,6 +18,7 @@
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::dem {
 
@@ -849,9 +850,7 @@ void write_packing_json(const PackResult& r, const scene::Scene& scene, const fs
   js += fmt::format("  \"ke_ratio\": {:.3e},\n", r.ke_ratio);
   js += fmt::format("  \"converged\": {},\n", r.converged ? "true" : "false");
   js += fmt::format("  \"from_cache\": {}\n}}\n", r.from_cache ? "true" : "false");
-  std::ofstream f(path);
-  f << js;
-  if (!f) throw std::runtime_error("could not write " + path.string());
+  scene::write_file_atomic(path, js);
 }
 
 PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,

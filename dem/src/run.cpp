@@ -40,6 +40,7 @@
 #endif
 #include "demfem/scene/csv.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 #include "state_bytes.hpp"
 
 namespace demfem::dem {
@@ -102,9 +103,7 @@ double log_energy_budget(const EnergyBudget& b, double e0, double t,
   for (std::size_t k = 0; k < std::size(keys); ++k)
     js += fmt::format("  \"{}\": {:.17g},\n", keys[k], rows[k].second);
   js += fmt::format("  \"closure_error\": {:.17g}\n}}\n", closure);
-  std::ofstream f(json_path);
-  f << js;
-  if (!f) spdlog::warn("could not write {}", json_path.string());
+  scene::write_file_atomic(json_path, js);
   return closure;
 }
 
@@ -202,19 +201,14 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // The packing's shear springs (ids 0…count−1 match: the particles are added in id order).
     if (!pr.contact_history.empty()) e.load_contact_history(pr.contact_history);
     // The packing's density and contacts, for the run's summary (issue 14).
-    try {
-      write_packing_json(pr, scene, out / "packing.json");
-    } catch (const std::exception& err) {
-      spdlog::warn("{}", err.what());
-    }
-    spdlog::info("packing: porosity {:.4f} (void ratio {:.4f}), coordination {:.3f}{}",
-                 pr.measure.porosity, pr.measure.void_ratio, pr.measure.coordination,
-                 scene.soil.dem->packing.target_porosity
-                     ? fmt::format(" — target {:.4f} ± {:.4f}{}",
-                                   *scene.soil.dem->packing.target_porosity,
-                                   scene.soil.dem->packing.target_tolerance,
-                                   pr.target_met ? "" : " NOT MET")
-                     : std::string());
+    write_packing_json(pr, scene, out / "packing.json");
+    spdlog::info(
+        "packing: porosity {:.4f} (void ratio {:.4f}), coordination {:.3f}{}", pr.measure.porosity,
+        pr.measure.void_ratio, pr.measure.coordination,
+        scene.soil.dem->packing.target_porosity
+            ? fmt::format(" — target {:.4f} ± {:.4f}{}", *scene.soil.dem->packing.target_porosity,
+                          scene.soil.dem->packing.target_tolerance, pr.target_met ? "" : " NOT MET")
+            : std::string());
   }
 #else
   if (!resume_from && scene.soil.dem->particles.empty()) {
@@ -677,19 +671,21 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     failure = write_probes();
     write_snapshot();
   }
+  // Every row on the disk (a failed write throws, naming the file).
   energy_csv.flush();
+  for (auto* w : {&struct_csv, &wall_csv, &surface_csv, &loci_csv, &coord_csv})
+    if (*w) (*w)->flush();
+  for (auto& pw : pressure_csv) pw.second.flush();
   report("dem");
   summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
-  // Final state as a particle checkpoint (readable without the engine).
-  try {
+  // Final state as a particle checkpoint (readable without the engine); a failed write throws.
+  {
     io::CheckpointMeta meta;
     meta.time = e.time();
     meta.step = e.stats().steps;
     meta.dt = e.dt();
     meta.label = scene.label();
     io::write_checkpoint(out / "final.ckpt", e.particles(), meta);
-  } catch (const io::IoError&) {
-    // a failed checkpoint does not invalidate the run's results
   }
   summary.steps = e.stats().steps;
   summary.simulated_time = e.time();

@@ -1,4 +1,6 @@
 // End-to-end tests of the `demfem` binary: exit codes, help, and `check` on every case file.
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -6,6 +8,7 @@
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -130,9 +133,22 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
   const auto scene = write_temp("demfem_interrupt.toml", text);
   const fs::path out = fs::temp_directory_path() / "demfem_interrupt_run";
   fs::remove_all(out);
-  // `timeout -s INT` sends SIGINT after 1.5 s (the run needs far longer).
-  const auto first = run_raw("timeout -s INT 1.5 " + std::string(DEMFEM_BINARY) + " run " +
-                             scene.string() + " --out " + out.string());
+  // SIGINT once the time loop runs (energy.csv has its first rows): a fixed delay could land
+  // before the handler is installed on a loaded machine.
+  demfem::test::Result first;
+  {
+    demfem::test::Child c({"run", scene.string(), "--out", out.string()}, out.string() + ".log");
+    ASSERT_TRUE(c.started());
+    while (c.running()) {
+      std::error_code ec;
+      if (fs::file_size(out / "dem" / "energy.csv", ec) > 2000 && !ec) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    c.signal(SIGINT);
+    first = c.wait();
+    fs::remove(out.string() + ".log");
+  }
+  EXPECT_EQ(first.code, 3) << first.out;
   EXPECT_NE(first.out.find("interrupted at t ="), std::string::npos) << first.out;
   EXPECT_TRUE(fs::exists(out / "dem" / "checkpoint.ckpt"));
   const auto second = run("run " + scene.string() + " --out " + out.string() + " --resume");

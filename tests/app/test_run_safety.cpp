@@ -138,3 +138,108 @@ TEST(RunDirectory, AnotherSceneIsRefusedUnlessForced) {
   fs::remove(a);
   fs::remove(b);
 }
+
+namespace {
+
+// A figure is complete when a PNG ends with its IEND chunk and an SVG with </svg>.
+bool complete_image(const fs::path& f) {
+  const auto b = slurp(f);
+  if (f.extension() == ".png")
+    return b.size() >= 12 &&
+           b.compare(b.size() - 12, 12, std::string("\0\0\0\0IEND\xae\x42\x60\x82", 12)) == 0;
+  return b.find("</svg>") != std::string::npos;
+}
+
+// What an exit-0 run lists, all present and whole: the final checkpoint, summary.json, every
+// figure, every snapshot named in a .pvd collection, every CSV ending in a full row, and no
+// temporary file left over.
+void expect_complete_run(const fs::path& out, const std::string& context) {
+  EXPECT_GT(fs::exists(out / "dem" / "final.ckpt") ? fs::file_size(out / "dem" / "final.ckpt") : 0,
+            0u)
+      << context;
+  const auto summary = slurp(out / "summary.json");
+  EXPECT_TRUE(summary.size() > 2 && summary.substr(summary.size() - 2) == "}\n") << context;
+  int figures = 0;
+  for (const auto& [name, bytes] : files_under(out)) {
+    const fs::path p = out / name;
+    EXPECT_NE(p.extension(), ".tmp") << context << ": left " << name;
+    if (p.extension() == ".png" || p.extension() == ".svg") {
+      figures += p.extension() == ".png";
+      EXPECT_TRUE(complete_image(p)) << context << ": " << name << " is cut short";
+    }
+    if (p.extension() == ".csv") {
+      EXPECT_TRUE(!bytes.empty() && bytes.back() == '\n') << name;
+    }
+    if (p.extension() == ".pvd") {
+      EXPECT_NE(bytes.find("</VTKFile>"), std::string::npos) << context << ": " << name;
+      for (auto pos = bytes.find("file=\""); pos != std::string::npos;
+           pos = bytes.find("file=\"", pos + 6)) {
+        const auto end = bytes.find('"', pos + 6);
+        const auto vtp = p.parent_path() / bytes.substr(pos + 6, end - pos - 6);
+        EXPECT_TRUE(fs::exists(vtp) && fs::file_size(vtp) > 0) << context << ": " << vtp;
+      }
+    }
+  }
+  EXPECT_GT(figures, 0) << context;
+}
+
+} // namespace
+
+// A run whose files may not grow past a size limit (RLIMIT_FSIZE in the child, SIGXFSZ ignored:
+// every write beyond it fails with EFBIG, as on a full disk) either fails with exit 1, naming
+// the file it could not write (on stderr and, when log.txt itself still fits, in log.txt), or
+// exits 0 with every output it lists present and whole.
+TEST(CheckedWrites, FileSizeLimitFailsNamingTheFileOrLeavesCompleteOutputs) {
+  const auto scene = settle_box("fsize", 0.3);
+  auto text = slurp(scene);
+  text.replace(text.find("figures = false\n"), 16, "");
+  std::ofstream(scene) << text;
+  int failed = 0, passed = 0;
+  for (const long long limit : {2000LL, 8000LL, 20000LL, 60000LL, 200000LL, 100000000LL}) {
+    const std::string context = "limit " + std::to_string(limit) + " bytes";
+    const fs::path out = scratch("fsize_" + std::to_string(limit));
+    const fs::path log = out.string() + ".log";
+    Child c({"run", scene.string(), "--out", out.string()}, log, limit);
+    const auto r = c.wait();
+    ASSERT_TRUE(r.code == 0 || r.code == 1) << context << ": exit " << r.code << "\n" << r.out;
+    if (r.code == 1) {
+      ++failed;
+      // "cannot write <file>: File too large (…)" or a solver/VTK error naming the file
+      EXPECT_NE(r.out.find(out.string() + "/"), std::string::npos) << context << "\n" << r.out;
+      EXPECT_TRUE(r.out.find("File too large") != std::string::npos ||
+                  r.out.find("could not write") != std::string::npos ||
+                  r.out.find("cut short") != std::string::npos ||
+                  r.out.find("gnuplot failed") != std::string::npos)
+          << context << "\n"
+          << r.out;
+      EXPECT_EQ(r.out.find("filesystem error"), std::string::npos) << r.out;
+      const auto run_log = slurp(out / "log.txt");
+      if (!run_log.empty() && static_cast<long long>(run_log.size()) + 1000 < limit) {
+        EXPECT_NE(run_log.find("run failed"), std::string::npos) << context << "\n" << run_log;
+      }
+    } else {
+      ++passed;
+      expect_complete_run(out, context);
+    }
+    fs::remove_all(out);
+    fs::remove(log);
+  }
+  EXPECT_GE(failed, 1);
+  EXPECT_GE(passed, 1); // the largest limit is far above what the run writes
+  fs::remove(scene);
+}
+
+// An --out that cannot be created is a clear message (exit 1), not a raw filesystem error.
+TEST(CheckedWrites, UnwritableOutIsAClearMessage) {
+  const auto scene = settle_box("unwritable", 0.05);
+  const auto file = write_temp("demfem_safety_not_a_dir_" + std::to_string(::getpid()), "x");
+  const auto r = run("run " + scene.string() + " --out " + (file / "run").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("cannot create the run directory " + (file / "run").string()),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("Not a directory"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("filesystem error"), std::string::npos) << r.out;
+  fs::remove(file);
+  fs::remove(scene);
+}

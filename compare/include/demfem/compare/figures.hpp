@@ -17,7 +17,8 @@ struct RunFigures {
   std::filesystem::path summary;              // summary.json
 };
 
-// `wall_seconds`, `steps`: the run's own totals (0 = unknown). Never throws for a missing or
+// `wall_seconds`, `steps`: the run's own totals (0 = unknown). Throws scene::WriteError when
+// summary.json cannot be written. Never throws for a missing or
 // malformed input file; it is listed in `problems`.
 RunFigures write_run_figures(const scene::Scene& scene, const std::filesystem::path& run_dir,
                              double wall_seconds = 0.0, long long steps = 0);

@@ -1,36 +1,36 @@
-// The comparison report of a run directory: every time series that both solvers wrote under the
-// same name ("<structure>.rotation [rad]", "<wall>.thrust [N]", …) is aligned on a common time
-// base, differenced, plotted, and summarised in a self-contained HTML page plus metrics.json.
+// The comparison report of a run directory: the metric table (metrics.hpp: each physical quantity
+// once, with how each solver's output yields it), each quantity split into static / increment /
+// oscillation and compared with a verdict, pressure and surface profiles, coarse-grained field
+// maps (coarse_grain.hpp), in a self-contained HTML page plus metrics.json.
 #pragma once
 
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "demfem/compare/coarse_grain.hpp"
+#include "demfem/compare/metrics.hpp"
+#include "demfem/scene/scene.hpp"
+
 namespace demfem::compare {
 
-struct SeriesMetrics {
-  std::string name;          // column name with unit
-  double rms_difference = 0; // RMS of (continuum − dem) over the common time span
-  double max_abs_dem = 0;    // scale: max |dem|
-  double relative_rms = 0;   // rms_difference / max_abs_dem
-  double final_dem = 0, final_continuum = 0;
-  double first_divergence_time = -1; // first t where |c − d| > threshold · max|d| (−1: never)
-  double late_mean_dem = 0, late_mean_continuum = 0; // mean over the last third (DC part)
-  std::string figure;                                // relative path of its figure
-};
-
 struct ReportOptions {
-  double divergence_threshold = 0.1; // relative to the DEM series' largest magnitude
+  double divergence_threshold = 0.2; // relative to the DEM's largest |increment| / mean increment
   std::string title;
-  std::vector<std::string> notes; // shown at the top (e.g. a solver that did not run)
+  std::vector<std::string> notes;      // shown at the top (e.g. a solver that did not run)
+  const scene::Scene* scene = nullptr; // load start, periods, structures, domain (may be null)
+  double kernel_width = 0.0;           // coarse-graining support radius [m] (0: 2 mean diameters)
+  bool fields = true;                  // coarse-grained field maps (needs both solvers' snapshots)
 };
 
 struct ReportResult {
   std::filesystem::path html;
   std::filesystem::path metrics_json;
-  std::vector<SeriesMetrics> compared;      // key quantities first; all-zero pairs left out
-  std::vector<std::string> profile_figures; // pressure profiles along walls
+  std::vector<MetricRow> compared;          // one row per physical quantity, key ones first
+  std::vector<MetricSeries> zero;           // identically zero in both (fixed by the scene)
+  std::vector<Alias> aliases;               // solver columns folded into a compared quantity
+  std::vector<std::string> profile_figures; // pressure and surface profiles
+  FieldComparison fields;                   // coarse-grained DEM against continuum
   std::size_t dem_series = 0, continuum_series = 0;
 };
 

@@ -18,10 +18,10 @@
 namespace demfem::compare {
 
 struct SnapshotSeries {
-  std::vector<double> requested;                     // times asked for [s]
-  std::vector<double> times;                         // times of the snapshots drawn [s]
-  std::vector<std::filesystem::path> figures;        // PNGs written
-  std::vector<std::string> problems;                 // what could not be drawn, and why
+  std::vector<double> requested;              // times asked for [s]
+  std::vector<double> times;                  // times of the snapshots drawn [s]
+  std::vector<std::filesystem::path> figures; // PNGs written
+  std::vector<std::string> problems;          // what could not be drawn, and why
 };
 
 // The times of a scene's series: output.series within [0, duration], or six evenly spaced times

@@ -1,0 +1,133 @@
+// Coarse-graining (issue 9 item 3): closed-form checks of the kernel averaging.
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "demfem/compare/coarse_grain.hpp"
+
+using namespace demfem;
+
+TEST(CoarseGrain, LucyKernelIntegratesToOne) {
+  const double c = 0.7;
+  double sum = 0.0;
+  const int n = 20000;
+  for (int k = 0; k < n; ++k) { // ∫ φ 2πr dr by the midpoint rule
+    const double r = (k + 0.5) * c / n;
+    sum += compare::lucy_kernel(r, c) * 2.0 * std::numbers::pi * r * c / n;
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-8);
+  EXPECT_EQ(compare::lucy_kernel(c, c), 0.0);
+  EXPECT_EQ(compare::lucy_kernel(2 * c, c), 0.0);
+}
+
+// A square lattice (spacing d) whose contacts carry the forces of a uniform stress state
+// σ_xx = −p, σ_zz = −q, σ_xz = τ: each horizontal contact f = (−p d, τ d) on the left particle
+// from the right one, each vertical contact f = (τ d, −q d) on the lower from the upper
+// (σ = Σ f ⊗ l / A with one contact of each kind per cell of area d²). The kernel average must
+// give the uniform state back away from the lattice's edge.
+TEST(CoarseGrain, UniformStressIsRecovered) {
+  const double d = 0.1, p = 3.0e4, q = 5.0e4, tau = 1.0e4;
+  const int n = 40;
+  compare::CgParticles parts;
+  std::vector<compare::CgContact> contacts;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      parts.x.push_back(i * d);
+      parts.z.push_back(j * d);
+      parts.mass.push_back(1.0);
+      if (i + 1 < n) contacts.push_back({i * d, j * d, (i + 1) * d, j * d, -p * d, tau * d});
+      if (j + 1 < n) contacts.push_back({i * d, j * d, i * d, (j + 1) * d, tau * d, -q * d});
+    }
+  compare::Grid g;
+  g.x0 = g.z0 = 0.0;
+  g.h = 0.05;
+  g.nx = g.nz = 79;
+  const double c = 2.0 * d; // two particle diameters
+  const auto f = compare::coarse_grain(parts, contacts, g, c);
+  int checked = 0;
+  for (int k = 0; k < g.nz; ++k)
+    for (int i = 0; i < g.nx; ++i) {
+      const double x = g.x(i), z = g.z(k);
+      if (x < c + d || x > (n - 1) * d - c - d || z < c + d || z > (n - 1) * d - c - d) continue;
+      const auto a = g.at(i, k);
+      EXPECT_NEAR(f.sxx[a], -p, 0.01 * p) << x << " " << z;
+      EXPECT_NEAR(f.szz[a], -q, 0.01 * q) << x << " " << z;
+      EXPECT_NEAR(f.sxz[a], tau, 0.01 * q) << x << " " << z;
+      ++checked;
+    }
+  EXPECT_GT(checked, 500);
+}
+
+// Particles at random positions displaced by u = A x + b: the affine fit gives u and its gradient
+// exactly at every node with enough particles in reach.
+TEST(CoarseGrain, LinearDisplacementGivesItsStrain) {
+  const double a11 = 0.01, a12 = -0.004, a21 = 0.006, a22 = -0.02, b1 = 0.3, b2 = -0.1;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(0.0, 4.0);
+  compare::CgParticles parts;
+  for (int k = 0; k < 1500; ++k) {
+    const double x = U(rng), z = U(rng);
+    parts.x.push_back(x);
+    parts.z.push_back(z);
+    parts.mass.push_back(0.5 + 0.25 * U(rng));
+    parts.ux.push_back(a11 * x + a12 * z + b1);
+    parts.uz.push_back(a21 * x + a22 * z + b2);
+  }
+  compare::Grid g;
+  g.x0 = g.z0 = 0.5;
+  g.h = 0.25;
+  g.nx = g.nz = 13;
+  const auto f = compare::coarse_grain(parts, {}, g, 0.4);
+  int checked = 0;
+  for (int k = 0; k < g.nz; ++k)
+    for (int i = 0; i < g.nx; ++i) {
+      const auto n = g.at(i, k);
+      ASSERT_TRUE(std::isfinite(f.exx[n]));
+      EXPECT_NEAR(f.ux[n], a11 * g.x(i) + a12 * g.z(k) + b1, 1e-9);
+      EXPECT_NEAR(f.uz[n], a21 * g.x(i) + a22 * g.z(k) + b2, 1e-9);
+      EXPECT_NEAR(f.exx[n], a11, 1e-9);
+      EXPECT_NEAR(f.ezz[n], a22, 1e-9);
+      EXPECT_NEAR(f.exz[n], 0.5 * (a12 + a21), 1e-9);
+      EXPECT_NEAR(f.vol[n], a11 + a22, 1e-9);
+      EXPECT_NEAR(f.rotation[n], 0.5 * (a21 - a12), 1e-9);
+      ++checked;
+    }
+  EXPECT_EQ(checked, 169);
+}
+
+// The kernel neither creates nor loses mass or momentum: the coarse-grained density and momentum
+// integrated over a grid covering every particle's kernel equal Σ m and Σ m v.
+TEST(CoarseGrain, MassAndMomentumAreConserved) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  compare::CgParticles parts;
+  double m = 0, px = 0, pz = 0;
+  for (int k = 0; k < 300; ++k) {
+    parts.x.push_back(1.0 + 2.0 * U(rng));
+    parts.z.push_back(1.0 + 1.5 * U(rng));
+    parts.mass.push_back(1.0 + U(rng));
+    parts.vx.push_back(U(rng) - 0.3);
+    parts.vz.push_back(2.0 * U(rng) - 1.0);
+    m += parts.mass.back();
+    px += parts.mass.back() * parts.vx.back();
+    pz += parts.mass.back() * parts.vz.back();
+  }
+  const double c = 0.3;
+  compare::Grid g;
+  g.x0 = g.z0 = 0.0;
+  g.h = c / 10.0;
+  g.nx = static_cast<int>(4.0 / g.h) + 1;
+  g.nz = static_cast<int>(3.5 / g.h) + 1;
+  const auto f = compare::coarse_grain(parts, {}, g, c);
+  double M = 0, PX = 0, PZ = 0;
+  for (std::size_t n = 0; n < g.size(); ++n) { // Σ h² (a Riemann sum of the integral)
+    M += f.density[n] * g.h * g.h;
+    PX += f.px[n] * g.h * g.h;
+    PZ += f.pz[n] * g.h * g.h;
+  }
+  EXPECT_NEAR(M, m, 2e-3 * m);
+  EXPECT_NEAR(PX, px, 2e-3 * m);
+  EXPECT_NEAR(PZ, pz, 2e-3 * m);
+}

@@ -1,0 +1,186 @@
+// The metric table (issue 9 item 4): one quantity, one name; the static / increment / oscillation
+// split; divergence measured on increments.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <set>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "demfem/compare/metrics.hpp"
+#include "demfem/compare/report.hpp"
+
+namespace fs = std::filesystem;
+using namespace demfem;
+
+namespace {
+
+// A run directory shaped like the retaining wall's: walls.csv with thrust, reaction_x and
+// reaction_z, and structures.csv with the same forces under force_x / force_z, in both solvers.
+fs::path wall_run(const std::string& name) {
+  const fs::path run = fs::temp_directory_path() / name;
+  fs::remove_all(run);
+  for (const char* s : {"dem", "continuum"}) {
+    fs::create_directories(run / s);
+    const bool dem = std::string(s) == "dem";
+    std::ofstream w(run / s / "walls.csv");
+    w << "time [s],wall.thrust [N],wall.reaction_x [N],wall.reaction_z [N]\n";
+    std::ofstream st(run / s / "structures.csv");
+    st << "time [s],wall.settlement [m],wall.rotation [rad],wall.moment [N·m],wall.force_x [N],"
+          "wall.force_z [N],wall.applied_moment [N·m],wall.displacement_x [m]\n";
+    for (int k = 0; k <= 300; ++k) {
+      const double t = 0.01 * k;
+      // at rest until 1 s, then a mean rise and an oscillation at 2 Hz
+      const double load = t > 1.0 ? 1.0 : 0.0;
+      const double thrust =
+          (dem ? 200.0 : 100.0) +
+          load * ((dem ? 50.0 : 10.0) * (t - 1.0) + 20.0 * std::sin(4 * std::numbers::pi * t));
+      const double fz = (dem ? 40.0 : 30.0) + load * 5.0 * (t - 1.0);
+      w << fmt::format("{},{},{},{}\n", t, thrust, thrust, fz);
+      st << fmt::format("{},0,0,{},{},{},0,0\n", t, 3.0 * thrust, thrust, fz);
+    }
+  }
+  return run;
+}
+
+scene::Scene shaken_scene() {
+  scene::Scene s;
+  scene::Shaking sh;
+  sh.acceleration = scene::TimeFunction::sine(1.0, 2.0, 0.0, 1.0);
+  s.load.shaking = sh;
+  scene::Structure w;
+  w.name = "wall";
+  w.kind = scene::StructureKind::Wall;
+  s.structures.push_back(w);
+  return s;
+}
+
+} // namespace
+
+// Issue 9: the report listed wall.thrust, wall.force_x and wall.reaction_x (identical), and
+// wall.force_z and wall.reaction_z (identical). Each physical quantity must appear once.
+TEST(Metrics, NoQuantityTwiceAndNoTwoIdenticalSeries) {
+  const auto run = wall_run("demfem_test_metrics_dedup");
+  const auto sc = shaken_scene();
+  const auto set = compare::collect_metrics(run, &sc);
+  ASSERT_FALSE(set.series.empty());
+  std::set<std::string> keys, quantities;
+  for (const auto& m : set.series) {
+    EXPECT_TRUE(keys.insert(m.def.key).second) << "key twice: " << m.def.key;
+    EXPECT_TRUE(quantities.insert(m.def.quantity).second) << "quantity twice: " << m.def.quantity;
+    EXPECT_FALSE(m.def.dem_source.empty());
+    EXPECT_FALSE(m.def.continuum_source.empty());
+  }
+  for (std::size_t a = 0; a < set.series.size(); ++a)
+    for (std::size_t b = a + 1; b < set.series.size(); ++b) {
+      EXPECT_NE(set.series[a].dem.y, set.series[b].dem.y)
+          << set.series[a].def.key << " and " << set.series[b].def.key << " are identical (DEM)";
+      EXPECT_NE(set.series[a].continuum.y, set.series[b].continuum.y)
+          << set.series[a].def.key << " and " << set.series[b].def.key
+          << " are identical (continuum)";
+    }
+  // thrust and the vertical force are the two quantities; the moment (3 × thrust here) is a
+  // different quantity with its own unit; the others are zero in both and fixed by the scene.
+  EXPECT_TRUE(keys.count("wall.thrust"));
+  EXPECT_TRUE(keys.count("wall.reaction_z"));
+  EXPECT_FALSE(keys.count("wall.force_x"));
+  EXPECT_FALSE(keys.count("wall.reaction_x"));
+  EXPECT_FALSE(keys.count("wall.force_z"));
+  EXPECT_EQ(set.aliases.size(), 3u);
+  for (const auto& z : set.zero) EXPECT_NE(z.note.find("fixes"), std::string::npos) << z.def.key;
+}
+
+TEST(Metrics, SplitIntoStaticIncrementAndOscillation) {
+  // y = 5 at rest (t < 1), then 5 + 2 + 3 sin(2π·2t): static 5, mean increment 2, amplitude 3.
+  compare::TimeSeries s;
+  for (int k = 0; k <= 1000; ++k) {
+    const double t = 0.005 * k;
+    s.t.push_back(t);
+    s.y.push_back(5.0 + (t > 1.0 ? 2.0 + 3.0 * std::sin(4 * std::numbers::pi * t) : 0.0));
+  }
+  scene::Scene sc = shaken_scene();
+  const auto o = compare::split_options(&sc, 5.0);
+  EXPECT_DOUBLE_EQ(o.load_start, 1.0);
+  EXPECT_NEAR(o.window, 1.0, 1e-12); // two whole 0.5 s periods
+  const auto r = compare::split_series(s, o);
+  EXPECT_NEAR(r.static_value, 5.0, 1e-12);
+  EXPECT_NEAR(r.mean_increment, 2.0, 0.02);
+  EXPECT_NEAR(r.amplitude, 3.0, 0.03);
+  // the moving mean removes the oscillation away from the edges
+  for (std::size_t i = 0; i < s.t.size(); ++i)
+    if (s.t[i] > 1.6 && s.t[i] < 4.4) {
+      EXPECT_NEAR(r.mean[i], 2.0, 0.02) << s.t[i];
+    }
+}
+
+// A static offset alone (the two models at rest differ, their responses do not) is not a
+// divergence: divergence is measured on the increments.
+TEST(Metrics, StaticOffsetIsNotADivergence) {
+  compare::MetricSeries m;
+  m.def.key = "x";
+  m.def.unit = "N";
+  for (int k = 0; k <= 400; ++k) {
+    const double t = 0.01 * k;
+    const double inc = t > 1.0 ? 10.0 * (t - 1.0) + std::sin(4 * std::numbers::pi * t) : 0.0;
+    m.dem.t.push_back(t);
+    m.dem.y.push_back(1000.0 + inc);
+    if (k % 5 == 0) { // coarser, at rest 40 % lower
+      m.continuum.t.push_back(t);
+      m.continuum.y.push_back(600.0 + inc);
+    }
+  }
+  scene::Scene sc = shaken_scene();
+  const auto o = compare::split_options(&sc, 4.0);
+  const auto row = compare::compare_metric(m, o, 0.2);
+  EXPECT_NEAR(row.static_part.relative(), -0.4, 1e-9);
+  EXPECT_FALSE(row.diverges) << row.verdict;
+  EXPECT_LT(row.first_divergence, 0.0);
+  EXPECT_NE(row.verdict.find("agree"), std::string::npos);
+  // The same pair with half the continuum's increment diverges, after the load starts.
+  for (auto& y : m.continuum.y) y = 600.0 + 0.5 * (y - 600.0);
+  const auto row2 = compare::compare_metric(m, o, 0.2);
+  EXPECT_TRUE(row2.diverges);
+  EXPECT_GT(row2.first_divergence, 1.0);
+  EXPECT_NEAR(row2.increment.relative(), -0.5, 0.01);
+}
+
+TEST(Metrics, ReportHasOneRowPerQuantityAndAVerdict) {
+  const auto run = wall_run("demfem_test_metrics_report");
+  const auto sc = shaken_scene();
+  compare::ReportOptions o;
+  o.title = "test";
+  o.scene = &sc;
+  o.fields = false;
+  const auto r = compare::write_report(run, o);
+  ASSERT_EQ(r.compared.size(), 3u); // thrust, vertical force, soil moment
+  EXPECT_EQ(r.compared[0].def.key, "wall.thrust");
+  // DEM: static 200, rise 50/s; continuum: static 100, rise 10/s → increments diverge.
+  EXPECT_NEAR(r.compared[0].static_part.dem, 200.0, 1e-9);
+  EXPECT_NEAR(r.compared[0].static_part.continuum, 100.0, 1e-9);
+  EXPECT_TRUE(r.compared[0].diverges);
+  EXPECT_GT(r.compared[0].first_divergence, 1.0);
+  std::ifstream h(r.html);
+  const std::string html((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("diverge"), std::string::npos);
+  EXPECT_EQ(html.find("wall.force_x [N]</td>"), std::string::npos);
+}
+
+// A series one solver writes as 0 throughout (nothing measured: e.g. a structure no particle
+// touches) is reported as not comparable, not as a divergence.
+TEST(Metrics, ZeroInOneSolverIsNotComparable) {
+  compare::MetricSeries m;
+  m.def.key = "f.moment";
+  m.def.unit = "N·m";
+  for (int k = 0; k <= 100; ++k) {
+    m.dem.t.push_back(0.1 * k);
+    m.dem.y.push_back(0.0);
+    m.continuum.t.push_back(0.1 * k);
+    m.continuum.y.push_back(std::sin(0.1 * k));
+  }
+  const auto row = compare::compare_metric(m, compare::split_options(nullptr, 10.0), 0.2);
+  EXPECT_FALSE(row.comparable);
+  EXPECT_FALSE(row.diverges);
+  EXPECT_NE(row.verdict.find("not comparable"), std::string::npos);
+}
