@@ -21,6 +21,7 @@
 #include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/report.hpp"
+#include "demfem/compare/study.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -739,6 +740,45 @@ int cmd_check(const std::string& path, bool quiet, bool resolved) {
   return kOk;
 }
 
+// `demfem study stability SCENE` (issue 11): the DEM rows of the stability matrix.
+int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a,
+              double duration) {
+  if (kind == "error-vs-time")
+    return not_built("study error-vs-time", "the error-vs-time study is a later issue");
+  if (kind != "stability") {
+    fmt::print(stderr, "demfem study: unknown study '{}'; valid: stability, error-vs-time\n", kind);
+    return kBadInput;
+  }
+  int rc = kOk;
+  const auto file = load_or_report(path, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  for (const scene::Scene* s : scenes) {
+    if (!s->soil.dem) {
+      fmt::print(stderr, "{}: error: soil.dem: the stability study runs the DEM model; the scene "
+                         "has no [soil.dem] (continuum rows are not built yet)\n",
+                 path);
+      return kBadInput;
+    }
+    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name / "study-stability"
+                                 : fs::path(a.out);
+    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
+      out /= s->variant.empty() ? "base" : s->variant;
+    setup_run_log(out, false);
+    compare::StudyOptions o;
+    o.out_dir = out;
+    o.threads = a.threads;
+    if (duration > 0.0) o.duration = duration;
+    const auto rows = compare::stability_study(*s, o);
+    compare::write_stability_study(rows, *s, out);
+    for (const auto& r : rows)
+      spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
+    spdlog::info("{}: stability study in {}", s->label(), (out / "study.html").string());
+  }
+  return kOk;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -803,10 +843,19 @@ int main(int argc, char** argv) {
   compare->add_option("--degree", ra.degree, "Continuum: polynomial degree");
   compare->footer(kExitCodes);
   std::string study_kind;
-  auto* study = app.add_subcommand("study", "error-vs-time or stability study. (not built yet)");
-  study->add_option("kind", study_kind, "error-vs-time | stability")->required();
-  study->add_option("scene", other_scene, "Scene file")->required();
-  study->add_option("--out", ra.out, "Output directory");
+  double study_duration = 0.0;
+  auto* study = app.add_subcommand(
+      "study", "stability study (DEM rows: stiff and extreme variants → study.json, study.md, "
+               "study.html); error-vs-time is not built yet.");
+  study->add_option("kind", study_kind, "stability | error-vs-time")->required();
+  study->add_option("scene", other_scene, "Scene file")->required()->check(CLI::ExistingFile);
+  study->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
+  study->add_option("--out", ra.out, "Output directory (default runs/<scene>/study-stability)");
+  study->add_option("--duration", study_duration, "Simulated time of every row [s] (default: "
+                                                  "the scene's)")
+      ->check(CLI::PositiveNumber);
+  study->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
   study->footer(kExitCodes);
   CalibrateArgs ca;
   auto* calibrate = app.add_subcommand(
@@ -850,8 +899,7 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);
     if (*compare) return cmd_compare(ra);
-    if (*study)
-      return not_built("study", "the error-vs-time and stability studies are a later issue");
+    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration);
     if (*calibrate) return cmd_calibrate(ra, ca);
     if (*pack) return cmd_pack(ra);
   } catch (const std::exception& e) {

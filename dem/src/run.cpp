@@ -73,8 +73,8 @@ std::pair<double, double> chord_normal(const std::vector<scene::Vec2>& v) {
 // Energy budget at the end of a run: printed (spdlog, info) and written to energy_budget.json.
 // Closure error = |ΔE_total| / (|gravity work| + |external work|), ΔE_total the change of
 // kinetic + potential + springs + dissipated − external work since the first probe.
-void log_energy_budget(const EnergyBudget& b, double e0, double t,
-                       const std::filesystem::path& json_path) {
+double log_energy_budget(const EnergyBudget& b, double e0, double t,
+                         const std::filesystem::path& json_path) {
   const double injected = std::abs(b.gravity_work) + std::abs(b.external_work);
   const double imbalance = b.total() - e0;
   const double closure = injected > 0.0 ? std::abs(imbalance) / injected : 0.0;
@@ -104,6 +104,7 @@ void log_energy_budget(const EnergyBudget& b, double e0, double t,
     js += fmt::format("  \"{}\": {:.17g},\n", keys[k], rows[k].second);
   js += fmt::format("  \"closure_error\": {:.17g}\n}}\n", closure);
   scene::write_file_atomic(json_path, js);
+  return closure;
 }
 
 // Run-loop state stored next to the engine state in a checkpoint's extra blob.
@@ -382,6 +383,48 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   double& e0 = ls.e0;
   double& energy_scale = ls.energy_scale;
   bool& e0_set = ls.e0_set;
+  // The particle with the most kinetic (translational + rotational) energy, for stop messages.
+  auto most_energetic = [&] {
+    const auto& p = e.particles();
+    std::size_t best = p.size();
+    double eb = -1.0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (p.flags[i] & kFlagRemoved) continue;
+      const double ek = 0.5 * p.mass[i] * (p.vx[i] * p.vx[i] + p.vz[i] * p.vz[i]) +
+                        0.5 * p.omega[i] * p.omega[i] / p.inv_inertia[i]; // ½mv² + ½Iω²
+      if (ek > eb) {
+        eb = ek;
+        best = i;
+      }
+    }
+    if (best == p.size()) return std::string("no particles");
+    return fmt::format("largest-energy particle: id {} at ({:.4g}, {:.4g}) m, r = {:.4g} m, "
+                       "{:.4g} J",
+                       p.id[best], p.x[best], p.z[best], p.radius[best], eb);
+  };
+  // Energy-closure watch (issue 11): |imbalance| over the largest energy put in so far.
+  const double closure_warn = scene.soil.dem->energy_warning;
+  const double closure_stop = scene.soil.dem->energy_limit;
+  bool closure_warned = false;
+  auto watch_closure = [&](double imbalance, double t) -> std::string {
+    if (!(energy_scale > 0.0)) return {};
+    const double closure = std::abs(imbalance) / energy_scale;
+    if (!std::isfinite(closure) || (closure_stop > 0.0 && closure > closure_stop))
+      return fmt::format("energy closure error {:.4g} exceeds soil.dem.energy_limit = {:g} "
+                         "(imbalance {:.4g} J against {:.4g} J put in: the time step does not "
+                         "resolve the contacts or the motion; lower soil.dem.dt or dt_safety); {}",
+                         closure, closure_stop, imbalance, energy_scale, most_energetic());
+    // Not in the first 100 steps: the staggered kinetic energy of leapfrog differs from the
+    // energy at the positions by ½ m g v Δt, a fraction Δt/(2t) of the work in a free fall.
+    if (closure_warn > 0.0 && closure > closure_warn && !closure_warned && e.stats().steps >= 100) {
+      closure_warned = true;
+      spdlog::warn("energy closure error {:.4g} at step {} (t = {:.6g} s) exceeds "
+                   "soil.dem.energy_warning = {:g} (imbalance {:.4g} J against {:.4g} J put in); "
+                   "a smaller dt (soil.dem.dt_safety) closes it better",
+                   closure, e.stats().steps, t, closure_warn, imbalance, energy_scale);
+    }
+    return {};
+  };
   auto write_probes = [&] {
     const double t = e.time();
     const auto b = e.energy();
@@ -397,8 +440,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // (energy_scale starts at the initial kinetic energy and never decreases)
     if (b.kinetic + b.rotational > 10.0 * energy_scale + 1e-9 && t > 0.0 && !e.failed())
       return fmt::format("energy jump: kinetic energy {:.4g} J exceeds 10 × the energy put in "
-                         "({:.4g} J)",
-                         b.kinetic + b.rotational, energy_scale);
+                         "({:.4g} J); {}",
+                         b.kinetic + b.rotational, energy_scale, most_energetic());
+    if (e0_set) {
+      if (auto stop = watch_closure(b.total() - e0, t); !stop.empty()) return stop;
+    }
     if (struct_csv) {
       std::vector<double> row{t};
       for (const auto& s : e.structures())
@@ -417,8 +463,25 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       }
       wall_csv->append(row);
     }
-    const bool need_contacts = !pressure_csv.empty() || coord_csv;
-    if (need_contacts) e.contacts(contacts);
+    // Largest overlap ratio δ/r (issue 11 studies): pairs from the positions, boundary contacts
+    // from the linear spring force δ = f_n/K_n (eq. 2.6).
+    e.contacts(contacts);
+    {
+      const auto& p = e.particles();
+      const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
+      for (const auto& c : contacts) {
+        const double ri = p.radius[c.i];
+        if (c.j >= 0) {
+          const auto j = static_cast<std::size_t>(c.j);
+          const double d = std::hypot(p.x[c.i] - p.x[j], p.z[c.i] - p.z[j]);
+          summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
+                                               (ri + p.radius[j] - d) / std::min(ri, p.radius[j]));
+        } else if (linear && c.fn > 0.0) {
+          summary.max_overlap_ratio =
+              std::max(summary.max_overlap_ratio, c.fn / e.config().kn / ri);
+        }
+      }
+    }
     for (auto& [k, w] : pressure_csv) {
       const auto& pr = scene.probes[k];
       const int bi = e.boundary_index(pr.target);
@@ -577,8 +640,13 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (!failure.empty()) break;
     e.step();
     if (!e0_set) {
-      e0 = e.energy().total();
+      const auto b0 = e.energy();
+      e0 = b0.total();
       e0_set = true;
+      // The springs of initially overlapping particles are known only now: their energy is put
+      // in too (else the energy-jump check stops a bed released from overlaps, issue 11).
+      energy_scale =
+          std::max(energy_scale, b0.kinetic + b0.rotational + b0.spring_normal + b0.spring_shear);
     }
     if (e.failed()) {
       failure = e.failure();
@@ -609,7 +677,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (*w) (*w)->flush();
   for (auto& pw : pressure_csv) pw.second.flush();
   report("dem");
-  log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
+  summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a particle checkpoint (readable without the engine); a failed write throws.
   {
     io::CheckpointMeta meta;
@@ -622,6 +690,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   summary.steps = e.stats().steps;
   summary.simulated_time = e.time();
   summary.wall_seconds = seconds_since(t_start);
+  summary.dt = e.dt();
   if (failure.empty()) {
     summary.ok = true;
   } else {

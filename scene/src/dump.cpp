@@ -147,6 +147,8 @@ std::string to_toml(const Scene& s) {
                     {"dt", d->dt},
                     {"dt_safety", d->dt_safety},
                     {"max_overlap", d->max_overlap},
+                    {"energy_warning", d->energy_warning},
+                    {"energy_limit", d->energy_limit},
                     {"fill", pts(d->fill)},
                     {"packing",
                      toml::table{{"ke_ratio", d->packing.ke_ratio},

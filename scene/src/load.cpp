@@ -499,6 +499,8 @@ DemSoil read_dem_soil(Reader& r) {
   s.dt = r.non_negative("dt", s.dt);
   s.dt_safety = r.in_range("dt_safety", s.dt_safety, 1e-6, 1.0);
   s.max_overlap = r.in_range("max_overlap", s.max_overlap, 1e-6, 2.0);
+  s.energy_warning = r.non_negative("energy_warning", s.energy_warning);
+  s.energy_limit = r.non_negative("energy_limit", s.energy_limit);
   s.fill = r.polygon("fill", false);
   if (const auto* pt = r.table("packing")) {
     Reader p(*pt, r.key_path("packing"), r.file(), r.diags(), pt->source());
@@ -609,6 +611,8 @@ DemSoil read_dem_soil(Reader& r) {
             "dt",
             "dt_safety",
             "max_overlap",
+            "energy_warning",
+            "energy_limit",
             "fill",
             "packing",
             "particles",

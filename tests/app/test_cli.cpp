@@ -114,7 +114,7 @@ TEST(Cli, RunUnknownSolverIsBadInput) {
 
 TEST(Cli, UnbuiltSubcommandsSaySoAndExit2) {
   const std::string scene = (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string();
-  for (const std::string& args : {"study stability " + scene}) {
+  for (const std::string& args : {"study error-vs-time " + scene}) {
     const auto r = run(args);
     EXPECT_EQ(r.code, 2) << args;
     EXPECT_NE(r.out.find("not built yet"), std::string::npos) << args << "\n" << r.out;

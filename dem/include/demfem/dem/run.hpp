@@ -28,6 +28,9 @@ struct RunSummary {
   double simulated_time = 0.0;
   double wall_seconds = 0.0;
   std::size_t particles = 0;
+  double dt = 0.0;                // the step used [s] (0: refused before it was set)
+  double closure_error = 0.0;     // end-of-run |imbalance| / (|gravity work| + |external work|)
+  double max_overlap_ratio = 0.0; // largest δ/r seen at the probes (r the smaller radius)
 };
 
 // Runs the scene's DEM model. Throws scene::SceneError for a scene the engine cannot build

@@ -119,6 +119,12 @@ struct DemSoil {
   // contact (the former default 0.05 × 2√(m_min/k_max) = 0.1√(m_min/k_n)).
   double dt_safety = 0.14;
   double max_overlap = 0.5; // blow-up: overlap beyond this fraction of the radius
+  // Energy-closure watch during a run (issue 11), checked at every probe: |ΔE_total| over the
+  // largest energy put in so far (gravity + external work + springs, or the initial kinetic
+  // energy). Above energy_warning: one warning naming the step; above energy_limit: the run
+  // stops (exit 1) naming step, time and the particle with the most kinetic energy. 0 = off.
+  double energy_warning = 0.05;
+  double energy_limit = 1.0;
   Polygon fill;             // region filled by packing (default: the domain polygon)
   Packing packing;
   // Explicit particles [x, z, r, vx, vz, ω] (verification scenes); when given, no packing is

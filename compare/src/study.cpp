@@ -1,0 +1,264 @@
+// `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
+#include "demfem/compare/study.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "demfem/dem/run.hpp"
+#include "demfem/dem/stable_step.hpp"
+#include "demfem/scene/load.hpp"
+
+namespace demfem::compare {
+
+namespace {
+
+struct Variant {
+  std::string name, description;
+  // Edits the scene copy; returns "" or why the variant does not apply to this scene.
+  std::function<std::string(scene::Scene&)> apply;
+};
+
+double limit_of(const scene::Scene& s) {
+  const auto b = dem::scene_critical_step(s);
+  return b ? b->dt : 0.0;
+}
+
+std::vector<Variant> dem_variants(const scene::Scene& base) {
+  std::vector<Variant> v;
+  v.push_back({"base", "the scene as given", [](scene::Scene&) { return std::string(); }});
+  for (const double f : {10.0, 100.0, 1000.0})
+    v.push_back({fmt::format("kn-x{:g}", f),
+                 fmt::format("K_n and K_s (hertz-mindlin: E) × {:g}, automatic Δt", f),
+                 [f](scene::Scene& s) {
+                   auto& d = *s.soil.dem;
+                   d.kn *= f;
+                   d.ks *= f;
+                   d.young *= f;
+                   d.dt = 0.0;
+                   return std::string();
+                 }});
+  const double lim = limit_of(base);
+  for (const double f : {0.5, 0.9, 1.1, 2.0})
+    v.push_back({fmt::format("dt-{:g}", f), fmt::format("Δt = {:g} × the stable limit", f),
+                 [f, lim](scene::Scene& s) {
+                   if (!(lim > 0.0)) return std::string("no stable limit (no particle radius)");
+                   s.soil.dem->dt = f * lim;
+                   return std::string();
+                 }});
+  for (const double mu : {0.0, 2.0})
+    v.push_back(
+        {fmt::format("mu-{:g}", mu), fmt::format("μ_s = μ_D = {:g}", mu), [mu](scene::Scene& s) {
+           s.soil.dem->mu_static = s.soil.dem->mu_dynamic = mu;
+           return std::string();
+         }});
+  v.push_back({"radius-ratio-10", "radii uniform in [r_max/10, r_max] (packed scenes)",
+               [](scene::Scene& s) {
+                 auto& d = *s.soil.dem;
+                 if (!d.particles.empty())
+                   return std::string("the scene lists its particles; their radii are given");
+                 const double rmax =
+                     d.radius.kind == scene::RadiusDistribution::Kind::Table ? 0.0 : d.radius.max;
+                 if (!(rmax > 0.0)) return std::string("radius table: not rescaled");
+                 d.radius.kind = scene::RadiusDistribution::Kind::Uniform;
+                 d.radius.min = rmax / 10.0;
+                 d.radius.max = rmax;
+                 d.dt = 0.0;
+                 return std::string();
+               }});
+  v.push_back({"shaking-2000gal-20hz", "base shaking 20 m/s² (2000 gal) at 20 Hz along x",
+               [](scene::Scene& s) {
+                 scene::Shaking sh;
+                 sh.direction = 'x';
+                 sh.acceleration = scene::TimeFunction::sine(20.0, 20.0);
+                 s.load.shaking = sh;
+                 return std::string();
+               }});
+  v.push_back({"overlap-20pct", "listed radii × 1.1: touching neighbours overlap by 0.2 r",
+               [](scene::Scene& s) {
+                 auto& d = *s.soil.dem;
+                 if (d.particles.empty())
+                   return std::string("packed scene: the packing sets the overlaps");
+                 for (auto& q : d.particles) q[2] *= 1.1;
+                 d.radius.min *= 1.1;
+                 d.radius.max *= 1.1;
+                 d.dt = 0.0;
+                 return std::string();
+               }});
+  for (const char* pk : {"loose", "dense"})
+    v.push_back({fmt::format("{}-packing", pk), fmt::format("{} packing", pk), [pk](scene::Scene&) {
+                   return fmt::format("run the scene's {} packing variant ([soil.dem.packing] "
+                                      "target) as its own study",
+                                      pk);
+                 }});
+  return v;
+}
+
+std::string md_escape(std::string s) {
+  std::string out;
+  for (const char c : s) {
+    if (c == '|')
+      out += "\\|";
+    else if (c == '\n')
+      out += ' ';
+    else
+      out += c;
+  }
+  return out;
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    switch (c) {
+    case '<':
+      out += "&lt;";
+      break;
+    case '>':
+      out += "&gt;";
+      break;
+    case '&':
+      out += "&amp;";
+      break;
+    default:
+      out += c;
+    }
+  }
+  return out;
+}
+
+} // namespace
+
+std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyOptions& o) {
+  if (!base.soil.dem) {
+    scene::Diagnostic d;
+    d.file = base.source_file;
+    d.key = "soil.dem";
+    d.message = "the stability study runs the DEM model: the scene needs a [soil.dem] section";
+    throw scene::SceneError({d});
+  }
+  std::vector<StabilityRow> rows;
+  for (const auto& var : dem_variants(base)) {
+    StabilityRow row;
+    row.name = var.name;
+    row.description = var.description;
+    scene::Scene s = base;
+    if (o.duration) s.info.duration = *o.duration;
+    s.output.vtk = false;
+    s.output.figures = false;
+    if (auto why = var.apply(s); !why.empty()) {
+      row.outcome = "not applicable";
+      row.cause = why;
+      rows.push_back(row);
+      continue;
+    }
+    row.dt_limit = limit_of(s);
+    dem::RunOptions ro;
+    ro.out_dir = o.out_dir / "rows" / var.name;
+    ro.threads = o.threads;
+    std::filesystem::remove_all(ro.out_dir);
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      const auto r = dem::run(s, ro);
+      row.outcome = r.ok ? "completed" : "stopped";
+      row.cause = r.message;
+      row.dt = r.dt;
+      row.closure = r.closure_error;
+      row.max_overlap_ratio = r.max_overlap_ratio;
+      row.steps = r.steps;
+      row.simulated_time = r.simulated_time;
+    } catch (const scene::SceneError& e) {
+      row.outcome = "refused";
+      row.cause = e.diagnostics().empty() ? e.what() : e.diagnostics().front().message;
+    } catch (const std::exception& e) {
+      row.outcome = "stopped";
+      row.cause = e.what();
+    }
+    row.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+void write_stability_study(const std::vector<StabilityRow>& rows, const scene::Scene& s,
+                           const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  nlohmann::json j;
+  j["study"] = "stability";
+  j["scene"] = s.label();
+  j["source"] = s.source_file;
+  j["solver"] = "dem";
+  j["duration"] = s.info.duration;
+  auto& jr = j["rows"];
+  jr = nlohmann::json::array();
+  for (const auto& r : rows)
+    jr.push_back({{"name", r.name},
+                  {"description", r.description},
+                  {"outcome", r.outcome},
+                  {"cause", r.cause},
+                  {"dt", r.dt},
+                  {"dt_limit", r.dt_limit},
+                  {"dt_over_limit", r.dt_limit > 0.0 ? r.dt / r.dt_limit : 0.0},
+                  {"energy_closure", r.closure},
+                  {"max_overlap_ratio", r.max_overlap_ratio},
+                  {"steps", r.steps},
+                  {"simulated_time", r.simulated_time},
+                  {"wall_seconds", r.wall_seconds}});
+  std::ofstream(dir / "study.json") << j.dump(2) << "\n";
+
+  auto num = [](double v, const char* f) {
+    return v > 0.0 ? fmt::format(fmt::runtime(f), v) : std::string("–");
+  };
+  std::string md = fmt::format("# DEM stability study: {}\n\n", s.label());
+  md += "Outcome: completed, refused at setup (the cause), or stopped (step, time, particle, "
+        "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
+        "Overlap: the largest δ/r seen at the probes.\n\n";
+  md += "| row | change | outcome | Δt [s] | Δt / limit | energy closure | max δ/r | steps | "
+        "wall [s] | cause |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  std::string html = fmt::format(
+      "<!doctype html><html><head><meta charset=\"utf-8\"><title>DEM stability study: {0}</title>"
+      "<style>body{{font-family:sans-serif}}table{{border-collapse:collapse}}td,th{{border:1px "
+      "solid #aaa;padding:3px 6px;font-size:13px}}.completed{{background:#e6f4e6}}.refused{{"
+      "background:#fff4d6}}.stopped{{background:#fbe3e3}}</style></head><body><h1>DEM stability "
+      "study: {0}</h1><p>Outcome: completed, refused at setup, or stopped (step, time, particle, "
+      "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
+      "Overlap: the largest δ/r seen at the probes.</p><table><tr><th>row</th><th>change</th>"
+      "<th>outcome</th><th>Δt [s]</th><th>Δt / limit</th><th>energy closure</th><th>max δ/r</th>"
+      "<th>steps</th><th>wall [s]</th><th>cause</th></tr>\n",
+      html_escape(s.label()));
+  for (const auto& r : rows) {
+    const std::string ratio = r.dt_limit > 0.0 && r.dt > 0.0
+                                  ? fmt::format("{:.3g}", r.dt / r.dt_limit)
+                                  : std::string("–");
+    const bool ran = r.outcome == "completed" || r.outcome == "stopped";
+    const std::string cells[] = {
+        r.name,
+        r.description,
+        r.outcome,
+        num(r.dt, "{:.3e}"),
+        ratio,
+        ran ? fmt::format("{:.3e}", r.closure) : "–",
+        ran ? fmt::format("{:.3g}", r.max_overlap_ratio) : "–",
+        ran ? fmt::format("{}", r.steps) : "–",
+        r.outcome == "not applicable" ? "–" : fmt::format("{:.2f}", r.wall_seconds),
+        r.cause};
+    md += "|";
+    html += fmt::format("<tr class=\"{}\">", r.outcome == "not applicable" ? "na" : r.outcome);
+    for (const auto& c : cells) {
+      md += " " + md_escape(c) + " |";
+      html += "<td>" + html_escape(c) + "</td>";
+    }
+    md += "\n";
+    html += "</tr>\n";
+  }
+  html += "</table></body></html>\n";
+  std::ofstream(dir / "study.md") << md;
+  std::ofstream(dir / "study.html") << html;
+}
+
+} // namespace demfem::compare
