@@ -1,4 +1,6 @@
 # 1 rank vs 2 ranks: the same scene must give the same probes (distributed PETSc vectors).
+# Fresh run directories: an earlier build's results of an older scene version are refused.
+file(REMOVE_RECURSE ${OUT}/np1 ${OUT}/np2)
 execute_process(COMMAND ${DEMFEM} run ${SCENE} --solver continuum --out ${OUT}/np1
                 RESULT_VARIABLE r1 OUTPUT_QUIET)
 if(NOT r1 EQUAL 0)
