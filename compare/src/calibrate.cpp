@@ -14,6 +14,7 @@
 #include "calibrate_element.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/dem/engine.hpp"
+#include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -30,18 +31,7 @@ double deg(double rad) {
   return rad * 180.0 / kPi;
 }
 
-struct Fnv {
-  std::uint64_t h = 0xcbf29ce484222325ull; // FNV-1a 64 offset basis
-  void bytes(const void* p, std::size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) {
-      h ^= b[i];
-      h *= 0x100000001b3ull; // FNV-1a 64 prime
-    }
-  }
-  void num(double v) { bytes(&v, sizeof v); }
-  void str(const std::string& s) { bytes(s.data(), s.size()); }
-};
+using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
 [[noreturn]] void scene_error(const scene::Scene& s, const std::string& key,
                               const std::string& msg) {

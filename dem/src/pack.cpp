@@ -17,6 +17,7 @@
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
+#include "demfem/dem/key_hash.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
@@ -72,32 +73,7 @@ std::vector<double> draw_radii(const scene::RadiusDistribution& d, int count, st
 
 namespace {
 
-struct Fnv {
-  std::uint64_t h = 0xcbf29ce484222325ull; // FNV-1a 64 offset basis
-  void bytes(const void* p, std::size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) {
-      h ^= b[i];
-      h *= 0x100000001b3ull; // FNV-1a 64 prime
-    }
-  }
-  void num(double v) {
-    if (v == 0.0) v = 0.0; // −0 and +0 hash alike
-    bytes(&v, sizeof v);
-  }
-  void integer(long long v) { bytes(&v, sizeof v); }
-  void str(const std::string& s) {
-    integer(static_cast<long long>(s.size()));
-    bytes(s.data(), s.size());
-  }
-  void points(const std::vector<scene::Vec2>& p) {
-    integer(static_cast<long long>(p.size()));
-    for (const auto& q : p) {
-      num(q.x);
-      num(q.z);
-    }
-  }
-};
+using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
 constexpr int kPackingFormat = 1; // bump when the placement or deposition algorithm changes
 
