@@ -151,35 +151,19 @@ namespace {
   throw scene::SceneError({diag});
 }
 
-double seg_distance(scene::Vec2 p, scene::Vec2 a, scene::Vec2 b) {
-  const double ex = b.x - a.x, ez = b.z - a.z, l2 = ex * ex + ez * ez;
-  const double t =
-      l2 > 0.0 ? std::clamp(((p.x - a.x) * ex + (p.z - a.z) * ez) / l2, 0.0, 1.0) : 0.0;
-  return std::hypot(p.x - a.x - t * ex, p.z - a.z - t * ez);
-}
-
 double boundary_distance(const scene::Polygon& poly, scene::Vec2 p, bool closed) {
   double d = std::numeric_limits<double>::infinity();
   const std::size_t n = poly.size();
   const std::size_t m = closed ? n : (n == 0 ? 0 : n - 1);
-  for (std::size_t k = 0; k < m; ++k) d = std::min(d, seg_distance(p, poly[k], poly[(k + 1) % n]));
+  for (std::size_t k = 0; k < m; ++k)
+    d = std::min(d, scene::segment_distance(p, poly[k], poly[(k + 1) % n]));
   if (n == 1) d = std::hypot(p.x - poly[0].x, p.z - poly[0].z);
   return d;
 }
 
-struct Box {
-  double x0, x1, z0, z1;
-};
-
+using Box = scene::Bounds;
 Box bbox(const scene::Polygon& p) {
-  Box b{p[0].x, p[0].x, p[0].z, p[0].z};
-  for (const auto& q : p) {
-    b.x0 = std::min(b.x0, q.x);
-    b.x1 = std::max(b.x1, q.x);
-    b.z0 = std::min(b.z0, q.z);
-    b.z1 = std::max(b.z1, q.z);
-  }
-  return b;
+  return scene::bounds(p);
 }
 
 // A structure with fill on both sides of it and under it is embedded in the bed. Such a

@@ -77,6 +77,27 @@ Vec2 centroid(const Polygon& p) {
   return {cx / (6.0 * a), cz / (6.0 * a)};
 }
 
+Bounds bounds(const std::vector<Vec2>& p) {
+  Bounds b;
+  if (p.empty()) return b;
+  b.x0 = b.x1 = p[0].x;
+  b.z0 = b.z1 = p[0].z;
+  for (const auto& q : p) {
+    b.x0 = std::min(b.x0, q.x);
+    b.x1 = std::max(b.x1, q.x);
+    b.z0 = std::min(b.z0, q.z);
+    b.z1 = std::max(b.z1, q.z);
+  }
+  return b;
+}
+
+double segment_distance(Vec2 q, Vec2 a, Vec2 b) {
+  const double ex = b.x - a.x, ez = b.z - a.z, l2 = ex * ex + ez * ez;
+  const double t =
+      l2 > 0.0 ? std::clamp(((q.x - a.x) * ex + (q.z - a.z) * ez) / l2, 0.0, 1.0) : 0.0;
+  return std::hypot(q.x - a.x - t * ex, q.z - a.z - t * ez); // point–segment distance
+}
+
 Structure shifted(Structure st, double dz) {
   for (auto& q : st.outline) q.z += dz;
   st.base_centre.z += dz;

@@ -16,33 +16,15 @@ namespace demfem::scene {
 
 namespace {
 
-struct Box {
-  double x0 = 0, x1 = 0, z0 = 0, z1 = 0;
-};
+using Box = Bounds;
 Box bbox(const std::vector<Vec2>& p) {
-  Box b;
-  if (p.empty()) return b;
-  b.x0 = b.x1 = p[0].x;
-  b.z0 = b.z1 = p[0].z;
-  for (const auto& q : p) {
-    b.x0 = std::min(b.x0, q.x);
-    b.x1 = std::max(b.x1, q.x);
-    b.z0 = std::min(b.z0, q.z);
-    b.z1 = std::max(b.z1, q.z);
-  }
-  return b;
-}
-
-double seg_distance(Vec2 a, Vec2 b, Vec2 q) {
-  const double dx = b.x - a.x, dz = b.z - a.z, l2 = dx * dx + dz * dz;
-  double t = l2 > 0.0 ? ((q.x - a.x) * dx + (q.z - a.z) * dz) / l2 : 0.0;
-  t = std::clamp(t, 0.0, 1.0);
-  return std::hypot(a.x + t * dx - q.x, a.z + t * dz - q.z);
+  return bounds(p);
 }
 
 double boundary_distance(const Polygon& p, Vec2 q) {
   double d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0, n = p.size(); i < n; ++i) d = std::min(d, seg_distance(p[i], p[(i + 1) % n], q));
+  for (std::size_t i = 0, n = p.size(); i < n; ++i)
+    d = std::min(d, segment_distance(q, p[i], p[(i + 1) % n]));
   return d;
 }
 
@@ -158,14 +140,17 @@ std::string human_bytes(double b) {
     b /= 1000.0;
     ++k;
   }
-  return k == 6 && b >= 1000.0 ? fmt::format("{:.3g} EB", b) : fmt::format("{:.3g} {}", b, units[k]);
+  return k == 6 && b >= 1000.0 ? fmt::format("{:.3g} EB", b)
+                               : fmt::format("{:.3g} {}", b, units[k]);
 }
 
 DemStepLimitFn g_dem_step_limit = nullptr;
 
 } // namespace
 
-void set_dem_step_limit(DemStepLimitFn fn) { g_dem_step_limit = fn; }
+void set_dem_step_limit(DemStepLimitFn fn) {
+  g_dem_step_limit = fn;
+}
 
 std::string dem_step_refusal(double dt, const DemStepLimit& limit, double auto_dt) {
   return fmt::format("time step {:.4g} s is above the stable limit {:.4g} s ({}); use dt ≤ {:.4g} "
@@ -256,7 +241,8 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
   const Box db = bbox(sc.domain);
   const double size = std::hypot(db.x1 - db.x0, db.z1 - db.z0);
   const double tol = 1e-6 * size;
-  const std::string dom = fmt::format("the domain [{}, {}] × [{}, {}] m", db.x0, db.x1, db.z0, db.z1);
+  const std::string dom =
+      fmt::format("the domain [{}, {}] × [{}, {}] m", db.x0, db.x1, db.z0, db.z1);
 
   // ---- structures: in the domain, clear of walls and of each other -----------------------------
   auto structure_key = [&](std::size_t i) {
@@ -264,8 +250,9 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
     const auto* t = root["structure"][i].as_table();
     const char* k = "base";
     if (t && !t->contains("base")) k = t->contains("polygon") ? "polygon" : "from";
-    return std::pair{locate(root, {"structure", i, k}),
-                     fmt::format("structure[{}].{}", s.name.empty() ? std::to_string(i) : s.name, k)};
+    return std::pair{
+        locate(root, {"structure", i, k}),
+        fmt::format("structure[{}].{}", s.name.empty() ? std::to_string(i) : s.name, k)};
   };
   for (std::size_t i = 0; i < sc.structures.size(); ++i) {
     const auto& s = sc.structures[i];
@@ -419,8 +406,8 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                         ? fmt::format(" plus up to {:.4g} for the deposition", e.packing_steps)
                         : std::string(),
                     kMaxSteps, e.memory_bytes / kBytesPerParticle,
-                    (e.steps + e.packing_steps) * std::max(1.0, e.memory_bytes / kBytesPerParticle) /
-                        1e7 / 86400.0,
+                    (e.steps + e.packing_steps) *
+                        std::max(1.0, e.memory_bytes / kBytesPerParticle) / 1e7 / 86400.0,
                     dt_given ? " or raise soil.dem.dt" : ""));
   }
   if (!too_long && e.output_bytes > kMaxOutputBytes)

@@ -125,7 +125,7 @@ struct DemSoil {
   // stops (exit 1) naming step, time and the particle with the most kinetic energy. 0 = off.
   double energy_warning = 0.05;
   double energy_limit = 1.0;
-  Polygon fill;             // region filled by packing (default: the domain polygon)
+  Polygon fill; // region filled by packing (default: the domain polygon)
   Packing packing;
   // Explicit particles [x, z, r, vx, vz, ω] (verification scenes); when given, no packing is
   // generated and count must equal their number.
@@ -274,8 +274,8 @@ struct Output {
 };
 
 struct Scene {
-  std::string source_file; // where it was read from
-  std::string variant;     // "" for the base scene
+  std::string source_file;         // where it was read from
+  std::string variant;             // "" for the base scene
   std::string variant_description; // the [[variant]]'s description ("" if none)
   Info info;
   Polygon domain;
@@ -302,6 +302,13 @@ struct Scene {
 [[nodiscard]] double signed_area(const Polygon& p); // > 0 when counter-clockwise
 [[nodiscard]] bool self_intersects(const Polygon& p);
 [[nodiscard]] bool contains(const Polygon& p, Vec2 q); // even–odd rule
+// Axis-aligned bounding box of a point list (all zero when empty).
+struct Bounds {
+  double x0 = 0, x1 = 0, z0 = 0, z1 = 0;
+};
+[[nodiscard]] Bounds bounds(const std::vector<Vec2>& p);
+// Distance from q to the segment a–b.
+[[nodiscard]] double segment_distance(Vec2 q, Vec2 a, Vec2 b);
 // The structure moved vertically by dz: outline, base centre, pivot and load point.
 [[nodiscard]] Structure shifted(Structure st, double dz);
 [[nodiscard]] Vec2 centroid(const Polygon& p);
