@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/compare/plot.hpp"
 
 namespace fs = std::filesystem;
@@ -10,10 +12,7 @@ using namespace demfem;
 
 namespace {
 fs::path tmpdir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("demfem_test_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return demfem::test::scratch_dir(name);
 }
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
