@@ -235,3 +235,62 @@ TEST(CheckedWrites, UnwritableOutIsAClearMessage) {
   fs::remove(file);
   fs::remove(scene);
 }
+
+#ifdef DEMFEM_TEST_CONTINUUM
+// The continuum's outputs (.vtu pieces, .pvtu and .pvd records, the CSV series, the surface
+// profile) go through checked writes too: under a file size limit a run either exits 1 naming
+// the file and the cause, or exits 0 with every output complete; never a silent partial output.
+TEST(CheckedWrites, ContinuumFileSizeLimitFailsNamingTheFileOrLeavesCompleteOutputs) {
+  const auto scene = write_temp(
+      "footing.toml", with_values(slurp(kSource / "cases/verification/continuum_footing_load.toml"),
+                                  {{"duration", "0.06"}, {"interval", "0.02"}}));
+  // Open MPI's PMIx keeps its shared-memory store in files far above these limits, so that
+  // MPI_Init itself would fail: the hash store keeps it in memory.
+  ::setenv("PMIX_MCA_gds", "hash", 1);
+  int failed = 0, passed = 0;
+  for (const long long limit : {600LL, 3000LL, 20000LL, 100000000LL}) {
+    const std::string context = "limit " + std::to_string(limit) + " bytes";
+    const fs::path out = scratch("continuum_fsize_" + std::to_string(limit));
+    const fs::path log = out.string() + ".log";
+    Child c({"run", scene.string(), "--solver", "continuum", "--out", out.string()}, log, limit);
+    const auto r = c.wait();
+    ASSERT_TRUE(r.code == 0 || r.code == 1) << context << ": exit " << r.code << "\n" << r.out;
+    for (const auto& [name, bytes] : files_under(out))
+      EXPECT_NE(fs::path(name).extension(), ".tmp") << context << ": left " << name;
+    if (r.code == 1) {
+      ++failed;
+      // "cannot write <out>/continuum/continuum_0000.0.vtu: File too large (writing)", or the
+      // run directory's own files at the smallest limit
+      EXPECT_NE(r.out.find("cannot write "), std::string::npos) << context << "\n" << r.out;
+      EXPECT_NE(r.out.find(out.string()), std::string::npos) << context << "\n" << r.out;
+      EXPECT_NE(r.out.find("File too large"), std::string::npos) << context << "\n" << r.out;
+      EXPECT_EQ(r.out.find("filesystem error"), std::string::npos) << r.out;
+      continue;
+    }
+    ++passed;
+    const fs::path dir = out / "continuum";
+    for (const char* csv : {"structures.csv", "steps.csv", "surface_profile.csv"}) {
+      const auto b = slurp(dir / csv);
+      EXPECT_TRUE(b.size() > 20 && b.back() == '\n') << context << ": " << csv;
+    }
+    const auto pvd = slurp(dir / "continuum.pvd");
+    EXPECT_NE(pvd.find("</VTKFile>"), std::string::npos) << context;
+    int records = 0;
+    for (auto pos = pvd.find("file=\""); pos != std::string::npos;
+         pos = pvd.find("file=\"", pos + 6)) {
+      const auto pvtu = dir / pvd.substr(pos + 6, pvd.find('"', pos + 6) - pos - 6);
+      const auto rec = slurp(pvtu);
+      EXPECT_NE(rec.find("</VTKFile>"), std::string::npos) << context << ": " << pvtu;
+      for (auto q = rec.find("Source=\""); q != std::string::npos;
+           q = rec.find("Source=\"", q + 8)) {
+        const auto piece = dir / rec.substr(q + 8, rec.find('"', q + 8) - q - 8);
+        EXPECT_NE(slurp(piece).find("</VTKFile>"), std::string::npos) << context << ": " << piece;
+      }
+      ++records;
+    }
+    EXPECT_EQ(records, 4) << context; // t = 0, 0.02, 0.04, 0.06
+  }
+  EXPECT_GE(failed, 1);
+  EXPECT_GE(passed, 1);
+}
+#endif
