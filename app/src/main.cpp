@@ -620,6 +620,10 @@ int cmd_pack(const RunArgs& a) {
                                    *pk.target_porosity, pk.target_tolerance,
                                    r.target_met ? "met" : "NOT MET", r.friction_scale, r.trials)
                      : std::string());
+      if (r.carved > 0)
+        fmt::print("  {} particles carved out where embedded structures stand (deposited without "
+                   "them, then settled around them)\n",
+                   r.carved);
       if (pk.target_porosity && !r.target_met) worst = kRunFailed;
     } catch (const scene::SceneError& e) {
       reporter.finish();
@@ -741,8 +745,7 @@ int cmd_check(const std::string& path, bool quiet, bool resolved) {
 }
 
 // `demfem study stability SCENE` (issue 11): the DEM rows of the stability matrix.
-int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a,
-              double duration) {
+int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a, double duration) {
   if (kind == "error-vs-time")
     return not_built("study error-vs-time", "the error-vs-time study is a later issue");
   if (kind != "stability") {
@@ -756,13 +759,14 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
   if (rc != kOk) return rc;
   for (const scene::Scene* s : scenes) {
     if (!s->soil.dem) {
-      fmt::print(stderr, "{}: error: soil.dem: the stability study runs the DEM model; the scene "
-                         "has no [soil.dem] (continuum rows are not built yet)\n",
+      fmt::print(stderr,
+                 "{}: error: soil.dem: the stability study runs the DEM model; the scene "
+                 "has no [soil.dem] (continuum rows are not built yet)\n",
                  path);
       return kBadInput;
     }
-    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name / "study-stability"
-                                 : fs::path(a.out);
+    fs::path out =
+        a.out.empty() ? fs::path("runs") / s->info.name / "study-stability" : fs::path(a.out);
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
     setup_run_log(out, false);
@@ -772,8 +776,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
     if (duration > 0.0) o.duration = duration;
     const auto rows = compare::stability_study(*s, o);
     compare::write_stability_study(rows, *s, out);
-    for (const auto& r : rows)
-      spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
+    for (const auto& r : rows) spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
     spdlog::info("{}: stability study in {}", s->label(), (out / "study.html").string());
   }
   return kOk;
@@ -851,8 +854,10 @@ int main(int argc, char** argv) {
   study->add_option("scene", other_scene, "Scene file")->required()->check(CLI::ExistingFile);
   study->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
   study->add_option("--out", ra.out, "Output directory (default runs/<scene>/study-stability)");
-  study->add_option("--duration", study_duration, "Simulated time of every row [s] (default: "
-                                                  "the scene's)")
+  study
+      ->add_option("--duration", study_duration,
+                   "Simulated time of every row [s] (default: "
+                   "the scene's)")
       ->check(CLI::PositiveNumber);
   study->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
