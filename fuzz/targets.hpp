@@ -63,8 +63,10 @@ inline bool checkpoint_input(std::span<const std::uint8_t> data) {
   try {
     ck = dem::io::read_checkpoint(path);
   } catch (const dem::io::IoError&) {
+    std::filesystem::remove(path);
     return false; // refused with a message naming the file: expected
   }
+  std::filesystem::remove(path); // read whole: leave nothing in the temporary directory
   try {
     dem::detail::ByteReader r(ck->extra);
     if (r.value<std::uint32_t>() != 0x44454d52u) return true; // not a run checkpoint ("DEMR")

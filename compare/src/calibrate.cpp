@@ -17,6 +17,7 @@
 #include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -623,7 +624,14 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     }
   }
   c.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::ofstream(cache_file(scene, o)) << to_json(c).dump(1) << "\n";
+  try { // the cache is an optimisation: a failed write costs a recomputation, not the run
+    const fs::path cf = cache_file(scene, o);
+    std::error_code ec;
+    if (cf.has_parent_path()) fs::create_directories(cf.parent_path(), ec);
+    scene::write_file_atomic(cf, to_json(c).dump(1) + "\n");
+  } catch (const scene::WriteError& e) {
+    spdlog::warn("calibration cache not written: {}", e.what());
+  }
   return c;
 }
 
@@ -683,9 +691,9 @@ std::string continuum_block(const Calibration& c) {
 CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bool figures) {
   CalibrationFiles out;
   fs::create_directories(dir);
-  std::ofstream(dir / "calibration.json") << to_json(c).dump(1) << "\n";
+  scene::write_file_atomic(dir / "calibration.json", to_json(c).dump(1) + "\n");
   out.written.push_back(dir / "calibration.json");
-  std::ofstream(dir / "calibration.toml") << continuum_block(c);
+  scene::write_file_atomic(dir / "calibration.toml", continuum_block(c));
   out.written.push_back(dir / "calibration.toml");
   if (!figures) return out;
   const fs::path fd = dir / "figures";

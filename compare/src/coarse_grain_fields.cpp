@@ -20,6 +20,7 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include "demfem/compare/coarse_grain.hpp"
+#include "out_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -304,7 +305,7 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
                        std::string* err) {
   const fs::path dat = fs::path(png).replace_extension(".dat");
   {
-    std::ofstream f(dat);
+    OutFile f(dat);
     f << "# x z dem continuum continuum-dem (scaled by " << scale << ")\n";
     for (int k = 0; k < g.nz; ++k) {
       for (int i = 0; i < g.nx; ++i) {
@@ -316,6 +317,7 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
       }
       f << "\n";
     }
+    f.close();
   }
   // common colour range for the two fields, symmetric one for the difference
   double lo = 1e300, hi = -1e300, dm = 0.0;
@@ -339,7 +341,7 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
   const int ph = std::clamp(static_cast<int>(pw / 3.0 * wz / std::max(wx, 1e-9)) + 60, 240, 900);
   const fs::path gp = fs::path(png).replace_extension(".gp");
   {
-    std::ofstream f(gp);
+    OutFile f(gp);
     f << "set terminal pngcairo size " << pw << "," << ph << " font 'sans,10'\n";
     f << "set output '" << png.string() << "'\n";
     f << "set datafile missing 'NaN'\nset size ratio -1\nunset key\n";
@@ -368,6 +370,7 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
       << "' using 1:2:(hh):(hh):5 with boxxyerror fs solid noborder "
          "lc palette\n";
     f << "unset multiplot\n";
+    f.close();
   }
   const std::string cmd = fmt::format("gnuplot '{}' 2>'{}'", gp.string(),
                                       fs::path(png).replace_extension(".log").string());
@@ -510,7 +513,7 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
             sample_continuum(crest, g, "volumetric_strain"))});
   fs::create_directories(run_dir / "compare");
   {
-    std::ofstream csv(run_dir / "compare" / "fields.csv");
+    OutFile csv(run_dir / "compare" / "fields.csv");
     csv << "x [m],z [m]";
     for (const auto& fl : fields) csv << ",dem." << fl.key << ",continuum." << fl.key;
     csv << "\n";
@@ -521,6 +524,7 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
         for (const auto& fl : fields) csv << fmt::format(",{:.6g},{:.6g}", fl.dem[n], fl.cont[n]);
         csv << "\n";
       }
+    csv.close();
   }
   for (const auto& fl : fields) {
     FieldComparison::Summary sm;

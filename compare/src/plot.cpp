@@ -1,4 +1,5 @@
 #include "demfem/compare/plot.hpp"
+#include "out_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -97,7 +98,7 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
   const fs::path dat = stem.string() + ".dat";
   const fs::path gp = stem.string() + ".gp";
   {
-    std::ofstream d(dat);
+    OutFile d(dat);
     d.precision(10);
     for (std::size_t s = 0; s < spec.series.size(); ++s) {
       d << "# " << spec.series[s].label << "\n";
@@ -107,8 +108,9 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
           d << se.x[i] << " " << se.y[i] << "\n";
       d << "\n\n"; // gnuplot data block separator (index s)
     }
+    d.close();
   }
-  std::ofstream g(gp);
+  OutFile g(gp);
   std::string body;
   body +=
       fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
@@ -153,7 +155,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
 
   double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300, vmax = 0.0;
   {
-    std::ofstream d(pdat);
+    OutFile d(pdat);
     d.precision(8);
     for (std::size_t i = 0; i < p.size(); ++i) {
       if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
@@ -165,6 +167,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       zmax = std::max(zmax, p.z[i] + p.radius[i]);
       d << p.x[i] << " " << p.z[i] << " " << p.radius[i] << " " << v << "\n";
     }
+    d.close();
   }
   double fmax = 0.0;
   for (const auto& c : contacts) fmax = std::max(fmax, std::abs(c.fn));
@@ -173,7 +176,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   constexpr int kClasses = 4;
   std::vector<bool> has_block(2 * kClasses, false);
   {
-    std::ofstream d(cdat);
+    OutFile d(cdat);
     d.precision(8);
     for (int block = 0; block < 2 * kClasses; ++block) {
       const bool tension = block >= kClasses;
@@ -191,9 +194,10 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       if (!has_block[block]) d << "NaN NaN NaN NaN\n";
       d << "\n\n";
     }
+    d.close();
   }
   {
-    std::ofstream d(bdat);
+    OutFile d(bdat);
     d.precision(8);
     for (const auto& b : boundaries) {
       if (b.open) continue;
@@ -208,11 +212,12 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       d << "\n";
     }
     d << "NaN NaN\n";
+    d.close();
   }
   if (!(xmax > xmin)) xmin = 0, xmax = 1;
   const fs::path vdat = stem.string() + ".velocity.dat";
   if (spec.velocity_arrows) {
-    std::ofstream d(vdat);
+    OutFile d(vdat);
     d.precision(8);
     const double scale = vmax > 0.0 ? 0.04 * (xmax - xmin) / vmax : 0.0; // metres per (m/s)
     for (std::size_t i = 0; i < p.size(); ++i) {
@@ -220,6 +225,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       d << p.x[i] << " " << p.z[i] << " " << p.vx[i] * scale << " " << p.vz[i] * scale << "\n";
     }
     d << "NaN NaN NaN NaN\n";
+    d.close();
   }
   if (!(zmax > zmin)) zmin = 0, zmax = 1;
   const double aspect = (zmax - zmin) / (xmax - xmin);
@@ -228,7 +234,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   fs::path svg = png;
   svg.replace_extension(".svg");
 
-  std::ofstream g(gp);
+  OutFile g(gp);
   g << "# demfem particle snapshot; re-plot with: gnuplot " << gp.filename().string() << "\n";
   g << "cd " << quote(fs::absolute(pdat).parent_path().string()) << "\n";
   g << fmt::format(

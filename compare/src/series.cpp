@@ -1,4 +1,5 @@
 #include "demfem/compare/series.hpp"
+#include "out_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -230,13 +231,14 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   for (std::size_t k = 0; k < n; ++k) {
     const auto& f = frames[k];
     {
-      std::ofstream d(dat / fmt::format("p{}.dat", k));
+      OutFile d(dat / fmt::format("p{}.dat", k));
       d.precision(7);
       for (const auto& q : f.disks) d << q.x << " " << q.z << " " << q.r << " " << q.speed << "\n";
       d << "NaN NaN NaN NaN\n";
+      d.close();
     }
     {
-      std::ofstream d(dat / fmt::format("c{}.dat", k));
+      OutFile d(dat / fmt::format("c{}.dat", k));
       d.precision(7);
       for (int block = 0; block < 2 * kClasses; ++block) {
         const bool tension = block >= kClasses;
@@ -253,25 +255,28 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
         if (!any) d << "NaN NaN NaN NaN\n";
         d << "\n\n";
       }
+      d.close();
     }
     {
-      std::ofstream d(dat / fmt::format("v{}.dat", k));
+      OutFile d(dat / fmt::format("v{}.dat", k));
       d.precision(7);
       for (const auto& q : f.disks)
         d << q.x << " " << q.z << " " << q.vx * vscale << " " << q.vz * vscale << "\n";
       d << "NaN NaN NaN NaN\n";
+      d.close();
     }
     {
-      std::ofstream d(dat / fmt::format("b{}.dat", k));
+      OutFile d(dat / fmt::format("b{}.dat", k));
       d.precision(7);
       for (const auto& l : f.lines) {
         for (const auto& [x, z] : l) d << x << " " << z << "\n";
         d << "\n";
       }
       d << "NaN NaN\n";
+      d.close();
     }
     {
-      std::ofstream d(dat / fmt::format("l{}.dat", k));
+      OutFile d(dat / fmt::format("l{}.dat", k));
       d.precision(7);
       for (std::size_t c = 1; c + 1 < loci.columns.size(); c += 2) {
         const auto x = loci.column(loci.columns[c].substr(0, loci.columns[c].find(" [")));
@@ -282,6 +287,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
         d << "\n";
       }
       d << "NaN NaN\n";
+      d.close();
     }
   }
 
@@ -290,7 +296,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     if (kind == Kind::Loci && loci.columns.size() < 3) return;
     const fs::path png = fig / (name + ".png");
     const fs::path gp = fig / (name + ".gp");
-    std::ofstream g(gp);
+    OutFile g(gp);
     g << "# demfem snapshot series; re-plot with: gnuplot " << gp.filename().string() << "\n";
     g << "cd " << quote(fs::absolute(dat).string()) << "\n";
     g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,10'\n",

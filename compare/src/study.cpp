@@ -13,6 +13,7 @@
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -209,7 +210,7 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
                   {"steps", r.steps},
                   {"simulated_time", r.simulated_time},
                   {"wall_seconds", r.wall_seconds}});
-  std::ofstream(dir / "study.json") << j.dump(2) << "\n";
+  scene::write_file_atomic(dir / "study.json", j.dump(2) + "\n");
 
   auto num = [](double v, const char* f) {
     return v > 0.0 ? fmt::format(fmt::runtime(f), v) : std::string("–");
@@ -257,8 +258,8 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
     html += "</tr>\n";
   }
   html += "</table></body></html>\n";
-  std::ofstream(dir / "study.md") << md;
-  std::ofstream(dir / "study.html") << html;
+  scene::write_file_atomic(dir / "study.md", md);
+  scene::write_file_atomic(dir / "study.html", html);
 }
 
 } // namespace demfem::compare

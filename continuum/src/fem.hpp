@@ -31,6 +31,9 @@ public:
   MpiScope& operator=(const MpiScope&) = delete;
   static int rank();
   static int size();
+  // Collective over every rank: true when `flag` is true on any of them (a write failure on
+  // the root ends the run on every rank instead of leaving the others in the next collective).
+  static bool any(bool flag);
 
 private:
   struct Impl;
@@ -207,6 +210,8 @@ public:
   // ½ vᵀM v + ½ uᵀK0 u: kinetic plus elastic strain energy (linear elastic problems) [J/m]
   [[nodiscard]] double elastic_energy() const;
   [[nodiscard]] std::vector<QpStress> stresses() const; // locally owned only
+  // Checked atomic writes (scene::write_file_atomic); collective: a failure on any rank throws
+  // scene::WriteError on every rank, naming the file and the cause.
   void write_vtu(const std::string& directory, const std::string& basename, int index);
   void write_pvd(const std::string& directory, const std::string& basename) const;
   [[nodiscard]] const std::string& log() const;

@@ -21,6 +21,9 @@ int MpiScope::rank() {
 int MpiScope::size() {
   return static_cast<int>(Utilities::MPI::n_mpi_processes(MPI_COMM_WORLD));
 }
+bool MpiScope::any(bool flag) {
+  return Utilities::MPI::max(flag ? 1u : 0u, MPI_COMM_WORLD) != 0u;
+}
 
 void ensure_mpi() {
   static int argc = 1;

@@ -1,6 +1,10 @@
 // Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output.
 #include "fem_impl.hpp"
 
+#include <sstream>
+
+#include "demfem/scene/write_file.hpp"
+
 namespace demfem::continuum::fem {
 
 namespace {
@@ -362,15 +366,52 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   out.add_data_vector(vg, std::vector<std::string>(2, "velocity"), DataOut<2>::type_dof_data, vec);
   for (int k = 0; k < 9; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
   out.build_patches(m.mapping, static_cast<unsigned>(m.pb.degree));
-  const std::string name = out.write_vtu_with_pvtu_record(directory + "/", basename,
-                                                          static_cast<unsigned>(index), m.comm, 4);
-  m.pvd_records.emplace_back(m.t, name);
+  // The pieces "<basename>_<index>.<rank>.vtu" and the record "<basename>_<index>.pvtu" (the names
+  // DataOut::write_vtu_with_pvtu_record gives), each through a checked atomic write.
+  const unsigned rank = Utilities::MPI::this_mpi_process(m.comm);
+  const unsigned ranks = Utilities::MPI::n_mpi_processes(m.comm);
+  const std::string stem = basename + "_" + Utilities::int_to_string(unsigned(index), 4);
+  const auto piece = [&](unsigned r) {
+    return stem + "." + Utilities::int_to_string(r, Utilities::needed_digits(ranks - 1)) + ".vtu";
+  };
+  std::string failure;
+  try {
+    std::ostringstream vtu;
+    out.write_vtu(vtu);
+    scene::write_file_atomic(directory + "/" + piece(rank), vtu.str());
+    if (rank == 0) {
+      std::vector<std::string> pieces;
+      for (unsigned r = 0; r < ranks; ++r) pieces.push_back(piece(r));
+      std::ostringstream pvtu;
+      out.write_pvtu_record(pvtu, pieces);
+      scene::write_file_atomic(directory + "/" + stem + ".pvtu", pvtu.str());
+    }
+  } catch (const scene::WriteError& e) {
+    failure = e.what();
+  }
+  if (MpiScope::any(!failure.empty()))
+    throw scene::WriteError(failure.empty()
+                                ? "cannot write " + directory + "/" + stem +
+                                      ".pvtu: another MPI rank could not write its piece"
+                                : failure);
+  m.pvd_records.emplace_back(m.t, stem + ".pvtu");
 }
 
 void Model::write_pvd(const std::string& directory, const std::string& basename) const {
-  if (Utilities::MPI::this_mpi_process(impl_->comm) != 0) return;
-  std::ofstream f(directory + "/" + basename + ".pvd");
-  DataOutBase::write_pvd_record(f, impl_->pvd_records);
+  std::string failure;
+  if (Utilities::MPI::this_mpi_process(impl_->comm) == 0) {
+    try {
+      std::ostringstream pvd;
+      DataOutBase::write_pvd_record(pvd, impl_->pvd_records);
+      scene::write_file_atomic(directory + "/" + basename + ".pvd", pvd.str());
+    } catch (const scene::WriteError& e) {
+      failure = e.what();
+    }
+  }
+  if (MpiScope::any(!failure.empty()))
+    throw scene::WriteError(failure.empty() ? "cannot write " + directory + "/" + basename +
+                                                  ".pvd (on the root rank)"
+                                            : failure);
 }
 
 } // namespace demfem::continuum::fem

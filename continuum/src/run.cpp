@@ -17,14 +17,17 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
 #include <set>
 
+#include "demfem/scene/write_file.hpp"
 #include "fem.hpp"
 
 namespace demfem::continuum {
@@ -71,6 +74,54 @@ scene::Polygon clip_below(const scene::Polygon& poly, double level) {
   }
   return out;
 }
+
+// A streamed output (a time series, the log) whose every write is checked (issue 13): the first
+// failure (a full disk, a file size limit, an unwritable directory) is kept as "cannot write
+// <path>: <cause>" and later writes are dropped. Nothing is thrown here: the run reports it at
+// its next collective point (see raise_write_errors), so that every MPI rank stops together.
+class CheckedStream {
+public:
+  void open(const std::filesystem::path& p) {
+    path_ = p;
+    errno = 0;
+    f_.open(p, std::ios::trunc);
+    check("creating");
+  }
+  [[nodiscard]] bool is_open() const { return f_.is_open(); }
+  template <class T> CheckedStream& operator<<(const T& v) {
+    if (f_.is_open() && error_.empty()) {
+      f_ << v;
+      check("writing");
+    }
+    return *this;
+  }
+  CheckedStream& operator<<(std::ostream& (*manip)(std::ostream&)) {
+    if (f_.is_open() && error_.empty()) {
+      manip(f_);
+      check("writing");
+    }
+    return *this;
+  }
+  void flush() { *this << std::flush; }
+  void close() {
+    if (!f_.is_open()) return;
+    flush();
+    f_.close();
+    check("closing");
+  }
+  [[nodiscard]] const std::string& error() const { return error_; }
+
+private:
+  void check(const char* step) {
+    if (f_ || !error_.empty()) return;
+    const int err = errno;
+    error_ = fmt::format("cannot write {}: {} ({})", path_.string(),
+                         err != 0 ? std::strerror(err) : "the stream failed", step);
+  }
+  std::filesystem::path path_;
+  std::ofstream f_;
+  std::string error_;
+};
 
 } // namespace
 
@@ -215,11 +266,16 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   const std::filesystem::path dir = options.out_dir / "continuum";
   std::error_code ec;
   if (root) std::filesystem::create_directories(dir, ec);
+  if (fem::MpiScope::any(static_cast<bool>(ec))) {
+    summary.message = fmt::format("cannot create the directory {}: {}", dir.string(),
+                                  ec ? ec.message() : "failed on the root rank");
+    return summary;
+  }
 
   try {
     fem::Model m(pb);
     summary.dofs = m.n_dofs();
-    std::ofstream log;
+    CheckedStream log;
     if (root) {
       log.open(dir / "log.txt");
       log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}, "
@@ -313,8 +369,22 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       }
       return std::pair{lo, hi};
     };
-    std::ofstream sfile, wfile;
-    std::vector<std::ofstream> pfiles(pressure.size());
+    CheckedStream sfile, wfile;
+    std::vector<CheckedStream> pfiles(pressure.size());
+    CheckedStream stepfile; // solver statistics per step (benchmarks: bench/RESULTS.md)
+    // Collective: the first failed write of any output ends the run on every rank, naming the
+    // file and the cause (and it goes to log.txt when that is still writable).
+    auto raise_write_errors = [&] {
+      std::string failure;
+      for (const CheckedStream* f : {&sfile, &wfile, &stepfile, &log})
+        if (failure.empty()) failure = f->error();
+      for (const auto& f : pfiles)
+        if (failure.empty()) failure = f.error();
+      if (!fem::MpiScope::any(!failure.empty())) return;
+      if (root) log << "run failed: " << failure << "\n" << std::flush;
+      throw scene::WriteError(failure.empty() ? "an output could not be written on the root rank"
+                                              : failure);
+    };
     if (root) {
       if (!scene.structures.empty()) {
         sfile.open(dir / "structures.csv");
@@ -360,7 +430,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
         const auto [lo, hi] = zrange(k);
         prof.push_back(m.soil_pressure(k, lo, hi, bins));
       }
-      if (!root) return;
+      if (!root) return raise_write_errors();
       if (sfile.is_open()) {
         sfile << fmt::format("{:.6g}", t);
         for (std::size_t k = 0; k < scene.structures.size(); ++k) {
@@ -397,6 +467,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
         for (double v : prof[j]) pfiles[j] << fmt::format(",{:.9g}", v);
         pfiles[j] << "\n";
       }
+      raise_write_errors();
     };
     int snapshot = 0;
     const bool vtk = scene.output.vtk;
@@ -405,8 +476,6 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     double next_probe = scene.output.probe_interval, next_out = scene.output.interval;
     long long newton_total = 0, linear_total = 0, cuts_total = 0, substeps_total = 0;
     const auto t_dyn = std::chrono::steady_clock::now();
-    // solver statistics per step (benchmarks: bench/RESULTS.md)
-    std::ofstream stepfile;
     if (root) {
       stepfile.open(dir / "steps.csv");
       stepfile << "step,time [s],newton iterations,linear iterations,step cuts,converged,"
@@ -482,6 +551,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       }
     }
     if (vtk) m.write_pvd(dir.string(), "continuum");
+    raise_write_errors(); // a failed steps.csv row or log line since the last probe row
 
     // ---- surface settlement profile at the end
     std::vector<std::pair<double, double>> profile;
@@ -491,10 +561,21 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       const double z = top_of(domain, x, zmax) - 1e-9 * (zmax - zmin);
       profile.emplace_back(x, -m.displacement({x, z}).z);
     }
+    std::string failure;
     if (root) {
-      std::ofstream f(dir / "surface_profile.csv");
-      f << "x [m],settlement [m]\n";
-      for (const auto& [x, s] : profile) f << fmt::format("{:.6g},{:.9g}\n", x, s);
+      std::string csv = "x [m],settlement [m]\n";
+      for (const auto& [x, s] : profile) csv += fmt::format("{:.6g},{:.9g}\n", x, s);
+      try {
+        scene::write_file_atomic(dir / "surface_profile.csv", csv);
+      } catch (const scene::WriteError& e) {
+        failure = e.what();
+        log << "run failed: " << failure << "\n" << std::flush;
+      }
+    }
+    if (fem::MpiScope::any(!failure.empty()))
+      throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
+                                              : failure);
+    if (root) {
       log << m.log();
       const double wall_dyn =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
@@ -507,6 +588,9 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                            "second\n",
                            substeps_total, wall_dyn / std::max(1e-300, m.time()));
     }
+    for (CheckedStream* f : {&sfile, &wfile, &stepfile, &log}) f->close();
+    for (auto& f : pfiles) f.close();
+    raise_write_errors();
     summary.ok = true;
     summary.simulated_time = m.time();
     summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());

@@ -70,12 +70,19 @@ std::size_t truncate_after(const std::filesystem::path& path, const std::string&
     std::ofstream out(tmp, std::ios::trunc);
     out << kept;
     out.flush();
-    if (!out) fail("cannot write", tmp);
+    if (!out) {
+      const int err = errno;
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      throw CsvError(fmt::format("cannot write '{}': {} (rewriting it for the resume)",
+                                 path.string(), std::strerror(err)));
+    }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
-    throw CsvError(fmt::format("cannot rename '{}': {}", tmp.string(), ec.message()));
+    throw CsvError(fmt::format("cannot write '{}': {} (renaming the temporary file over it)",
+                               path.string(), ec.message()));
   }
   return rows;
 }

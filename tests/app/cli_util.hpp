@@ -15,6 +15,8 @@
 #include <unistd.h>
 #include <vector>
 
+#include "../scratch.hpp"
+
 namespace demfem::test {
 
 namespace fs = std::filesystem;
@@ -31,8 +33,7 @@ inline std::string slurp(const fs::path& f) {
 
 // Runs a shell command line, capturing stdout and stderr together.
 inline Result run_raw(const std::string& command) {
-  const fs::path log =
-      fs::temp_directory_path() / ("demfem_cli_" + std::to_string(::getpid()) + ".log");
+  const fs::path log = scratch("cli.log");
   const std::string cmd = command + " > " + log.string() + " 2>&1";
   const int status = std::system(cmd.c_str());
   Result r;
@@ -48,7 +49,7 @@ inline Result run(const std::string& args) {
 }
 
 inline fs::path write_temp(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / name;
+  const fs::path p = scratch(name); // this test's own directory (tests/scratch.hpp)
   std::ofstream(p) << text;
   return p;
 }

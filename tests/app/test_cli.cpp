@@ -98,17 +98,15 @@ TEST(Cli, CheckRejectsMalformedSceneWithLine) {
 }
 
 TEST(Cli, RunUnknownVariantIsBadInput) {
-  const auto r =
-      run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
-          " --variant no-such-case --out " + (fs::temp_directory_path() / "demfem_x").string());
+  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+                     " --variant no-such-case --out " + demfem::test::scratch("x").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.out.find("valid: case-1"), std::string::npos) << r.out;
 }
 
 TEST(Cli, RunUnknownSolverIsBadInput) {
-  const auto r =
-      run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
-          " --solver lattice --out " + (fs::temp_directory_path() / "demfem_x").string());
+  const auto r = run("run " + (fs::path(DEMFEM_SOURCE_DIR) / "cases/retaining_wall.toml").string() +
+                     " --solver lattice --out " + demfem::test::scratch("x").string());
   EXPECT_EQ(r.code, 2);
 }
 
@@ -124,7 +122,7 @@ TEST(Cli, UnbuiltSubcommandsSaySoAndExit2) {
 // `demfem calibrate` (issue 9) on a tiny bed: prints the [soil.continuum] block and writes its
 // files; a second call reads the cache; an unknown variant is bad input.
 TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
-  const fs::path out = fs::temp_directory_path() / "demfem_cli_calibrate";
+  const fs::path out = demfem::test::scratch("cli_calibrate");
   fs::remove_all(out);
   const auto p = write_temp(
       "demfem_cli_calibrate.toml",
@@ -162,7 +160,7 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
   ASSERT_NE(pos, std::string::npos);
   text.replace(pos, text.find('\n', pos + 1) - pos, "\nduration = 30.0");
   const auto scene = write_temp("demfem_interrupt.toml", text);
-  const fs::path out = fs::temp_directory_path() / "demfem_interrupt_run";
+  const fs::path out = demfem::test::scratch("interrupt_run");
   fs::remove_all(out);
   // SIGINT once the time loop runs (energy.csv has its first rows): a fixed delay could land
   // before the handler is installed on a loaded machine.
@@ -194,7 +192,7 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
 // the small-strain validity limit with a note (exit 0), and writes the pile's probes under the
 // DEM's names. The pile's weight acts from t = 0 (released as in the DEM), so it settles at once.
 TEST(Cli, PileScenePlungesInTheContinuumAndStopsAtTheValidityLimit) {
-  const fs::path out = fs::temp_directory_path() / ("demfem_pile_" + std::to_string(::getpid()));
+  const fs::path out = demfem::test::scratch("pile");
   fs::remove_all(out);
   const Result r = run(std::string("run ") + DEMFEM_SOURCE_DIR +
                        "/cases/pile_penetration.toml --solver continuum --variant case-1 "

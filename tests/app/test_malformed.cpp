@@ -46,9 +46,7 @@ TEST_P(Malformed, RefusedWithLocationAndNoRunDirectory) {
   }
   ASSERT_FALSE(expect.empty()) << "first line must be '# expect: <message>'";
   ASSERT_GT(error_line, 0) << "one line must carry the marker '# ERROR'";
-  const fs::path out =
-      fs::temp_directory_path() / ("demfem_malformed_out_" + std::to_string(::getpid()));
-  fs::remove_all(out);
+  const fs::path out = demfem::test::scratch("out");
   const auto r = run_demfem("run " + scene.string() + " --all-variants --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
   const std::string where = scene.string() + ":" + std::to_string(error_line) + ":";

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -29,8 +31,7 @@ std::string outcome(const std::string& json, const std::string& name) {
 } // namespace
 
 TEST(StudyStability, TwoDiskColumnRowsAndTables) {
-  const fs::path out = fs::temp_directory_path() / ("demfem_study_" + std::to_string(::getpid()));
-  fs::remove_all(out);
+  const fs::path out = demfem::test::scratch("study");
   const std::string cmd = std::string(DEMFEM_BINARY) +
                           " study stability " DEMFEM_SOURCE_DIR
                           "/cases/verification/two_disk_column.toml --duration 0.3 --out " +
@@ -45,8 +46,6 @@ TEST(StudyStability, TwoDiskColumnRowsAndTables) {
   EXPECT_EQ(outcome(json, "radius-ratio-10"), "not applicable") << json;
   EXPECT_NE(read(out / "study.md").find("| dt-1.1 |"), std::string::npos);
   EXPECT_NE(read(out / "study.html").find("<table>"), std::string::npos);
-  fs::remove_all(out);
-  fs::remove(out.string() + ".log");
 }
 
 TEST(StudyStability, ErrorVsTimeIsNotBuiltYet) {

@@ -6,6 +6,8 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+
+#include "../scratch.hpp"
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/calibrate.hpp"
@@ -87,9 +89,7 @@ compare::CalibrateOptions tiny_options(const fs::path& dir) {
 //  * K0 in (0.3, 1.5); the mass-matched surface holds the DEM's soil mass within 1 %.
 //  * Cached second call: identical values, from the cache.
 TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
-  const fs::path dir = fs::temp_directory_path() / "demfem_test_calibrate";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = demfem::test::scratch_dir("calibrate");
   const auto file = scene::parse_scene(tiny_scene(dir / "cache"), (dir / "tiny.toml").string());
   const auto& s = file.base;
   const auto o = tiny_options(dir);
@@ -177,8 +177,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
 
 // Deterministic: the same inputs computed twice (no cache) give bit-identical results.
 TEST(Calibrate, IsDeterministic) {
-  const fs::path dir = fs::temp_directory_path() / "demfem_test_calibrate_det";
-  fs::remove_all(dir);
+  const fs::path dir = demfem::test::scratch("calibrate_det");
   auto o = tiny_options(dir);
   o.cyclic = false;
   o.depth_fractions = {1.0};

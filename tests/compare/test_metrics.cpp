@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/compare/metrics.hpp"
 #include "demfem/compare/report.hpp"
 
@@ -20,8 +22,7 @@ namespace {
 // A run directory shaped like the retaining wall's: walls.csv with thrust, reaction_x and
 // reaction_z, and structures.csv with the same forces under force_x / force_z, in both solvers.
 fs::path wall_run(const std::string& name) {
-  const fs::path run = fs::temp_directory_path() / name;
-  fs::remove_all(run);
+  const fs::path run = demfem::test::scratch(name);
   for (const char* s : {"dem", "continuum"}) {
     fs::create_directories(run / s);
     const bool dem = std::string(s) == "dem";

@@ -3,17 +3,17 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/compare/plot.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
 
 namespace {
 fs::path tmpdir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("demfem_test_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return demfem::test::scratch_dir(name);
 }
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -61,6 +61,29 @@ TEST(Plot, WritesPngSvgAndScript) {
   EXPECT_TRUE(is_png(d / "f.png"));
   EXPECT_TRUE(fs::exists(d / "f.svg"));
   EXPECT_TRUE(fs::exists(d / "f.gp"));
+}
+
+// A figure whose gnuplot input cannot be written (here its data file's name is taken by a
+// directory) is a WriteError naming that file and the cause, not a figure drawn from a partial
+// or missing input (issue 13).
+TEST(Plot, UnwritableInputIsAClearError) {
+  const auto d = tmpdir("plot_unwritable");
+  fs::create_directories(d / "f.dat");
+  compare::PlotSpec s;
+  s.series.push_back({"thrust", {0, 1, 2}, {1, 3, 2}, "lines", ""});
+  std::string err, message;
+  try {
+    (void)compare::plot(s, d / "f.png", &err);
+    ADD_FAILURE() << "no error; err = " << err;
+  } catch (const scene::WriteError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("cannot write " + (d / "f.dat").string() + ": Is a directory"),
+            std::string::npos)
+      << message;
+  EXPECT_FALSE(fs::exists(d / "f.png"));
+  EXPECT_FALSE(fs::exists(d / "f.gp"));
+  EXPECT_FALSE(fs::exists(d / "f.dat.tmp"));
 }
 
 TEST(Plot, ParticleSnapshotWithChains) {

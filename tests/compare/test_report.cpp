@@ -3,6 +3,8 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+
+#include "../scratch.hpp"
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/report.hpp"
@@ -19,8 +21,7 @@ TEST(Report, InterpolateIsLinearAndHeld) {
 }
 
 TEST(Report, ComparesWallThrustAndPressureProfiles) {
-  const fs::path run = fs::temp_directory_path() / "demfem_test_report";
-  fs::remove_all(run);
+  const fs::path run = demfem::test::scratch("report");
   fs::create_directories(run / "dem");
   fs::create_directories(run / "continuum");
   {

@@ -1,7 +1,12 @@
 // DEM I/O layer: VTK snapshots read back through VTK, .pvd collections, CSV series, checkpoints.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <bit>
 #include <cmath>
@@ -44,17 +49,7 @@ namespace {
 
 class IoTest : public ::testing::Test {
 protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           (std::string("demfem_test_io_") + info->name() + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
+  void SetUp() override { dir_ = demfem::test::scratch_dir("io"); }
   fs::path dir_;
 };
 
@@ -534,6 +529,48 @@ TEST_F(IoTest, CheckpointRefusesInconsistentParticles) {
   EXPECT_THROW(io::write_checkpoint(dir_ / "cp.bin", p, {}, {}), io::IoError);
   EXPECT_FALSE(fs::exists(dir_ / "cp.bin"));
   EXPECT_TRUE(no_tmp_files(dir_));
+}
+
+// A checkpoint that cannot be written (here: the process may not grow a file past 4 KiB, as on a
+// full disk) fails naming the checkpoint itself, not its temporary "<path>.tmp", with the cause,
+// and leaves neither a partial checkpoint nor the temporary file behind. The same for a
+// checkpoint whose directory is a regular file.
+TEST_F(IoTest, FailedCheckpointWriteNamesTheFileAndTheCause) {
+  const fs::path file = dir_ / "checkpoint.ckpt";
+  const Particles p = make_particles(2000); // ≫ 4 KiB
+  std::string message;
+  {
+    struct rlimit old {};
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+    struct rlimit small = old;
+    small.rlim_cur = 4096;
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN); // EFBIG instead of a signal
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+    try {
+      io::write_checkpoint(file, p, {.time = 1.0, .step = 1, .dt = 1e-5, .label = "x"}, {});
+    } catch (const io::IoError& e) {
+      message = e.what();
+    }
+    ::setrlimit(RLIMIT_FSIZE, &old);
+    std::signal(SIGXFSZ, old_handler);
+  }
+  EXPECT_NE(message.find("cannot write '" + file.string() + "': File too large"), std::string::npos)
+      << message;
+  EXPECT_EQ(message.find(".tmp'"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(file));
+  EXPECT_TRUE(no_tmp_files(dir_));
+
+  std::ofstream(dir_ / "not_a_dir") << "x";
+  const fs::path under_file = dir_ / "not_a_dir" / "checkpoint.ckpt";
+  try {
+    io::write_checkpoint(under_file, p, {}, {});
+    ADD_FAILURE() << "no error";
+  } catch (const io::IoError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("cannot write '" + under_file.string() + "': Not a directory"),
+            std::string::npos)
+      << message;
 }
 
 TEST_F(IoTest, DamagedCheckpointsGiveClearErrors) {

@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
@@ -61,10 +63,7 @@ dof_rotation = "free"
 )";
 
 fs::path fresh_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() /
-                 ("demfem_pack_embedded_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  return d;
+  return demfem::test::scratch(name);
 }
 
 } // namespace

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -50,9 +52,7 @@ points = [[1.5, 0], [1.5, 1.5]]
 }
 
 fs::path fresh_dir(const std::string& name) {
-  const auto d = fs::temp_directory_path() / ("demfem_pack_target_" + name);
-  fs::remove_all(d);
-  return d;
+  return demfem::test::scratch(name);
 }
 
 } // namespace

@@ -2,6 +2,8 @@
 // pressure profile, the surface profile and the loci of tagged particles.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -152,8 +154,7 @@ TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
     q[4] = static_cast<double>(g() >> 11) * 0x1.0p-53 - 0.5;
   }
   dem::RunOptions o;
-  o.out_dir = std::filesystem::temp_directory_path() / "demfem_test_probes_settled";
-  std::filesystem::remove_all(o.out_dir);
+  o.out_dir = demfem::test::scratch("settled");
   const auto s = dem::run(sc, o);
   ASSERT_TRUE(s.ok) << s.message;
   const auto dir = o.out_dir / "dem";

@@ -2,6 +2,8 @@
 // count), the interrupt flag, and deterministic OpenMP force loops.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -22,9 +24,7 @@ using namespace demfem;
 namespace {
 
 std::filesystem::path scratch(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("demfem_test_resume_" + name);
-  std::filesystem::remove_all(p);
-  return p;
+  return demfem::test::scratch(name);
 }
 
 std::string slurp(const std::filesystem::path& f) {

@@ -1,6 +1,8 @@
 // End-to-end: dem::run on the verification scenes (explicit particles), events and refusals.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -14,9 +16,7 @@ using namespace demfem;
 
 namespace {
 std::filesystem::path scratch(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("demfem_test_run_" + name);
-  std::filesystem::remove_all(p);
-  return p;
+  return demfem::test::scratch(name);
 }
 std::string last_line(const std::filesystem::path& f) {
   std::ifstream in(f);

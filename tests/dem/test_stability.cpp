@@ -5,6 +5,8 @@
 // measured when the tests were written are in the comments.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -117,8 +119,7 @@ double json_number(const std::string& text, const std::string& key) {
 Outcome run_scene(const std::string& toml, const std::string& name) {
   const auto file = scene::parse_scene(toml, name + ".toml");
   dem::RunOptions o;
-  o.out_dir = std::filesystem::temp_directory_path() / ("demfem_test_stability_" + name);
-  std::filesystem::remove_all(o.out_dir);
+  o.out_dir = demfem::test::scratch(name);
   Outcome r;
   r.s = dem::run(file.base, o);
   std::ifstream in(o.out_dir / "dem" / "energy_budget.json");
@@ -178,7 +179,7 @@ TEST(DemStability, TwoDiskColumnStableBelowAndRefusedAboveTheLimit) {
   scene::set_dem_step_limit(nullptr);
   const auto file = scene::parse_scene(bad, "column11.toml"); // no check installed
   dem::RunOptions o;
-  o.out_dir = std::filesystem::temp_directory_path() / "demfem_test_stability_column11";
+  o.out_dir = demfem::test::scratch("column11");
   EXPECT_THROW((void)dem::run(file.base, o), scene::SceneError);
   std::filesystem::remove_all(o.out_dir);
 }

@@ -3,6 +3,8 @@
 // (CSV, JSON, the final checkpoint), so the files themselves are verified, not a hand-built copy.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -22,14 +24,13 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 std::filesystem::path scratch(const std::string& name) {
-  auto p = std::filesystem::temp_directory_path() / ("demfem_test_verification_" + name);
-  std::filesystem::remove_all(p);
-  return p;
+  return demfem::test::scratch(name);
 }
 
 // Runs cases/verification/<file> (base scene) into a fresh temporary directory; returns <out>/dem.
 std::filesystem::path run_scene(const std::string& file, const std::string& tag) {
-  const auto f = scene::load_scene_file(std::string(DEMFEM_SOURCE_DIR "/cases/verification/") + file);
+  const auto f =
+      scene::load_scene_file(std::string(DEMFEM_SOURCE_DIR "/cases/verification/") + file);
   dem::RunOptions o;
   o.out_dir = scratch(tag);
   const auto s = dem::run(f.base, o);
@@ -55,7 +56,8 @@ std::vector<std::string> split(const std::string& line) {
   while (true) {
     const auto next = line.find(',', pos);
     std::string cell = line.substr(pos, next == std::string::npos ? std::string::npos : next - pos);
-    if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"') cell = cell.substr(1, cell.size() - 2);
+    if (cell.size() >= 2 && cell.front() == '"' && cell.back() == '"')
+      cell = cell.substr(1, cell.size() - 2);
     out.push_back(cell);
     if (next == std::string::npos) break;
     pos = next + 1;
@@ -151,7 +153,9 @@ TEST(VerificationScene, FreeRotationUnderConstantMoment) {
   std::size_t checked = 0;
   for (const auto& row : s.rows) {
     const double t = row[kt];
-    if (t > 0.0) { EXPECT_DOUBLE_EQ(row[km], M); } // set by the first structure update
+    if (t > 0.0) {
+      EXPECT_DOUBLE_EQ(row[km], M);
+    } // set by the first structure update
     // Symplectic Euler from rest integrates I θ̈ = M exactly as θ(t) = ½ (M/I) t (t + Δt).
     const double theta_discrete = 0.5 * (M / I) * t * (t + dt);
     EXPECT_NEAR(row[kr], theta_discrete, 1e-6 * theta_discrete + 1e-12) << "t = " << t;
@@ -178,13 +182,15 @@ TEST(VerificationScene, ElasticGasConservesEnergy) {
   const auto kk = e.col("kinetic [J]"), kr = e.col("rotational [J]"),
              kn = e.col("spring_normal [J]"), ks = e.col("spring_shear [J]"),
              kf = e.col("friction [J]"), kb = e.col("rebound [J]"), kd = e.col("damping [J]");
-  auto total = [&](const std::vector<double>& row) { return row[kk] + row[kr] + row[kn] + row[ks]; };
+  auto total = [&](const std::vector<double>& row) {
+    return row[kk] + row[kr] + row[kn] + row[ks];
+  };
   // E₀ = Σ ½ m v² of the listed velocities (the first row is written before the first step).
   const auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/elastic_gas.toml");
   double e_listed = 0.0;
   for (const auto& q : f.base.soil.dem->particles)
     e_listed += 0.5 * 2650 * kPi * q[2] * q[2] * (q[3] * q[3] + q[4] * q[4]); // m = ρπr², t = 1
-  EXPECT_NEAR(e.rows.front()[kk], e_listed, 1e-8 * e_listed); // CSV keeps 9 digits
+  EXPECT_NEAR(e.rows.front()[kk], e_listed, 1e-8 * e_listed);                 // CSV keeps 9 digits
   const double e0 = total(e.rows.front());
   // Between collisions (no spring loaded) the energy is purely kinetic and exactly defined; during
   // a contact the run's energy mixes half-step velocities with whole-step overlaps (leapfrog), an
@@ -248,7 +254,8 @@ TEST(VerificationScene, ReboundingSettleBudgetCloses) {
   for (const auto& row : e.rows)
     if (row[kg] > 0.0) worst = std::max(worst, std::abs(row[ki]) / row[kg]);
   std::printf("[rebounding settle] gravity work %.6g J, rebound %.6g J, friction %.6g J, "
-              "closure %.3e, worst row %.3e\n", gravity_work, rebound, friction, closure, worst);
+              "closure %.3e, worst row %.3e\n",
+              gravity_work, rebound, friction, closure, worst);
   EXPECT_NEAR(std::abs(json_number(text, "imbalance")) / gravity_work, closure, 1e-9);
   EXPECT_LT(std::abs(e.rows.back()[ki]) / e.rows.back()[kg], 0.01);
 }

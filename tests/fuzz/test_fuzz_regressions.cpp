@@ -4,6 +4,8 @@
 // must be accepted or refused with the loader's own error, never crash or throw anything else.
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -66,7 +68,7 @@ TEST(FuzzRegressions, RunCheckpointAndItsTruncations) {
   dem::io::CheckpointMeta meta;
   meta.step = 20;
   meta.label = "settle-box";
-  const fs::path p = fs::temp_directory_path() / "demfem_fuzz_regression_run.ckpt";
+  const fs::path p = demfem::test::scratch("run.ckpt");
   dem::io::write_checkpoint(p, e.particles(), meta, w.buffer());
   const auto whole = bytes_of(p);
   fs::remove(p);

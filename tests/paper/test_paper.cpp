@@ -7,6 +7,8 @@
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "../scratch.hpp"
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/figures.hpp"
@@ -25,10 +27,7 @@ fs::path case_file(const std::string& name) {
 }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("demfem_test_paper_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
+  return demfem::test::scratch_dir(name);
 }
 
 scene::Scene load(const std::string& file, const std::string& variant = "") {

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "../scratch.hpp"
+
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/particles_file.hpp"
 
@@ -17,13 +19,9 @@ namespace {
 class ParticlesFile : public ::testing::Test {
 protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("demfem_pf_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
+    dir_ = demfem::test::scratch_dir("pf");
     fs::create_directories(dir_ / "sub");
   }
-  void TearDown() override { fs::remove_all(dir_); }
   void write(const fs::path& rel, const std::string& text) {
     std::ofstream(dir_ / rel, std::ios::binary) << text;
   }

@@ -12,8 +12,10 @@
 namespace demfem::dem::io::detail {
 namespace {
 
-[[noreturn]] void fail(const std::string& what, const std::filesystem::path& p, int err) {
-  throw IoError(what + " '" + p.string() + "': " + std::strerror(err));
+// "cannot write '<path>': <cause> (<step>)": the file the caller asked for, not its temporary
+// "<path>.tmp", with the system's reason (e.g. "No space left on device").
+[[noreturn]] void fail(const std::filesystem::path& path, int err, const std::string& step) {
+  throw IoError("cannot write '" + path.string() + "': " + std::strerror(err) + " (" + step + ")");
 }
 
 void fsync_directory(const std::filesystem::path& file) {
@@ -38,14 +40,14 @@ void rename_over(const std::filesystem::path& tmp, const std::filesystem::path& 
     const int err = errno;
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
-    fail("cannot rename '" + tmp.string() + "' to", path, err);
+    fail(path, err, "renaming the temporary file '" + tmp.filename().string() + "' over it");
   }
 }
 
 AtomicFile::AtomicFile(std::filesystem::path path)
     : path_(std::move(path)), tmp_(temporary_path(path_)) {
   fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd_ < 0) fail("cannot create", tmp_, errno);
+  if (fd_ < 0) fail(path_, errno, "creating the temporary file '" + tmp_.filename().string() + "'");
 }
 
 AtomicFile::~AtomicFile() {
@@ -63,7 +65,7 @@ void AtomicFile::write(std::span<const std::byte> bytes) {
     const ::ssize_t n = ::write(fd_, p, left);
     if (n < 0) {
       if (errno == EINTR) continue;
-      fail("cannot write", tmp_, errno);
+      fail(path_, errno, "writing");
     }
     p += n;
     left -= static_cast<std::size_t>(n);
@@ -75,14 +77,14 @@ void AtomicFile::write(std::string_view text) {
 }
 
 void AtomicFile::commit() {
-  if (::fsync(fd_) != 0) fail("cannot fsync", tmp_, errno);
+  if (::fsync(fd_) != 0) fail(path_, errno, "flushing to the disk");
   const int fd = fd_;
   fd_ = -1;
   if (::close(fd) != 0) {
     const int err = errno;
     std::error_code ec;
     std::filesystem::remove(tmp_, ec);
-    fail("cannot close", tmp_, err);
+    fail(path_, err, "closing");
   }
   rename_over(tmp_, path_);
   fsync_directory(path_);

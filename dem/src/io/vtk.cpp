@@ -13,6 +13,7 @@
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
 #include <vtkDoubleArray.h>
+#include <vtkErrorCode.h>
 #include <vtkFieldData.h>
 #include <vtkIdTypeArray.h>
 #include <vtkIntArray.h>
@@ -49,8 +50,11 @@ void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
   if (ok != 1 || writer->GetErrorCode() != 0) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
-    throw IoError(fmt::format("VTK could not write '{}' (error code {})", path.string(),
-                              static_cast<unsigned long>(writer->GetErrorCode())));
+    const unsigned long code = writer->GetErrorCode();
+    const char* why = vtkErrorCode::GetStringFromErrorCode(code);
+    throw IoError(fmt::format("cannot write '{}': {} (VTK error code {})", path.string(),
+                              why != nullptr && *why != '\0' ? why : "the VTK writer failed",
+                              code));
   }
   detail::rename_over(tmp, path);
 }
