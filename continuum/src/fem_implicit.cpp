@@ -403,14 +403,14 @@ StepStats Model::dynamic_step(double dt) {
   Impl& m = *impl_;
   if (m.is_explicit()) return m.explicit_advance(dt);
   if (!m.dyn_init) {
-    // initial acceleration: M a0 = fext − f_internal(u0)
+    // initial acceleration: M a0 = fext − f_internal(u0), condensed with the constraints (assemble
+    // leaves −R condensed in rhs: a rigid body's rows carry the resultant over all its dofs; the
+    // raw residual with the constrained rows zeroed kept only its master nodes' share, a spurious
+    // initial acceleration of bodies the soil holds in equilibrium, e.g. a seated foundation)
     m.assemble(false, m.hom, false);
     m.v_n = m.v;
     m.K = 0;
     m.K.add(1.0, m.M);
-    m.rhs = m.res;
-    m.rhs *= -1.0;
-    m.hom.set_zero(m.rhs);
     m.solve_linear(true);
     m.hom.distribute(m.du);
     m.a_n = m.du;
