@@ -61,6 +61,20 @@ struct Region {
   Mode mode[3] = {Mode::Free, Mode::Free, Mode::Free}; // x, z, rotation
   scene::TimeFunction motion[3];                       // [m], [m], [rad]
   bool dead_weight = true;                             // gravity acts on the region
+  // Seated (rigid regions whose z mode is Fixed): after the K0 state, a static stage with the
+  // vertical DoF free lets the region's dead weight load the soil (the run's soil model); the
+  // region is then held at that position and the soil keeps its stresses, so that at t = 0 the
+  // soil carries the region's weight (as the DEM packing seats an embedded foundation).
+  bool seat = false;
+};
+
+// One seated region's initial static stage (Model::seating).
+struct Seating {
+  std::size_t region = 0;
+  double settlement = 0.0; // downward displacement of the pivot during seating [m]
+  double soil_fz = 0.0;    // vertical force of the soil on the region after seating [N/m]
+  double weight = 0.0;     // the region's dead weight [N/m]
+  bool converged = true;
 };
 
 struct Mesh {
@@ -172,7 +186,13 @@ public:
   // weight acts in the steps that follow: a structure released at t = 0, as in the DEM scenes);
   // otherwise gravity (regions included) is switched on in `steps` load steps. Displacements are
   // reset to zero afterwards; stresses are kept.
+  //
+  // With use_k0, regions marked `seat` are then seated on the soil (Region::seat): their vertical
+  // DoF is freed, their weight applied statically (Newton, step cuts), and the DoF fixed again at
+  // the seated position; the returned statistics include this stage. See seating().
   StepStats initialise_gravity(bool use_k0, double k0, int steps);
+  // The seated regions' settlement and soil reaction (empty when none was seated).
+  [[nodiscard]] const std::vector<Seating>& seating() const;
   // Static equilibrium at load factor `lambda` (tractions and patches scale with it; gravity is
   // on when it was initialised). Newton with line search; the increment is halved on failure.
   StepStats static_step(double lambda);

@@ -223,8 +223,7 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
       // body force: gravity along −z, base shaking ρ·a(t) (soil), structure loads
       const auto xq = fv.quadrature_point(q);
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
-      double b[2] = {0.0,
-                     weight ? -rho[id] * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0};
+      double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor * weight_factor(id) : 0.0};
       // base shaking loads the soil only, as the DEM loads its particles only
       if (pb.shaking_component >= 0 && id == 0) b[pb.shaking_component] += rho[id] * shake;
       if (id > 0) {

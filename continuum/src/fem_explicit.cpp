@@ -76,7 +76,7 @@ void Model::Impl::explicit_setup() {
       // per unit acceleration (soil only, as in assemble), structure loads per unit
       // resultant/moment (as in assemble)
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
-      const double gz = weight ? -r * pb.gravity * gfactor * (id > 0 ? sfactor : 1.0) : 0.0;
+      const double gz = weight ? -r * pb.gravity * gfactor * weight_factor(id) : 0.0;
       double unit[3][2] = {{0, 0}, {0, 0}, {0, 0}};
       if (id > 0) {
         const RegionGeom& g = geom[id];

@@ -138,6 +138,14 @@ struct Model::Impl {
   // load factors: tractions/patches/structure loads, gravity, and the structures' own weight (0
   // during the K0 correction: the structures are released at t = 0)
   double lambda = 0.0, gfactor = 0.0, sfactor = 1.0;
+  // while structures are seated: 1 for the regions being seated, the others weightless (their
+  // weight acts from t = 0); empty otherwise
+  std::vector<char> seating_mask;
+  [[nodiscard]] double weight_factor(types::material_id id) const {
+    if (id == 0) return 1.0;
+    if (!seating_mask.empty() && !seating_mask[id - 1]) return 0.0;
+    return sfactor;
+  }
   double t = 0.0;
   bool dyn_init = false;
   double xmin = 0, xmax = 0, zmin = 0, zmax = 0;
@@ -191,6 +199,12 @@ struct Model::Impl {
   }
 
   void setup();
+  // rigid-body lines, box/patch/periodic constraints, sparsity, matrices and vectors (sized)
+  void build_constraints();
+  // the constraints again after a region's DoF modes changed (structure seating): u and v keep
+  // their values, M/K0 are reassembled, the dynamic and explicit initialisations start over
+  void reconstrain();
+  std::vector<Seating> seated; // initialise_gravity's seating stage (Region::seat)
 
   void update_ghost() { u_ghost = u; }
 

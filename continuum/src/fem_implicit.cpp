@@ -307,6 +307,50 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
     m.gfactor = 1.0;
     m.sfactor = 0.0;
     total = m.static_to(m.lambda, 1.0, 0, 0.0);
+    // Seating (Region::seat): a structure held vertically but embedded in the soil starts resting
+    // on it, as the DEM packing seats it (lowered until the bed carries its weight): its vertical
+    // DoF is freed, its weight applied statically with the soil's own model, and the DoF fixed
+    // again where it settled; the other structures stay weightless until t = 0.
+    m.seated.clear();
+    std::vector<std::size_t> seat;
+    for (std::size_t r = 0; r < m.pb.regions.size(); ++r) {
+      const Region& reg = m.pb.regions[r];
+      if (reg.seat && reg.rigid && reg.dead_weight && reg.mode[1] == Region::Mode::Fixed)
+        seat.push_back(r);
+    }
+    if (total.converged && !seat.empty()) {
+      m.seating_mask.assign(m.pb.regions.size(), 0);
+      std::vector<double> uz0;
+      for (const std::size_t r : seat) {
+        m.seating_mask[r] = 1;
+        m.pb.regions[r].mode[1] = Region::Mode::Free;
+        uz0.push_back(region_motion(r).uz);
+      }
+      m.reconstrain();
+      const StepStats st = m.static_to(m.lambda, 1.0, 0, 1.0);
+      total.newton_iterations += st.newton_iterations;
+      total.linear_iterations += st.linear_iterations;
+      total.cuts += st.cuts;
+      total.converged = st.converged;
+      total.residual = st.residual;
+      for (std::size_t k = 0; k < seat.size(); ++k) {
+        const std::size_t r = seat[k];
+        Seating s;
+        s.region = r;
+        s.settlement = -(region_motion(r).uz - uz0[k]);
+        s.soil_fz = soil_reaction(r).fz;
+        s.weight = m.rho[r + 1] * m.geom[r + 1].area * m.pb.gravity; // W = ρ A g per metre
+        s.converged = st.converged;
+        m.seated.push_back(s);
+        m.log << "seated region '" << m.pb.regions[r].name << "': settlement " << s.settlement
+              << " m, soil reaction " << s.soil_fz << " N/m = " << s.soil_fz / s.weight
+              << " W (W = " << s.weight << " N/m), " << st.newton_iterations << " Newton its, "
+              << st.cuts << " cuts" << (st.converged ? "" : ", NOT CONVERGED") << "\n";
+        m.pb.regions[r].mode[1] = Region::Mode::Fixed;
+      }
+      m.seating_mask.clear();
+      m.reconstrain();
+    }
     m.sfactor = 1.0;
   } else {
     steps = std::max(1, steps);
@@ -323,6 +367,10 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   for (auto& s : m.committed) s.eps = mc::Vec3{{0, 0, 0}};
   m.trial = m.committed;
   return total;
+}
+
+const std::vector<Seating>& Model::seating() const {
+  return impl_->seated;
 }
 
 StepStats Model::static_step(double lambda) {
@@ -355,14 +403,14 @@ StepStats Model::dynamic_step(double dt) {
   Impl& m = *impl_;
   if (m.is_explicit()) return m.explicit_advance(dt);
   if (!m.dyn_init) {
-    // initial acceleration: M a0 = fext − f_internal(u0)
+    // initial acceleration: M a0 = fext − f_internal(u0), condensed with the constraints (assemble
+    // leaves −R condensed in rhs: a rigid body's rows carry the resultant over all its dofs; the
+    // raw residual with the constrained rows zeroed kept only its master nodes' share, a spurious
+    // initial acceleration of bodies the soil holds in equilibrium, e.g. a seated foundation)
     m.assemble(false, m.hom, false);
     m.v_n = m.v;
     m.K = 0;
     m.K.add(1.0, m.M);
-    m.rhs = m.res;
-    m.rhs *= -1.0;
-    m.hom.set_zero(m.rhs);
     m.solve_linear(true);
     m.hom.distribute(m.du);
     m.a_n = m.du;

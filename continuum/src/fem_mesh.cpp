@@ -149,6 +149,26 @@ void Model::Impl::setup() {
     }
   }
 
+  build_constraints();
+  committed.assign(tria.n_active_cells() * nq(), QpState{});
+  trial = committed;
+  assemble_mass_and_elastic();
+}
+
+void Model::Impl::reconstrain() {
+  // the same dofs and partition: the state vectors keep their values
+  const Vec u_save(u), v_save(v);
+  build_constraints();
+  u = u_save;
+  v = v_save;
+  hom.distribute(u);
+  hom.distribute(v);
+  assemble_mass_and_elastic();
+  dyn_init = false;
+  ex.ready = false;
+}
+
+void Model::Impl::build_constraints() {
   // rigid regions: masters (2 dofs at the node nearest the pivot, 1 at the node farthest from
   // it along the better-conditioned direction) and slaves
   lines.clear();
@@ -375,10 +395,6 @@ void Model::Impl::setup() {
   for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n})
     w->reinit(owned, comm);
   u_ghost.reinit(owned, relevant, comm);
-
-  committed.assign(tria.n_active_cells() * nq(), QpState{});
-  trial = committed;
-  assemble_mass_and_elastic();
 }
 
 double Model::Impl::top_at(double x) const {

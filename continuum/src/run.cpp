@@ -7,7 +7,9 @@
 //   the domain and all structures are removed (stair-stepped inclined boundaries);
 // - structures are rigid bodies tied to the soil: every dof of their cells follows the pivot's
 //   (ux, uz, θ), each fixed, free or prescribed as the scene says; their external force/moment
-//   histories act as body forces with the same resultant and moment; with
+//   histories act as body forces with the same resultant and moment; a structure held
+//   vertically and embedded is first seated on the soil under its weight
+//   (continuum.seat_structures); with
 //   continuum.interface = "frictional" the soil cells touching a structure form a thin
 //   Mohr–Coulomb layer of wall friction δ (continuum.interface_friction_angle);
 // - soil: the domain polygon below soil.continuum.surface when given;
@@ -222,6 +224,28 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       r.motion[k] = *motion[k];
     }
     r.dead_weight = s.dead_weight;
+    // seated on the soil before t = 0 (continuum.seat_structures, scene.hpp): held vertically and
+    // with soil below it (absent: and on both sides, i.e. embedded, as the DEM packing seats it)
+    if (s.dof_z == scene::DofMode::Fixed && co.seat_structures.value_or(true)) {
+      double sx0 = 1e300, sx1 = -1e300, sz0 = 1e300;
+      for (const auto& p : s.outline) {
+        sx0 = std::min(sx0, p.x);
+        sx1 = std::max(sx1, p.x);
+        sz0 = std::min(sz0, p.z);
+      }
+      double dx0 = 1e300, dx1 = -1e300, dz0 = 1e300;
+      for (const auto& p : domain) {
+        dx0 = std::min(dx0, p.x);
+        dx1 = std::max(dx1, p.x);
+        dz0 = std::min(dz0, p.z);
+      }
+      const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
+      const bool below = sz0 > dz0 + tol && sx1 > dx0 + tol && sx0 < dx1 - tol;
+      const bool sides = sx0 > dx0 + tol && sx1 < dx1 - tol &&
+                         top_of(domain, sx0 - 1e3 * tol, dz0) > sz0 + tol &&
+                         top_of(domain, sx1 + 1e3 * tol, dz0) > sz0 + tol;
+      r.seat = below && (co.seat_structures.has_value() || sides);
+    }
     pb.regions.push_back(r);
   }
   // ---- soil–structure interface
@@ -293,6 +317,13 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       summary.message = "gravity initialisation did not converge\n" + m.log();
       return summary;
     }
+    for (const fem::Seating& st : m.seating())
+      if (root)
+        log << fmt::format("seated structure '{}' (continuum.seat_structures): it settled {:.4g} m "
+                           "under its weight with dof_z free and is held there from t = 0; soil "
+                           "reaction {:.4g} N = {:.4f} W (W = {:.4g} N)\n",
+                           pb.regions[st.region].name, st.settlement, st.soil_fz,
+                           st.soil_fz / st.weight, st.weight);
     if (root)
       log << fmt::format(
                  "setup and K0 initialisation: {:.2f} s wall ({} Newton, {} linear "

@@ -220,6 +220,8 @@ std::string to_toml(const Scene& s) {
                             {"integrator", o.integrator},
                             {"explicit_safety", o.explicit_safety},
                             {"local_damping", o.local_damping}});
+    if (o.seat_structures)
+      root.get_as<toml::table>("continuum")->insert("seat_structures", *o.seat_structures);
   }
 
   if (!s.walls.empty()) {

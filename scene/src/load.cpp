@@ -689,10 +689,11 @@ ContinuumOptions read_continuum_options(Reader& r) {
             fmt::format("unknown integrator '{}'; valid: implicit, explicit", o.integrator));
   o.explicit_safety = r.in_range("explicit_safety", o.explicit_safety, 0.01, 1.0);
   o.local_damping = r.in_range("local_damping", o.local_damping, 0.0, 1.0);
+  if (r.has("seat_structures")) o.seat_structures = r.boolean("seat_structures", true);
   r.finish({"integrator", "explicit_safety", "local_damping", "refinement", "degree", "bbar", "dt",
             "newmark_beta", "newmark_gamma", "rayleigh_alpha", "rayleigh_beta", "absorbing",
             "linear_solver", "interface", "interface_friction_angle", "load_steps",
-            "newton_tolerance", "newton_max_iterations", "max_displacement"});
+            "newton_tolerance", "newton_max_iterations", "max_displacement", "seat_structures"});
   return o;
 }
 

@@ -262,6 +262,21 @@ TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
   EXPECT_FALSE(again.base.continuum.bbar);
   EXPECT_DOUBLE_EQ(again.base.continuum.max_displacement, 0.5);
 }
+TEST(SceneLoad, SeatStructures) {
+  // absent: automatic (nullopt); given: kept, and it survives the resolved-scene round trip
+  EXPECT_FALSE(parse_scene(kValid, "a.toml").base.continuum.seat_structures.has_value());
+  const SceneFile f = parse_scene(
+      mutate("friction_angle = 30", "friction_angle = 30\n\n[continuum]\nseat_structures = false"),
+      "seat.toml");
+  ASSERT_TRUE(f.base.continuum.seat_structures.has_value());
+  EXPECT_FALSE(*f.base.continuum.seat_structures);
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  ASSERT_TRUE(again.base.continuum.seat_structures.has_value());
+  EXPECT_FALSE(*again.base.continuum.seat_structures);
+  expect_error(
+      mutate("friction_angle = 30", "friction_angle = 30\n\n[continuum]\nseat_structures = 1"), 24,
+      "expected true or false", "continuum.seat_structures");
+}
 TEST(SceneLoad, UnknownStructureKind) {
   expect_error(mutate("kind = \"wall\"", "kind = \"dam\""), 25, "valid: pile, footing, wall");
 }

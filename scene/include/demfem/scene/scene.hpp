@@ -189,6 +189,11 @@ struct ContinuumOptions {
   std::string integrator = "implicit";
   double explicit_safety = 0.8;
   double local_damping = 0.0;
+  // seat_structures: structures held vertically (dof_z = "fixed") start resting on the soil under
+  // their own weight (a static stage after the K0 state with dof_z free, then fixed where they
+  // settled), as the DEM packing seats them. Absent: every such structure embedded in the soil
+  // (soil on both sides and below it); true: every such structure with soil below it; false: none.
+  std::optional<bool> seat_structures;
 };
 
 struct Soil {
