@@ -27,6 +27,8 @@ struct ErrorStudyOptions {
   // continuum (flamant): global refinements and polynomial degrees
   std::vector<int> refinements = {1, 2, 3, 4};
   std::vector<int> degrees = {1, 2};
+  // continuum: settings whose estimated size exceeds this are skipped (and listed in the notes)
+  double max_dofs = 4.0e5;
   // Points whose fit abscissa is at most this fraction of the coarsest's form the convergence
   // fit... (0: all points). The DEM fit uses Δt ≤ fit_max_fraction × the critical step.
   double fit_max_fraction = 1.0 / 16;
@@ -39,7 +41,8 @@ struct ErrorPoint {
   double x = 0;     // convergence abscissa: Δt [s] (DEM), smallest cell h [m] (continuum)
   double dt = 0;    // DEM step [s]
   std::size_t dofs = 0;
-  std::map<std::string, double> errors; // metric → relative error (≥ 0)
+  std::map<std::string, double> errors;  // metric → relative error (≥ 0)
+  std::map<std::string, double> results; // the computed quantities behind them
   bool ok = false;
   std::string message; // why a run failed
   // Wall time of every repeat [s]: in the solver (its own timer: the cost the knob controls) and
