@@ -307,9 +307,17 @@ void add_fit(ErrorStudy& st, const std::string& knob, const std::string& metric,
     f.x_min = *std::min_element(x.begin(), x.end());
     f.x_max = *std::max_element(x.begin(), x.end());
   }
-  // Errors at round-off carry no order.
-  if (!y.empty() && *std::max_element(y.begin(), y.end()) < 1e-10)
+  // Errors at round-off (all below 1e-8 relative) carry no order.
+  if (!y.empty() && *std::max_element(y.begin(), y.end()) < 1e-8)
     f.order = std::numeric_limits<double>::quiet_NaN();
+  // Nor does a wall time that the knob hardly changes (fixed costs dominate: start-up, output).
+  if (against == "wall" && f.points >= 2 && !(f.x_max > 2.0 * f.x_min)) {
+    f.order = std::numeric_limits<double>::quiet_NaN();
+    st.notes.push_back(fmt::format("{}: no {}-against-wall-time order: the solver wall time "
+                                   "varies only from {:.3g} to {:.3g} s over the sweep (fixed "
+                                   "costs dominate)",
+                                   knob, metric, f.x_min, f.x_max));
+  }
   st.fits.push_back(f);
 }
 
@@ -587,7 +595,8 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
       if (p.pareto) fr.emplace_back(p.wall_median, e->second);
     }
     for (const auto& f : st.fits)
-      if (f.knob == k && f.metric == st.primary_metric && f.against == "wall")
+      if (f.knob == k && f.metric == st.primary_metric && f.against == "wall" &&
+          std::isfinite(f.order))
         s.label += fmt::format(" (error ∝ wall^{})", fmt_order(f.order));
     if (!s.x.empty()) ps.series.push_back(s);
   }
