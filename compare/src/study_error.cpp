@@ -598,6 +598,8 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
       if (f.knob == k && f.metric == st.primary_metric && f.against == "wall" &&
           std::isfinite(f.order))
         s.label += fmt::format(" (error ∝ wall^{})", fmt_order(f.order));
+    // a line joins the settings in knob order only where the cost grows along it
+    if (!std::is_sorted(s.x.begin(), s.x.end())) s.style = "points";
     if (!s.x.empty()) ps.series.push_back(s);
   }
   std::sort(fr.begin(), fr.end());
