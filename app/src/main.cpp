@@ -623,6 +623,10 @@ int cmd_pack(const RunArgs& a) {
                                    *pk.target_porosity, pk.target_tolerance,
                                    r.target_met ? "met" : "NOT MET", r.friction_scale, r.trials)
                      : std::string());
+      if (r.carved > 0)
+        fmt::print("  {} particles carved out where embedded structures stand (deposited without "
+                   "them, then settled around them)\n",
+                   r.carved);
       if (pk.target_porosity && !r.target_met) worst = kRunFailed;
     } catch (const scene::SceneError& e) {
       reporter.finish();

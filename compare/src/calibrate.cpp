@@ -25,7 +25,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 3; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 4; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -225,7 +225,8 @@ json to_json(const Calibration& c) {
               {"soil_mass_kg", c.soil_mass},
               {"continuum_mass_kg", c.continuum_mass},
               {"k0", c.k0},
-              {"k0_profile", c.k0_profile}};
+              {"k0_profile", c.k0_profile},
+              {"structure_seat_dz_m", c.seat_dz}};
   json tests = json::array();
   for (const auto& t : c.tests)
     tests.push_back({{"depth_m", t.depth},
@@ -288,6 +289,8 @@ Calibration from_json(const json& j) {
   c.continuum_mass = b.at("continuum_mass_kg");
   c.k0 = b.at("k0");
   c.k0_profile = b.at("k0_profile").get<std::vector<std::pair<double, double>>>();
+  if (b.contains("structure_seat_dz_m"))
+    c.seat_dz = b.at("structure_seat_dz_m").get<std::vector<std::pair<std::string, double>>>();
   for (const auto& t : j.at("biaxial")) {
     BiaxialCurve x;
     x.depth = t.at("depth_m");
@@ -392,6 +395,14 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   // ---- the scene's deposited bed: density, surface, K0 -------------------------------------
   const auto bed = dem::pack_or_load(scene, o.out_dir.empty() ? cache : o.out_dir, o.progress);
   const auto& P = bed.particles;
+  // Structures where the packing seated them (dem::PackResult::seat_dz); the continuum is moved
+  // there too (apply_calibration), so both models hold the foundation at the same height.
+  std::vector<scene::Structure> structures = scene.structures;
+  for (std::size_t k = 0; k < structures.size() && k < bed.seat_dz.size(); ++k)
+    if (bed.seat_dz[k] != 0.0) {
+      structures[k] = scene::shifted(structures[k], bed.seat_dz[k]);
+      c.seat_dz.emplace_back(structures[k].name, bed.seat_dz[k]);
+    }
   const auto& fill = d.fill.empty() ? scene.domain : d.fill;
   double x0 = 1e300, x1 = -1e300, zb = 1e300, rmax = 0.0;
   for (const auto& q : fill) {
@@ -418,7 +429,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       tops[k] = std::max(tops[k], P.z[i] + P.radius[i]);
     }
     // columns over a structure hold the soil below it, not the surface
-    for (const auto& st : scene.structures) {
+    for (const auto& st : structures) {
       double sx0 = 1e300, sx1 = -1e300;
       for (const auto& q : st.outline) {
         sx0 = std::min(sx0, q.x);
@@ -438,7 +449,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     const double target = c.soil_mass / (c.bulk_density * d.thickness);
     auto soil_area = [&](double z) {
       double a = area_below(fill, z);
-      for (const auto& st : scene.structures) a -= area_below(st.outline, z);
+      for (const auto& st : structures) a -= area_below(st.outline, z);
       return a;
     };
     double ztop = zb;
@@ -466,7 +477,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     for (const auto& w : scene.walls) e.add_wall(w);
     std::vector<calib::StressWindow> exclude;
     const double margin = 10.0 * rmax; // 5 diameters around each structure
-    for (auto st : scene.structures) {
+    for (auto st : structures) {
       st.dof_x = st.dof_z = st.dof_rotation = scene::DofMode::Fixed;
       st.force_x = st.force_z = st.moment = scene::TimeFunction{};
       e.add_structure(st);
@@ -802,6 +813,19 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
       "height holding the DEM bed's soil mass at that density");
   s.surface = surf;
   if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
+  // Structures at the height where the DEM packing seated them (always: geometry is not a
+  // continuum parameter a scene can state against it). The DEM run seats them itself.
+  s.structure_offsets = c.seat_dz;
+  for (const auto& [name, dz] : c.seat_dz)
+    for (const auto& st : scene.structures)
+      if (st.name == name) {
+        const std::string note =
+            fmt::format("{}: {:.3g} m {} the scene's base, where the DEM packing seated it", src,
+                        std::abs(dz), dz < 0.0 ? "below" : "above");
+        s.provenance.emplace_back("structure." + name + ".base", note);
+        lines.push_back(
+            fmt::format("structure.{}.base z = {:.4g} m: {}", name, st.base_centre.z + dz, note));
+      }
   return lines;
 }
 

@@ -74,7 +74,17 @@ scene::Polygon clip_below(const scene::Polygon& poly, double level) {
 
 } // namespace
 
-RunSummary run(const scene::Scene& scene, const RunOptions& options) {
+RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
+  // Structures where the DEM packing seated them (calibrate = "dem"; ContinuumSoil::
+  // structure_offsets), so both models hold a foundation at the same height.
+  const scene::Scene scene = [&] {
+    scene::Scene s = scene_in;
+    if (s.soil.continuum)
+      for (const auto& [name, dz] : s.soil.continuum->structure_offsets)
+        for (auto& st : s.structures)
+          if (st.name == name) st = scene::shifted(st, dz);
+    return s;
+  }();
   RunSummary summary;
   const auto t_start = std::chrono::steady_clock::now();
   if (!scene.soil.continuum) {

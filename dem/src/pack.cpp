@@ -77,6 +77,8 @@ using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
 constexpr int kPackingFormat = 1; // bump when the placement or deposition algorithm changes
 
+bool carved(const scene::Scene& scene, const scene::Structure& st); // below
+
 } // namespace
 
 std::string packing_key(const scene::Scene& scene) {
@@ -125,6 +127,8 @@ std::string packing_key(const scene::Scene& scene) {
     f.points(s.outline);
     f.num(s.mu_static.value_or(-1.0));
     f.num(s.mu_dynamic.value_or(-1.0));
+    if (carved(scene, s))
+      f.str("carved+seated"); // embedded structures (carved()); others keep keys
   }
   return fmt::format("{:016x}", f.h);
 }
@@ -178,6 +182,19 @@ Box bbox(const scene::Polygon& p) {
   return b;
 }
 
+// A structure with fill on both sides of it and under it is embedded in the bed. Such a
+// structure is absent while the bed is deposited and carved out of the settled bed afterwards
+// (every disk overlapping its outline removed, then the bed settles again around the fixed
+// structure). Depositing around a fixed embedded structure, as packings before format 2 did,
+// left a hollow under it: the column beneath compacts while the structure stays (measured on
+// foundation 2-A: the bed under the 98 m base sank to 88 m; issue 9). Structures at the fill's
+// edge (a retaining wall) stay obstacles during deposition.
+bool carved(const scene::Scene& scene, const scene::Structure& st) {
+  const Box fb = bbox(scene.soil.dem->fill), sb = bbox(st.outline);
+  const double tol = 1e-9 * std::max(fb.x1 - fb.x0, fb.z1 - fb.z0);
+  return sb.x0 > fb.x0 + tol && sb.x1 < fb.x1 - tol && sb.z0 > fb.z0 + tol;
+}
+
 struct Placement {
   std::vector<double> x, z, r;
   int layers = 1;
@@ -209,6 +226,7 @@ Placement place_lattice(const scene::Scene& scene) {
     for (const auto& w : scene.walls)
       if (boundary_distance(w.points, p, false) < half) return false;
     for (std::size_t i = 0; i < scene.structures.size(); ++i) {
+      if (carved(scene, scene.structures[i])) continue; // absent while depositing
       const auto& o = scene.structures[i].outline;
       if (scene::contains(o, p) || boundary_distance(o, p, true) < half) return false;
       // Not above a structure: it would land on it.
@@ -282,6 +300,7 @@ Placement place_random(const scene::Scene& scene) {
     for (const auto& w : scene.walls)
       if (boundary_distance(w.points, p, false) < clear) return false;
     for (std::size_t i = 0; i < scene.structures.size(); ++i) {
+      if (carved(scene, scene.structures[i])) continue; // absent while depositing
       const auto& o = scene.structures[i].outline;
       if (scene::contains(o, p) || boundary_distance(o, p, true) < clear) return false;
       if (x > sboxes[i].x0 - clear && x < sboxes[i].x1 + clear && z > sboxes[i].z0) return false;
@@ -391,10 +410,17 @@ void sort_by_id(Particles& p) {
 }
 
 std::string stats_text(const PackResult& r) {
-  return fmt::format("deposition_time={:.17g};steps={};ke_ratio={:.17g};converged={};layers={};"
-                     "wall_seconds={:.17g};friction_scale={:.17g};trials={};target_met={}",
-                     r.deposition_time, r.steps, r.ke_ratio, r.converged ? 1 : 0, r.layers,
-                     r.wall_seconds, r.friction_scale, r.trials, r.target_met ? 1 : 0);
+  return fmt::format(
+             "deposition_time={:.17g};steps={};ke_ratio={:.17g};converged={};layers={};"
+             "wall_seconds={:.17g};friction_scale={:.17g};trials={};target_met={};carved={}",
+             r.deposition_time, r.steps, r.ke_ratio, r.converged ? 1 : 0, r.layers, r.wall_seconds,
+             r.friction_scale, r.trials, r.target_met ? 1 : 0, r.carved) +
+         [&] {
+           std::string t = fmt::format(";seat_load={:.17g}", r.seat_load);
+           for (std::size_t k = 0; k < r.seat_dz.size(); ++k)
+             t += fmt::format(";seat_dz{}={:.17g}", k, r.seat_dz[k]);
+           return t;
+         }();
 }
 
 void parse_stats(const std::string& s, PackResult& r) {
@@ -423,6 +449,17 @@ void parse_stats(const std::string& s, PackResult& r) {
       r.trials = static_cast<int>(v);
     else if (k == "target_met")
       r.target_met = v != 0.0;
+    else if (k == "carved")
+      r.carved = static_cast<std::size_t>(v);
+    else if (k == "seat_load")
+      r.seat_load = v;
+    else if (k.starts_with("seat_dz")) {
+      const auto idx = static_cast<std::size_t>(std::strtoul(k.c_str() + 7, nullptr, 10));
+      if (idx < 4096) {
+        if (r.seat_dz.size() <= idx) r.seat_dz.resize(idx + 1, 0.0);
+        r.seat_dz[idx] = v;
+      }
+    }
   }
 }
 
@@ -577,6 +614,9 @@ struct Trial {
   bool converged = false;
   double dt = 0.0;
   double scale = 1.0;
+  std::size_t carved = 0;      // particles removed from embedded structures' outlines
+  std::vector<double> seat_dz; // per scene structure: vertical offset from seating [m]
+  double seat_load = 0.0;      // bed reaction / weight of the last seated structure
   PackingMeasure measure;
 };
 
@@ -586,11 +626,6 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   const auto& d = scene.soil.dem.value();
   EngineConfig c = make_config(scene);
   c.shaking = false; // deposition under gravity only
-  // Raised (or lowered) friction during the deposition (target density; pack.hpp).
-  for (auto& m : c.materials) {
-    m.mu_s *= scale;
-    m.mu_d *= scale;
-  }
   if (d.packing.damping > 0.0) {
     // Deposition only: global viscous damping (eqs. 2.1, 2.2 with C = D per unit mass/inertia)
     // at ratio ζ = packing.damping of critical for the mean particle on one normal spring:
@@ -603,32 +638,55 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
     c.damping_c += extra;
     c.damping_d += extra;
   }
-  Engine e(c);
-  for (std::size_t i = 0; i < pl.x.size(); ++i) e.add_particle(pl.x[i], pl.z[i], pl.r[i]);
-  for (const auto& w : scene.walls) e.add_wall(w); // openings stay closed while depositing
-  for (auto st : scene.structures) {               // fixed obstacles, unloaded
-    st.dof_x = st.dof_z = st.dof_rotation = scene::DofMode::Fixed;
-    st.force_x = st.force_z = st.moment = scene::TimeFunction{};
-    st.motion_x = st.motion_z = st.motion_rotation = scene::TimeFunction{};
-    e.add_structure(st);
+  const EngineConfig c_scene = c; // the scene's friction, for the carve stage
+  // Raised (or lowered) friction during the deposition (target density; pack.hpp).
+  for (auto& m : c.materials) {
+    m.mu_s *= scale;
+    m.mu_d *= scale;
   }
-  // Temporary container: fill edges that do not face upwards and are not already a wall.
   const auto& F = d.fill;
   const Box fb = bbox(F);
-  const double tol = 1e-6 * std::max(fb.x1 - fb.x0, fb.z1 - fb.z0);
-  for (std::size_t k = 0; k < F.size(); ++k) {
-    const auto a = F[k], b = F[(k + 1) % F.size()];
-    const double len = std::hypot(b.x - a.x, b.z - a.z);
-    const double nz =
-        -(b.x - a.x) / len; // outward normal of a counter-clockwise polygon: (dz, −dx)/len
-    if (nz > 0.5 || on_boundary_of(scene, a, b, tol)) continue;
-    e.add_wall({a, b}, fmt::format("packing-container-{}", k));
-  }
-  if (pl.layers > 1) { // guides for the copies stacked above the fill
-    e.add_wall({{fb.x0, fb.z1}, {fb.x0, pl.top + 2.0 * (fb.z1 - fb.z0)}}, "packing-guide-left");
-    e.add_wall({{fb.x1, fb.z1}, {fb.x1, pl.top + 2.0 * (fb.z1 - fb.z0)}}, "packing-guide-right");
-  }
-  e.set_dt(d.dt > 0.0 ? d.dt : e.auto_dt());
+  // Walls, structures (fixed obstacles, unloaded; embedded ones only once carved) and the
+  // temporary container: fill edges that do not face upwards and are not already a wall.
+  // seat_dz: the structures' vertical offsets so far; `lowered`: the one being seated (its z
+  // prescribed by `lowering`), or none.
+  constexpr std::size_t none = ~std::size_t{0};
+  auto add_boundaries = [&](Engine& en, bool with_embedded, const std::vector<double>& seat_dz,
+                            std::size_t lowered = ~std::size_t{0},
+                            const scene::TimeFunction& lowering = {}) {
+    for (const auto& w : scene.walls) en.add_wall(w); // openings stay closed while depositing
+    for (std::size_t k = 0; k < scene.structures.size(); ++k) {
+      if (!with_embedded && carved(scene, scene.structures[k])) continue;
+      auto st = scene::shifted(scene.structures[k], seat_dz[k]);
+      st.dof_x = st.dof_z = st.dof_rotation = scene::DofMode::Fixed;
+      st.force_x = st.force_z = st.moment = scene::TimeFunction{};
+      st.motion_x = st.motion_z = st.motion_rotation = scene::TimeFunction{};
+      if (k == lowered) {
+        st.dof_z = scene::DofMode::Prescribed;
+        st.motion_z = lowering;
+      }
+      en.add_structure(st);
+    }
+    const double tol = 1e-6 * std::max(fb.x1 - fb.x0, fb.z1 - fb.z0);
+    for (std::size_t k = 0; k < F.size(); ++k) {
+      const auto a = F[k], b = F[(k + 1) % F.size()];
+      const double len = std::hypot(b.x - a.x, b.z - a.z);
+      const double nz =
+          -(b.x - a.x) / len; // outward normal of a counter-clockwise polygon: (dz, −dx)/len
+      if (nz > 0.5 || on_boundary_of(scene, a, b, tol)) continue;
+      en.add_wall({a, b}, fmt::format("packing-container-{}", k));
+    }
+    if (pl.layers > 1) { // guides for the copies stacked above the fill
+      en.add_wall({{fb.x0, fb.z1}, {fb.x0, pl.top + 2.0 * (fb.z1 - fb.z0)}}, "packing-guide-left");
+      en.add_wall({{fb.x1, fb.z1}, {fb.x1, pl.top + 2.0 * (fb.z1 - fb.z0)}}, "packing-guide-right");
+    }
+  };
+  auto eng = std::make_unique<Engine>(c);
+  Engine* ep = eng.get();
+  for (std::size_t i = 0; i < pl.x.size(); ++i) ep->add_particle(pl.x[i], pl.z[i], pl.r[i]);
+  std::vector<double> seat_dz(scene.structures.size(), 0.0);
+  add_boundaries(*ep, false, seat_dz);
+  ep->set_dt(d.dt > 0.0 ? d.dt : ep->auto_dt());
 
   Trial res;
   res.scale = scale;
@@ -640,18 +698,22 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   const long long chunk = 50;
   auto last_report = std::chrono::steady_clock::now();
   // Runs until KE < ke_ratio × released PE after t_from, or until t_cap.
+  double released_before = 0.0; // potential energy released by engines before this one [J]
+  long long steps_before = 0;
   auto settle = [&](double t_from, double t_cap, const char* stage) {
     while (true) {
-      e.run_steps(chunk);
-      if (e.failed())
+      ep->run_steps(chunk);
+      if (ep->failed())
         throw std::runtime_error(fmt::format("packing of {} failed during deposition at t = {} s "
                                              "(Δt = {} s, friction × {}): {}",
-                                             scene.label(), e.time(), e.dt(), scale, e.failure()));
-      const auto en = e.energy();
+                                             scene.label(), ep->time(), ep->dt(), scale,
+                                             ep->failure()));
+      const auto en = ep->energy();
       const double ke = en.kinetic + en.rotational;
-      res.ke_ratio = en.gravity_work > 0.0 ? ke / en.gravity_work : 1.0;
-      if (e.time() >= t_from && res.ke_ratio < d.packing.ke_ratio) return true;
-      if (e.time() >= t_cap) return false;
+      const double released = released_before + en.gravity_work;
+      res.ke_ratio = released > 0.0 ? ke / released : 1.0;
+      if (ep->time() >= t_from && res.ke_ratio < d.packing.ke_ratio) return true;
+      if (ep->time() >= t_cap) return false;
       const auto now = std::chrono::steady_clock::now();
       if (progress && now - last_report > std::chrono::milliseconds(500)) {
         last_report = now;
@@ -659,33 +721,116 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
         pg.stage = trial > 0
                        ? fmt::format("{} (trial {}, friction × {:.3g})", stage, trial + 1, scale)
                        : std::string(stage);
-        pg.time = e.time();
+        pg.time = ep->time();
         pg.end_time = t_cap;
-        pg.step = e.stats().steps;
+        pg.step = ep->stats().steps;
         pg.wall_seconds = std::chrono::duration<double>(now - t0).count();
         progress(pg);
       }
     }
   };
+  const double rmax = pl.r.empty() ? 0.0 : *std::max_element(pl.r.begin(), pl.r.end());
   res.converged = settle(t_min, d.packing.max_time, "pack");
   if (scale != 1.0) {
     // The scene's friction back, then settle again: at least 20 free-fall times over one largest
     // diameter, √(2·2r_max/g), for the contacts beyond the restored Coulomb limit to slip.
-    const double rmax = pl.r.empty() ? 0.0 : *std::max_element(pl.r.begin(), pl.r.end());
     const scene::Polygon all{{fb.x0 - 1e9, fb.z0 - 1e9},
                              {fb.x1 + 1e9, fb.z0 - 1e9},
                              {fb.x1 + 1e9, fb.z1 + 1e12},
                              {fb.x0 - 1e9, fb.z1 + 1e12}};
-    e.set_friction(all, d.mu_static, d.mu_dynamic);
+    ep->set_friction(all, d.mu_static, d.mu_dynamic);
     const double t_relax = g > 0.0 ? 20.0 * std::sqrt(4.0 * rmax / g) : 0.0;
     res.converged =
-        settle(e.time() + t_relax, e.time() + d.packing.max_time, "pack (settle)") && res.converged;
+        settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (settle)") &&
+        res.converged;
   }
-  res.time = e.time();
-  res.steps = e.stats().steps;
-  res.dt = e.dt();
-  res.particles = e.particles();
-  res.history = e.save_contact_history(false);
+  // Embedded structures: carve them out of the settled bed, then settle around them.
+  std::vector<const scene::Structure*> embedded;
+  for (const auto& st : scene.structures)
+    if (carved(scene, st)) embedded.push_back(&st);
+  if (!embedded.empty()) {
+    Particles P = ep->particles();
+    sort_by_id(P);
+    auto overlaps = [&](std::size_t i) { // the disk reaches into the outline
+      const scene::Vec2 q{P.x[i], P.z[i]};
+      for (const auto* st : embedded)
+        if (scene::contains(st->outline, q) ||
+            boundary_distance(st->outline, q, true) < P.radius[i])
+          return true;
+      return false;
+    };
+    auto next = std::make_unique<Engine>(c_scene);
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      if (!P.flags.empty() && (P.flags[i] & kFlagRemoved)) continue;
+      if (overlaps(i))
+        ++res.carved;
+      else
+        next->add_particle(P.x[i], P.z[i], P.radius[i]);
+    }
+    add_boundaries(*next, true, seat_dz);
+    next->set_dt(ep->dt());
+    next->set_time(ep->time());
+    const auto en = ep->energy();
+    released_before += en.gravity_work;
+    steps_before += ep->stats().steps;
+    eng = std::move(next);
+    ep = eng.get();
+    // Settle again: at least 20 free-fall times over one largest diameter, √(2·2r_max/g), for
+    // the neighbours of the carved volume to rearrange.
+    const double t_relax = g > 0.0 ? 20.0 * std::sqrt(4.0 * rmax / g) : 0.0;
+    res.converged = settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (carve)") &&
+                    res.converged;
+  }
+  // Seat the embedded structures the run holds fixed vertically (a rocking foundation: it
+  // cannot close the gap carving leaves under it, up to one diameter). Each is lowered at
+  // v = 0.02 √(g r_max) (quasi-static: well below the bed's free-fall speed over one radius)
+  // until the bed carries its weight, at most 2 r_max; the run uses the seated position
+  // (PackResult::seat_dz).
+  auto restart = [&](std::size_t lowered, const scene::TimeFunction& lowering) {
+    Particles P = ep->particles();
+    sort_by_id(P);
+    const auto history = ep->save_contact_history(false);
+    auto next = std::make_unique<Engine>(c_scene);
+    for (std::size_t i = 0; i < P.size(); ++i) // id order: the history's ids stay valid
+      next->add_particle(P.x[i], P.z[i], P.radius[i], P.vx[i], P.vz[i], P.omega[i]);
+    add_boundaries(*next, true, seat_dz, lowered, lowering);
+    next->load_contact_history(history);
+    next->set_dt(ep->dt());
+    next->set_time(ep->time());
+    released_before += ep->energy().gravity_work;
+    steps_before += ep->stats().steps;
+    eng = std::move(next);
+    ep = eng.get();
+  };
+  for (std::size_t k = 0; k < scene.structures.size(); ++k) {
+    const auto& sk = scene.structures[k];
+    if (!carved(scene, sk) || sk.dof_z != scene::DofMode::Fixed || !(g > 0.0)) continue;
+    const double v = 0.02 * std::sqrt(g * rmax), travel = 2.0 * rmax;
+    const double t_start = ep->time();
+    restart(k, scene::TimeFunction::ramp(-v, 0.0, t_start));
+    const auto& st = ep->structures()[k];
+    const double weight = st.mass * g; // what the bed carries under a resting foundation
+    while (st.soil_fz < weight && -st.uz < travel) {
+      ep->run_steps(chunk);
+      if (ep->failed())
+        throw std::runtime_error(fmt::format("packing of {} failed while seating structure '{}' "
+                                             "at t = {} s: {}",
+                                             scene.label(), sk.name, ep->time(), ep->failure()));
+    }
+    res.seat_dz.resize(scene.structures.size(), 0.0);
+    res.seat_dz[k] = st.uz;
+    res.seat_load = st.soil_fz / weight;
+    seat_dz[k] += st.uz;
+    restart(none, {});
+    const double t_relax = 20.0 * std::sqrt(4.0 * rmax / g);
+    res.converged = settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (seat)") &&
+                    res.converged;
+  }
+  res.time = ep->time();
+  res.steps = steps_before + ep->stats().steps;
+  res.dt = ep->dt();
+  res.particles = ep->particles();
+  res.history = ep->save_contact_history(false);
   sort_by_id(res.particles);
   auto& P = res.particles;
   std::fill(P.vx.begin(), P.vx.end(), 0.0);
@@ -769,6 +914,9 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   res.contact_history = std::move(best.history);
   res.measure = best.measure;
   res.friction_scale = best.scale;
+  res.carved = best.carved;
+  res.seat_dz = best.seat_dz;
+  res.seat_load = best.seat_load;
   res.trials = trials;
   res.target_met = met;
   auto& P = res.particles;
@@ -822,6 +970,12 @@ void write_packing_json(const PackResult& r, const scene::Scene& scene, const fs
                                                    : "deposition with the scene's friction");
   js += fmt::format("  \"friction_scale\": {:.6g},\n", r.friction_scale);
   js += fmt::format("  \"trials\": {},\n", r.trials);
+  js += fmt::format("  \"carved\": {},\n", r.carved);
+  for (std::size_t k = 0; k < r.seat_dz.size() && k < scene.structures.size(); ++k)
+    if (r.seat_dz[k] != 0.0)
+      js +=
+          fmt::format("  \"seated_{}\": {{\"dz_m\": {:.6g}, \"bed_load_over_weight\": {:.4g}}},\n",
+                      scene.structures[k].name, r.seat_dz[k], r.seat_load);
   js += fmt::format("  \"deposition_time_s\": {:.6g},\n", r.deposition_time);
   js += fmt::format("  \"ke_ratio\": {:.3e},\n", r.ke_ratio);
   js += fmt::format("  \"converged\": {},\n", r.converged ? "true" : "false");
@@ -848,16 +1002,17 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
     try {
       auto ck = io::read_checkpoint(path);
       const std::string label = "packing " + packing_key(scene) + " " + scene.info.name;
-      if (ck.particles.size() == static_cast<std::size_t>(d.count) && ck.meta.label == label) {
-        PackResult r;
+      PackResult r;
+      const auto nul = std::find(ck.extra.begin(), ck.extra.end(), std::byte{0});
+      parse_stats(std::string(reinterpret_cast<const char*>(ck.extra.data()),
+                              static_cast<std::size_t>(nul - ck.extra.begin())),
+                  r);
+      if (ck.particles.size() + r.carved == static_cast<std::size_t>(d.count) &&
+          ck.meta.label == label) {
         r.particles = std::move(ck.particles);
         r.path = path;
         r.key = packing_key(scene);
         r.from_cache = true;
-        const auto nul = std::find(ck.extra.begin(), ck.extra.end(), std::byte{0});
-        parse_stats(std::string(reinterpret_cast<const char*>(ck.extra.data()),
-                                static_cast<std::size_t>(nul - ck.extra.begin())),
-                    r);
         if (nul != ck.extra.end()) r.contact_history.assign(nul + 1, ck.extra.end());
         r.surface_max = top_of(r.particles);
         r.measure = measure_packing(scene, r.particles);

@@ -192,9 +192,19 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       return summary;
     }
   }
+  std::vector<double> seat_dz; // per structure: where the packing seated it (pack.hpp)
 #ifdef DEMFEM_DEM_HAS_PACK
+  if (resume_from && scene.soil.dem->particles.empty() && !scene.structures.empty())
+    seat_dz = pack_or_load(scene, options.out_dir, options.progress).seat_dz; // cached
   if (!resume_from) { // a resumed run takes its particles from the checkpoint
     const PackResult pr = pack_or_load(scene, options.out_dir, options.progress);
+    seat_dz = pr.seat_dz;
+    for (std::size_t k = 0; k < seat_dz.size() && k < scene.structures.size(); ++k)
+      if (seat_dz[k] != 0.0)
+        spdlog::info("packing: structure '{}' seated {:.3g} m {} its stated position (the bed "
+                     "carries {:.3g} × its weight there)",
+                     scene.structures[k].name, std::abs(seat_dz[k]),
+                     seat_dz[k] < 0.0 ? "below" : "above", pr.seat_load);
     const auto& p = pr.particles;
     for (std::size_t i = 0; i < p.size(); ++i)
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
@@ -209,6 +219,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
             ? fmt::format(" — target {:.4f} ± {:.4f}{}", *scene.soil.dem->packing.target_porosity,
                           scene.soil.dem->packing.target_tolerance, pr.target_met ? "" : " NOT MET")
             : std::string());
+    if (pr.carved > 0)
+      spdlog::info("packing: {} particles carved out where embedded structures stand", pr.carved);
   }
 #else
   if (!resume_from && scene.soil.dem->particles.empty()) {
@@ -223,7 +235,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
 #endif
   for (const auto& w : scene.walls) e.add_wall(w);
-  for (const auto& s : scene.structures) e.add_structure(s);
+  for (std::size_t k = 0; k < scene.structures.size(); ++k)
+    e.add_structure(k < seat_dz.size() ? scene::shifted(scene.structures[k], seat_dz[k])
+                                       : scene.structures[k]);
   const double dt_scene = scene.soil.dem->dt;
   try {
     e.set_dt(dt_scene > 0.0 ? dt_scene : e.auto_dt());
@@ -445,17 +459,29 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (e0_set) {
       if (auto stop = watch_closure(b.total() - e0, t); !stop.empty()) return stop;
     }
+    // Soil forces on structures and walls are evaluated inside a step. Before the first step
+    // they are those of the initial positions: a copy of the engine takes one step to get them
+    // (the t = 0 row is the at-rest state the comparison's static values read).
+    std::optional<Engine> primed;
+    if (e.stats().steps == 0 && (struct_csv || wall_csv)) {
+      primed.emplace(e);
+      primed->step();
+    }
+    const Engine& forces = primed ? *primed : e;
     if (struct_csv) {
       std::vector<double> row{t};
-      for (const auto& s : e.structures())
+      for (std::size_t k = 0; k < e.structures().size(); ++k) {
+        const auto& s = e.structures()[k];
+        const auto& f = forces.structures()[k];
         row.insert(row.end(),
-                   {-s.uz, s.rot, s.soil_moment, s.soil_fx, s.soil_fz, s.applied_moment, s.ux});
+                   {-s.uz, s.rot, f.soil_moment, f.soil_fx, f.soil_fz, s.applied_moment, s.ux});
+      }
       struct_csv->append(row);
     }
     if (wall_csv) {
       std::vector<double> row{t};
       for (const auto& th : thrust) {
-        const auto& B = e.boundaries()[static_cast<std::size_t>(th.boundary)];
+        const auto& B = forces.boundaries()[static_cast<std::size_t>(th.boundary)];
         e.boundary_vertices(th.boundary, verts);
         const auto [nx, nz] = chord_normal(verts);
         row.insert(row.end(),

@@ -77,4 +77,12 @@ Vec2 centroid(const Polygon& p) {
   return {cx / (6.0 * a), cz / (6.0 * a)};
 }
 
+Structure shifted(Structure st, double dz) {
+  for (auto& q : st.outline) q.z += dz;
+  st.base_centre.z += dz;
+  st.pivot.z += dz;
+  st.load_point.z += dz;
+  return st;
+}
+
 } // namespace demfem::scene

@@ -1,5 +1,7 @@
 #include "demfem/scene/load.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -7,6 +9,7 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -686,9 +689,10 @@ ContinuumOptions read_continuum_options(Reader& r) {
             fmt::format("unknown integrator '{}'; valid: implicit, explicit", o.integrator));
   o.explicit_safety = r.in_range("explicit_safety", o.explicit_safety, 0.01, 1.0);
   o.local_damping = r.in_range("local_damping", o.local_damping, 0.0, 1.0);
-  r.finish({"integrator", "explicit_safety", "local_damping", "refinement", "degree", "bbar", "dt", "newmark_beta", "newmark_gamma", "rayleigh_alpha",
-            "rayleigh_beta", "absorbing", "linear_solver", "interface", "interface_friction_angle",
-            "load_steps", "newton_tolerance", "newton_max_iterations", "max_displacement"});
+  r.finish({"integrator", "explicit_safety", "local_damping", "refinement", "degree", "bbar", "dt",
+            "newmark_beta", "newmark_gamma", "rayleigh_alpha", "rayleigh_beta", "absorbing",
+            "linear_solver", "interface", "interface_friction_angle", "load_steps",
+            "newton_tolerance", "newton_max_iterations", "max_displacement"});
   return o;
 }
 
@@ -1059,7 +1063,15 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
     if (auto* t = cur->as_table()) {
       next = t->get(p);
       if (last) {
-        if (!next)
+        // With calibrate = "dem" the calibrated keys exist implicitly (their values come from
+        // `demfem calibrate`): a variant may state one.
+        static constexpr std::array<std::string_view, 8> kCalibrated{
+            "young",   "poisson", "friction_angle", "cohesion", "dilation_angle",
+            "density", "k0",      "surface"};
+        const bool calibrated =
+            walked == "soil.continuum" && (*t)["calibrate"].value<std::string>() == "dem" &&
+            std::find(kCalibrated.begin(), kCalibrated.end(), p) != kCalibrated.end();
+        if (!next && !calibrated)
           return fmt::format("the base scene has no key '{}' under '{}' to override; add it to the "
                              "base scene (with its default) so each variant states what it changes",
                              p, walked.empty() ? "(top level)" : walked);

@@ -1,5 +1,6 @@
 // Scene loading: a valid scene resolves to the expected typed values, and each malformed input
 // is rejected with the specific message at the right line.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -126,6 +127,22 @@ TEST(SceneLoad, VariantCanAddressArrayElementsByName) {
                                     R"(set = { "structure.wall.to" = [8, 5.0] })"),
                              "test.toml");
   EXPECT_NEAR(f.select("case-2").structures[0].height, 5.0, 1e-12);
+}
+
+TEST(SceneLoad, VariantMayStateACalibratedKeyOnlyWithCalibrateDem) {
+  // With calibrate = "dem" the calibrated keys (dilation_angle, …) exist implicitly.
+  const std::string base_keys = "young = 3.0e7\nfriction_angle = 30";
+  std::string text = mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
+                            R"(set = { "soil.continuum.dilation_angle" = 5.0 })");
+  text.replace(text.find(base_keys), base_keys.size(), "calibrate = \"dem\"");
+  const auto g = parse_scene(text, "test.toml");
+  const auto& c = *g.select("case-2").soil.continuum;
+  EXPECT_NEAR(c.dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NE(std::find(c.given.begin(), c.given.end(), "dilation_angle"), c.given.end());
+  // Without calibrate = "dem" it is a missing key, as any other.
+  expect_error(mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
+                      R"(set = { "soil.continuum.cohesion" = 1.0 })"),
+               37, "the base scene has no key 'cohesion' under 'soil.continuum'");
 }
 
 TEST(SceneLoad, ResolvedSceneRoundTrips) {

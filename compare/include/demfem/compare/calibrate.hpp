@@ -85,6 +85,8 @@ struct Calibration {
   double soil_mass = 0.0, continuum_mass = 0.0; // DEM particles; ρ_b × continuum soil [kg/m]
   double k0 = 0.0;
   std::vector<std::pair<double, double>> k0_profile; // (depth below surface [m], K)
+  // Embedded structures the packing seated on the bed: (name, vertical offset [m]).
+  std::vector<std::pair<std::string, double>> seat_dz;
   // specimen and element tests
   int particles = 0;
   double specimen_porosity = 0.0; // as deposited

@@ -88,7 +88,9 @@ struct PackingMeasure {
 [[nodiscard]] PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p);
 
 struct PackResult {
-  Particles particles;        // at rest, velocities zeroed, ids 0…count−1 in placement order
+  // At rest, velocities zeroed, ids in placement order: 0…count−1, less the `carved` particles
+  // removed from embedded structures' outlines (pack.cpp, carved()).
+  Particles particles;
   std::filesystem::path path; // the checkpoint
   std::string key;
   bool from_cache = false;
@@ -107,6 +109,11 @@ struct PackResult {
   double friction_scale = 1.0;       // s of the deposition kept (1 without a target)
   int trials = 1;                    // depositions made to reach the target
   bool target_met = true;            // |porosity − target| ≤ tolerance (true without a target)
+  std::size_t carved = 0;            // particles removed where embedded structures stand
+  // Per scene structure (empty: none seated): the vertical offset [m] at which an embedded,
+  // vertically fixed structure rests on the bed after seating (pack.cpp); the run places it there.
+  std::vector<double> seat_dz;
+  double seat_load = 0.0; // the bed's reaction / the structure's weight when seating stopped
 };
 
 // Writes the packing's statistics and measure as JSON (beside a checkpoint, or into a run).

@@ -159,6 +159,9 @@ struct ContinuumSoil {
   std::vector<std::string> given; // the keys stated in the file (or set by a variant)
   // key → where its value came from (filled by apply_calibration; dumped as a table)
   std::vector<std::pair<std::string, std::string>> provenance;
+  // calibrate = "dem": structures the DEM packing seated on its bed, (name, vertical offset [m]);
+  // the continuum places them there too (continuum::run).
+  std::vector<std::pair<std::string, double>> structure_offsets;
 };
 
 struct ContinuumOptions {
@@ -299,6 +302,8 @@ struct Scene {
 [[nodiscard]] double signed_area(const Polygon& p); // > 0 when counter-clockwise
 [[nodiscard]] bool self_intersects(const Polygon& p);
 [[nodiscard]] bool contains(const Polygon& p, Vec2 q); // even–odd rule
+// The structure moved vertically by dz: outline, base centre, pivot and load point.
+[[nodiscard]] Structure shifted(Structure st, double dz);
 [[nodiscard]] Vec2 centroid(const Polygon& p);
 
 template <std::size_t N>
