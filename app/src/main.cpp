@@ -1,5 +1,6 @@
 // The `demfem` command: parses arguments, loads scenes, dispatches to the solvers. No physics.
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +20,7 @@
 #include <spdlog/spdlog.h>
 
 #include "demfem/compare/calibrate.hpp"
+#include "demfem/compare/error_study.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/compare/study.hpp"
@@ -30,6 +32,7 @@
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "demfem/continuum/run.hpp"
+#include "demfem/continuum/verification.hpp"
 #endif
 
 namespace fs = std::filesystem;
@@ -96,7 +99,7 @@ struct RunArgs {
   bool force = false;       // run into a directory that holds another scene's results
 };
 
-int not_built(const std::string& what, const std::string& issue_hint) {
+[[maybe_unused]] int not_built(const std::string& what, const std::string& issue_hint) {
   fmt::print(stderr, "demfem {}: not built yet ({}). Nothing was run.\n", what, issue_hint);
   return kBadInput;
 }
@@ -744,12 +747,142 @@ int cmd_check(const std::string& path, bool quiet, bool resolved) {
   return kOk;
 }
 
+// `demfem study error-vs-time SCENE` (issue 11 item 1): resolution sweeps, each run a separate
+// `demfem` process; SCENE = "flamant" is the built-in Flamant strip load (continuum).
+struct ErrorStudyArgs {
+  int jobs = 1;
+  int repeats = 3;
+  std::vector<double> dt_fractions, kn_factors;
+  std::vector<int> refinements, degrees;
+};
+int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyArgs& ea) {
+  compare::ErrorStudyOptions o;
+  std::error_code ec;
+  o.exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) {
+    fmt::print(stderr, "demfem study: cannot find its own binary (/proc/self/exe): {}\n",
+               ec.message());
+    return kRunFailed;
+  }
+  o.jobs = ea.jobs;
+  o.repeats = ea.repeats;
+  if (!ea.dt_fractions.empty()) o.dt_fractions = ea.dt_fractions;
+  if (!ea.kn_factors.empty()) o.kn_factors = ea.kn_factors;
+  if (!ea.refinements.empty()) o.refinements = ea.refinements;
+  if (!ea.degrees.empty()) o.degrees = ea.degrees;
+  if (path == "flamant") {
+#ifndef DEMFEM_WITH_CONTINUUM
+    fmt::print(stderr, "demfem study error-vs-time flamant: the continuum solver is not in this "
+                       "build (-DDEMFEM_WITH_CONTINUUM=OFF)\n");
+    return kBadInput;
+#else
+    o.out_dir =
+        a.out.empty() ? fs::path("runs") / "flamant" / "study-error-vs-time" : fs::path(a.out);
+    o.out_dir = fs::absolute(o.out_dir);
+    setup_run_log(o.out_dir, false);
+    const auto st = compare::flamant_error_study(o);
+    compare::write_error_study(st, o.out_dir);
+    for (const auto& f : st.fits)
+      spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
+                   f.order, f.points);
+    spdlog::info("flamant: error-vs-time study in {}", (o.out_dir / "study.html").string());
+    return kOk;
+#endif
+  }
+  if (!fs::is_regular_file(path)) {
+    fmt::print(stderr,
+               "demfem study error-vs-time: {}: no such scene file (or `flamant`, the "
+               "built-in Flamant strip load)\n",
+               path);
+    return kBadInput;
+  }
+  int rc = kOk;
+  const auto file = load_or_report(path, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  for (const scene::Scene* s : scenes) {
+    std::string why;
+    if (!compare::head_on_closed_form(*s, &why)) {
+      fmt::print(stderr,
+                 "{}: error: the error-vs-time study needs a closed form and this scene "
+                 "has none ({}); valid: a head-on collision of two listed disks (e.g. "
+                 "cases/verification/head_on_collision.toml) or `flamant`\n",
+                 path, why);
+      return kBadInput;
+    }
+    fs::path out =
+        a.out.empty() ? fs::path("runs") / s->info.name / "study-error-vs-time" : fs::path(a.out);
+    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
+      out /= s->variant.empty() ? "base" : s->variant;
+    o.out_dir = fs::absolute(out);
+    setup_run_log(o.out_dir, false);
+    const auto st = compare::dem_error_study(*s, o);
+    compare::write_error_study(st, o.out_dir);
+    for (const auto& f : st.fits)
+      spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
+                   f.order, f.points);
+    spdlog::info("{}: error-vs-time study in {}", s->label(), (o.out_dir / "study.html").string());
+  }
+  return kOk;
+}
+
+// `demfem study-point dem|flamant …`: one run of an error-vs-time study as its own process (hidden
+// from --help); writes its result and the solver's own wall time as JSON.
+struct PointArgs {
+  std::string problem, scene, out, json;
+  int refinement = 0, degree = 2;
+};
+int cmd_study_point(const PointArgs& pa) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto seconds = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  if (pa.problem == "dem") {
+    int rc = kOk;
+    const auto file = load_or_report(pa.scene, rc);
+    if (rc != kOk) return rc;
+    setup_run_log(pa.out, false);
+    dem::RunOptions o;
+    o.out_dir = pa.out;
+    o.threads = 1;
+    const auto x = dem::run(file.base, o);
+    scene::write_file_atomic(
+        pa.json, fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "
+                             "\"steps\": {}, \"ok\": {}}}\n",
+                             x.wall_seconds, seconds(), x.steps, x.ok));
+    if (!x.ok) fmt::print(stderr, "{}\n", x.message);
+    return x.ok ? kOk : kRunFailed;
+  }
+  if (pa.problem != "flamant") {
+    fmt::print(stderr, "demfem study-point: unknown problem '{}'; valid: dem, flamant\n",
+               pa.problem);
+    return kBadInput;
+  }
+#ifdef DEMFEM_WITH_CONTINUUM
+  const auto r = continuum::flamant_strip_load(pa.refinement, pa.degree);
+  scene::write_file_atomic(
+      pa.json, fmt::format("{{\"computed\": {:.17g}, \"exact\": {:.17g}, \"dofs\": {}, "
+                           "\"h_min\": {:.17g}, \"converged\": {}, \"solver_seconds\": "
+                           "{:.9g}}}\n",
+                           r.computed, r.exact, r.dofs, r.h_min, r.converged, seconds()));
+  return r.converged ? kOk : kRunFailed;
+#else
+  fmt::print(stderr, "demfem study-point: the continuum solver is not in this build\n");
+  return kBadInput;
+#endif
+}
+
 // `demfem study stability SCENE` (issue 11): the DEM rows of the stability matrix.
-int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a, double duration) {
-  if (kind == "error-vs-time")
-    return not_built("study error-vs-time", "the error-vs-time study is a later issue");
+int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a, double duration,
+              const ErrorStudyArgs& ea) {
+  if (kind == "error-vs-time") return cmd_error_study(path, a, ea);
   if (kind != "stability") {
     fmt::print(stderr, "demfem study: unknown study '{}'; valid: stability, error-vs-time\n", kind);
+    return kBadInput;
+  }
+  if (!fs::is_regular_file(path)) {
+    fmt::print(stderr, "demfem study stability: {}: no such scene file\n", path);
     return kBadInput;
   }
   int rc = kOk;
@@ -847,21 +980,66 @@ int main(int argc, char** argv) {
   compare->footer(kExitCodes);
   std::string study_kind;
   double study_duration = 0.0;
+  ErrorStudyArgs ea;
   auto* study = app.add_subcommand(
-      "study", "stability study (DEM rows: stiff and extreme variants → study.json, study.md, "
-               "study.html); error-vs-time is not built yet.");
+      "study", "stability: stiff and extreme variants (DEM rows) → study.json, study.md, "
+               "study.html. error-vs-time: resolution sweeps against a closed form, each run a "
+               "separate process (repeated), fitted orders, error against wall time with the "
+               "Pareto front → study.json, study.md, study.html, figures/.");
   study->add_option("kind", study_kind, "stability | error-vs-time")->required();
-  study->add_option("scene", other_scene, "Scene file")->required()->check(CLI::ExistingFile);
+  study
+      ->add_option("scene", other_scene,
+                   "Scene file; for error-vs-time also `flamant` (built-in Flamant strip load, "
+                   "continuum)")
+      ->required();
   study->add_option("--variant", ra.variants, "Variant name (repeatable); default: the base scene");
-  study->add_option("--out", ra.out, "Output directory (default runs/<scene>/study-stability)");
+  study->add_option("--out", ra.out,
+                    "Output directory (default runs/<scene>/study-stability or "
+                    "runs/<scene>/study-error-vs-time)");
   study
       ->add_option("--duration", study_duration,
-                   "Simulated time of every row [s] (default: "
-                   "the scene's)")
+                   "stability: simulated time of every row [s] "
+                   "(default: the scene's)")
       ->check(CLI::PositiveNumber);
-  study->add_option("--threads", ra.threads, "DEM OpenMP threads (0 = all cores)")
+  study->add_option("--threads", ra.threads, "stability: DEM OpenMP threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
+  study->add_option("--jobs", ea.jobs, "error-vs-time: runs at once (separate processes)")
+      ->default_val(1)
+      ->check(CLI::Range(1, 256));
+  study->add_option("--repeats", ea.repeats, "error-vs-time: runs per setting (timings)")
+      ->default_val(3)
+      ->check(CLI::Range(1, 100));
+  study
+      ->add_option("--dt-fractions", ea.dt_fractions,
+                   "error-vs-time, DEM: Δt as fractions of the critical step (default 1/4 … "
+                   "1/1024, halving)")
+      ->delimiter(',')
+      ->check(CLI::Range(1e-9, 1.0));
+  study
+      ->add_option("--kn-factors", ea.kn_factors,
+                   "error-vs-time, DEM: K_n multipliers, automatic Δt (default 0.1,0.3,1,3,10)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  study
+      ->add_option("--refinements", ea.refinements,
+                   "error-vs-time, flamant: refinement levels (default 1,2,3,4)")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 8));
+  study
+      ->add_option("--degrees", ea.degrees,
+                   "error-vs-time, flamant: polynomial degrees (default 1,2)")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 4));
   study->footer(kExitCodes);
+  PointArgs pa;
+  auto* study_point = app.add_subcommand("study-point", "One run of an error-vs-time study");
+  study_point->group(""); // hidden: the study starts it as its own process
+  study_point->add_option("problem", pa.problem, "dem | flamant")->required();
+  study_point->add_option("--scene", pa.scene, "dem: resolved scene file");
+  study_point->add_option("--out", pa.out, "dem: run directory");
+  study_point->add_option("--refinement", pa.refinement, "flamant: refinement");
+  study_point->add_option("--degree", pa.degree, "flamant: degree");
+  study_point->add_option("--json", pa.json, "Result file")->required();
   CalibrateArgs ca;
   auto* calibrate = app.add_subcommand(
       "calibrate", "Continuum parameters from DEM element tests (biaxial, cyclic) on specimens "
@@ -904,7 +1082,8 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);
     if (*compare) return cmd_compare(ra);
-    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration);
+    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration, ea);
+    if (*study_point) return cmd_study_point(pa);
     if (*calibrate) return cmd_calibrate(ra, ca);
     if (*pack) return cmd_pack(ra);
   } catch (const std::exception& e) {

@@ -117,6 +117,8 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
                   quote(spec.title), quote(spec.xlabel), quote(spec.ylabel));
   body += "set grid lc rgb '#dddddd'\nset key outside right top noenhanced\n";
   if (spec.equal_axes) body += "set size ratio -1\n";
+  if (spec.log_x) body += "set logscale x\nset format x '%.0e'\n";
+  if (spec.log_y) body += "set logscale y\nset format y '%.0e'\n";
   std::string clauses;
   for (std::size_t s = 0; s < spec.series.size(); ++s) {
     const auto& se = spec.series[s];

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
 
 using namespace demfem::continuum;
@@ -81,40 +82,19 @@ TEST(ContinuumStatic, GravityColumn) {
 }
 
 // Flamant strip load on an elastic half-plane (Poulos & Davis 1974, strip of half-width b):
-// settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E.
-namespace {
-double flamant(int refinement, std::size_t& dofs) {
-  Problem pb;
-  const double L = 200.0, b = 1.0, q = 1.0e5, E = 2.0e7, nu = 0.3;
-  pb.mesh.x0 = 0.0;
-  pb.mesh.z0 = -L;
-  pb.mesh.dx = graded(2.0 * b, 0.25 * b, L, 1.35);
-  pb.mesh.dz = graded(2.0 * b, 0.25 * b, L, 1.35);
-  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end()); // fine at the top
-  pb.mesh.refinement = refinement;
-  pb.soil = elastic(E, nu);
-  pb.gravity = 0.0;
-  pb.left = Bc::Roller; // symmetry plane x = 0
-  pb.tractions.push_back({{0.0, 0.0}, {b, 0.0}, q});
-  Model m(pb);
-  const StepStats st = m.static_step(1.0);
-  EXPECT_TRUE(st.converged);
-  dofs = m.n_dofs();
-  return -m.displacement({0.0, 0.0}).z + m.displacement({b, 0.0}).z;
-}
-} // namespace
-
+// settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E. The problem and its closed
+// form live in continuum/src/verification.cpp (shared with `demfem study error-vs-time flamant`).
 TEST(ContinuumStatic, FlamantStripLoad) {
-  const double exact = 4.0 * std::log(2.0) / kPi * (1 - 0.09) * 1.0e5 * 1.0 / 2.0e7;
   double prev_err = 0.0;
   for (int r = 0; r <= 2; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
-    std::size_t dofs = 0;
-    const double d = flamant(r, dofs);
-    const double err = std::abs(d - exact) / exact;
+    const auto f = demfem::continuum::flamant_strip_load(r, 2);
+    EXPECT_TRUE(f.converged);
+    const double err = std::abs(f.computed - f.exact) / f.exact;
     std::printf("flamant refinement %d: dofs=%zu Δs=%.6e m (exact %.6e) rel.err=%.3e rate=%.2f "
                 "wall=%.2fs\n",
-                r, dofs, d, exact, err, r > 0 ? std::log2(prev_err / err) : 0.0, seconds_since(t0));
+                r, f.dofs, f.computed, f.exact, err, r > 0 ? std::log2(prev_err / err) : 0.0,
+                seconds_since(t0));
     prev_err = err;
     if (r == 2) {
       EXPECT_LT(err, 0.03);

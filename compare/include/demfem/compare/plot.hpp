@@ -37,6 +37,8 @@ struct PlotSpec {
   bool equal_axes = false; // same scale on x and y (profiles, loci)
   int width = 1000;
   int height = 600;
+  bool log_x = false; // logarithmic axes (convergence and error-vs-time figures)
+  bool log_y = false;
 };
 
 // Writes `<stem>.png` and `<stem>.svg` (stem = path without extension) plus the gnuplot script and

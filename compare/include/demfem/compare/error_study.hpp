@@ -1,0 +1,118 @@
+// `demfem study error-vs-time` (issue 11 item 1): a solver swept over its resolution knobs, each
+// run a separate `demfem` process (repeated for min/median/max wall time and its peak memory),
+// its error against a closed form, fitted convergence orders, and error against wall time with
+// the Pareto front. Written to study.json, study.md, study.html and log–log figures.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "demfem/scene/scene.hpp"
+
+namespace demfem::compare {
+
+struct ErrorStudyOptions {
+  std::filesystem::path out_dir; // runs go to out_dir/runs/<point>/rep-<k>
+  std::filesystem::path exe;     // the demfem binary every run executes
+  int jobs = 1;                  // runs at once (separate processes)
+  int repeats = 3;               // runs per point (timings: min/median/max)
+  // DEM: Δt as fractions of the true critical step (dem/stable_step.hpp)
+  std::vector<double> dt_fractions = {1.0 / 4,   1.0 / 8,   1.0 / 16,  1.0 / 32,  1.0 / 64,
+                                      1.0 / 128, 1.0 / 256, 1.0 / 512, 1.0 / 1024};
+  // DEM: K_n (and K_s) multipliers, automatic Δt
+  std::vector<double> kn_factors = {0.1, 0.3, 1.0, 3.0, 10.0};
+  // continuum (flamant): global refinements and polynomial degrees
+  std::vector<int> refinements = {1, 2, 3, 4};
+  std::vector<int> degrees = {1, 2};
+  // continuum: settings whose estimated size exceeds this are skipped (and listed in the notes)
+  double max_dofs = 4.0e5;
+  // Points whose fit abscissa is at most this fraction of the coarsest's form the convergence
+  // fit... (0: all points). The DEM fit uses Δt ≤ fit_max_fraction × the critical step.
+  double fit_max_fraction = 1.0 / 16;
+};
+
+struct ErrorPoint {
+  std::string knob; // "dt", "kn", "mesh-q1", "mesh-q2"
+  std::string name; // e.g. "dt-1/64"
+  double value = 0; // the knob's setting (Δt fraction, K_n factor, refinement)
+  double x = 0;     // convergence abscissa: Δt [s] (DEM), smallest cell h [m] (continuum)
+  double dt = 0;    // DEM step [s]
+  std::size_t dofs = 0;
+  std::map<std::string, double> errors;  // metric → relative error (≥ 0)
+  std::map<std::string, double> results; // the computed quantities behind them
+  bool ok = false;
+  std::string message; // why a run failed
+  // Wall time of every repeat [s]: in the solver (its own timer: the cost the knob controls) and
+  // of the whole process (fork to exit: adds the start-up, ~0.7 s for a binary with deal.II).
+  std::vector<double> wall, process_wall;
+  double wall_min = 0, wall_median = 0, wall_max = 0;
+  double process_min = 0, process_median = 0, process_max = 0;
+  double peak_rss_mib = 0; // largest resident set of the repeats (getrusage) [MiB]
+  bool pareto = false;     // on the error–wall-time Pareto front of its knob (primary metric)
+  std::string command;     // the command line of one repeat
+};
+
+struct ErrorFit {
+  std::string knob, metric;
+  std::string against; // "dt", "h" or "wall"
+  double order = 0;    // least-squares slope of log(error) against log(abscissa)
+  int points = 0;
+  double x_min = 0, x_max = 0;
+};
+
+struct ErrorStudy {
+  std::string solver; // "dem" or "continuum"
+  std::string scene, source;
+  std::string reference;      // the closed form, in words
+  std::string primary_metric; // the metric the Pareto front and the figures use
+  std::map<std::string, std::string> metric_descriptions;
+  std::map<std::string, double> closed_form; // named closed-form values
+  double expected_order = 0;                 // theoretical order of the primary metric in the knob
+  std::string expected_order_note;
+  std::vector<ErrorPoint> points;
+  std::vector<ErrorFit> fits;
+  std::vector<std::string> notes; // knobs skipped and why
+  int repeats = 0, jobs = 0;
+};
+
+// Least-squares slope of log y against log x over the pairs with x, y > 0 (NaN when fewer than
+// two such pairs or all x equal).
+[[nodiscard]] double loglog_slope(const std::vector<double>& x, const std::vector<double>& y);
+// Indices of the points not dominated in (cost, error): no other point is at most as costly and
+// at most as wrong with one of the two strictly smaller. Sorted by cost.
+[[nodiscard]] std::vector<std::size_t> pareto_front(const std::vector<double>& cost,
+                                                    const std::vector<double>& error);
+
+// Two listed disks meeting head-on (cases/verification/head_on_collision.toml): the closed form
+// of the collision. Empty, with `why`, for any other scene.
+struct HeadOnClosedForm {
+  double m_star = 0;       // reduced mass [kg]
+  double approach = 0;     // relative normal approach speed [m/s]
+  double separation = 0;   // relative speed after the collision [m/s]
+  double dissipated = 0;   // ½ m* v² (1 − K²) above V_0, else 0 [J]
+  double touch_time = 0;   // first touch [s]
+  double contact_time = 0; // π √(m*/K_n) [s]
+  double radius_sum = 0;   // r1 + r2 [m]
+  double kinetic_cm = 0;   // kinetic energy of the centre of mass [J]
+  // centre distance at time t after the pair separated [m]
+  [[nodiscard]] double distance(double t) const {
+    return radius_sum + separation * (t - touch_time - contact_time);
+  }
+};
+[[nodiscard]] std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& scene,
+                                                                  std::string* why = nullptr);
+
+// DEM sweep of a scene with a closed form (head-on collision). Throws std::runtime_error when
+// the scene has none.
+[[nodiscard]] ErrorStudy dem_error_study(const scene::Scene& scene, const ErrorStudyOptions& o);
+// Continuum sweep of the built-in Flamant strip-load problem (continuum/verification.hpp); each
+// run is `demfem study-point flamant …`.
+[[nodiscard]] ErrorStudy flamant_error_study(const ErrorStudyOptions& o);
+
+// study.json, study.md, study.html and the figures (figures/*.png, .svg) in dir.
+void write_error_study(const ErrorStudy& study, const std::filesystem::path& dir);
+
+} // namespace demfem::compare

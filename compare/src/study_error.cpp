@@ -1,0 +1,873 @@
+// `demfem study error-vs-time` (issue 11 item 1): resolution sweeps, each run a separate process.
+#include "demfem/compare/error_study.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <fcntl.h>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "demfem/compare/plot.hpp"
+#include "demfem/dem/io.hpp"
+#include "demfem/dem/stable_step.hpp"
+#include "demfem/scene/load.hpp"
+
+namespace demfem::compare {
+
+namespace fs = std::filesystem;
+
+double loglog_slope(const std::vector<double>& x, const std::vector<double>& y) {
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, n = 0;
+  for (std::size_t i = 0; i < std::min(x.size(), y.size()); ++i) {
+    if (!(x[i] > 0.0) || !(y[i] > 0.0) || !std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    const double lx = std::log(x[i]), ly = std::log(y[i]);
+    sx += lx;
+    sy += ly;
+    sxx += lx * lx;
+    sxy += lx * ly;
+    n += 1;
+  }
+  const double den = n * sxx - sx * sx;
+  if (n < 2 || !(std::abs(den) > 1e-300)) return std::numeric_limits<double>::quiet_NaN();
+  return (n * sxy - sx * sy) / den; // least squares in log–log
+}
+
+std::vector<std::size_t> pareto_front(const std::vector<double>& cost,
+                                      const std::vector<double>& error) {
+  std::vector<std::size_t> idx;
+  for (std::size_t i = 0; i < std::min(cost.size(), error.size()); ++i)
+    if (std::isfinite(cost[i]) && std::isfinite(error[i])) idx.push_back(i);
+  std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
+    return cost[a] != cost[b] ? cost[a] < cost[b] : error[a] < error[b];
+  });
+  std::vector<std::size_t> front;
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto i : idx)
+    if (error[i] < best) { // cheapest point so far that is more accurate than every cheaper one
+      front.push_back(i);
+      best = error[i];
+    }
+  return front;
+}
+
+std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& s, std::string* why) {
+  const auto fail = [&](const std::string& w) -> std::optional<HeadOnClosedForm> {
+    if (why) *why = w;
+    return std::nullopt;
+  };
+  if (!s.soil.dem) return fail("the scene has no [soil.dem]");
+  const auto& d = *s.soil.dem;
+  if (d.particles.size() != 2) return fail("not two listed particles");
+  if (d.law != scene::ContactLaw::CundallRebound) return fail("contact law is not cundall-rebound");
+  if (s.load.gravity != 0.0 || s.load.shaking || !s.walls.empty() || !s.structures.empty())
+    return fail("gravity, shaking, walls or structures act on the pair");
+  if (d.damping_c != 0.0 || d.damping_d != 0.0) return fail("global damping");
+  const auto& a = d.particles[0];
+  const auto& b = d.particles[1];
+  const double dx = b[0] - a[0], dz = b[1] - a[1], dist = std::hypot(dx, dz);
+  const double nx = dx / dist, nz = dz / dist;
+  const double rvx = b[3] - a[3], rvz = b[4] - a[4];
+  const double vn = -(rvx * nx + rvz * nz); // approach speed
+  const double vt = -rvx * nz + rvz * nx;   // tangential relative speed of the centres
+  if (!(vn > 0.0) || std::abs(vt) > 1e-12 * std::abs(vn) || a[5] != 0.0 || b[5] != 0.0)
+    return fail("the disks do not approach head-on without spin");
+  const double rs = a[2] + b[2];
+  if (!(dist > rs)) return fail("the disks touch at the start");
+  HeadOnClosedForm c;
+  const double m1 = d.density * std::numbers::pi * a[2] * a[2] * d.thickness; // m = ρπr²t
+  const double m2 = d.density * std::numbers::pi * b[2] * b[2] * d.thickness;
+  if (d.sphere_mass) return fail("sphere mass convention");
+  c.m_star = m1 * m2 / (m1 + m2); // reduced mass of the pair
+  c.approach = vn;
+  // Newton restitution above V_0 (paper §2.1.2 iv, contact_laws.hpp CundallRebound): the pair
+  // separates at K v_n; slower contacts are elastic.
+  const double k = vn > d.rebound_speed ? d.rebound : 1.0;
+  c.separation = k * vn;
+  c.dissipated = 0.5 * c.m_star * vn * vn * (1.0 - k * k); // ½ m* v² (1 − K²)
+  c.touch_time = (dist - rs) / vn;
+  // half period of the linear pair oscillator, π √(m*/K_n) (paper §2.1.2), amplitude-free
+  c.contact_time = std::numbers::pi * std::sqrt(c.m_star / d.kn);
+  c.radius_sum = rs;
+  const double vcx = (m1 * a[3] + m2 * b[3]) / (m1 + m2), vcz = (m1 * a[4] + m2 * b[4]) / (m1 + m2);
+  c.kinetic_cm = 0.5 * (m1 + m2) * (vcx * vcx + vcz * vcz);
+  if (!(c.touch_time + c.contact_time < s.info.duration))
+    return fail("the pair has not separated by the end of the run");
+  return c;
+}
+
+namespace {
+
+// ---- separate processes ------------------------------------------------------------------------
+
+struct Task {
+  std::vector<std::string> argv;
+  fs::path log; // stdout and stderr
+};
+struct TaskResult {
+  int exit_code = -1; // -1: did not exit normally (or could not start)
+  double wall = 0.0;
+  double rss_mib = 0.0;
+};
+
+// Runs the tasks as child processes, at most `jobs` at once; wall time from fork to reaping and
+// the child's peak resident set from wait4's rusage (ru_maxrss, KiB on Linux).
+std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
+  using Clock = std::chrono::steady_clock;
+  std::vector<TaskResult> res(tasks.size());
+  struct Running {
+    std::size_t index;
+    Clock::time_point start;
+  };
+  std::vector<std::pair<pid_t, Running>> running;
+  std::size_t next = 0;
+  jobs = std::max(1, jobs);
+  while (next < tasks.size() || !running.empty()) {
+    while (next < tasks.size() && static_cast<int>(running.size()) < jobs) {
+      const auto& t = tasks[next];
+      std::vector<char*> argv; // prepared before fork: the child only opens, dup2s and execs
+      for (const auto& a : t.argv) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      const std::string log = t.log.string();
+      const auto start = Clock::now();
+      const pid_t pid = ::fork();
+      if (pid == 0) {
+        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+          ::dup2(fd, 1);
+          ::dup2(fd, 2);
+          ::close(fd);
+        }
+        ::execv(argv[0], argv.data());
+        ::_exit(127);
+      }
+      if (pid < 0) {
+        res[next].exit_code = -1;
+      } else {
+        running.push_back({pid, {next, start}});
+      }
+      ++next;
+    }
+    if (running.empty()) continue;
+    int status = 0;
+    struct rusage ru {};
+    const pid_t pid = ::wait4(-1, &status, 0, &ru);
+    const auto end = Clock::now();
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    const auto it = std::find_if(running.begin(), running.end(),
+                                 [pid](const auto& r) { return r.first == pid; });
+    if (it == running.end()) continue;
+    auto& r = res[it->second.index];
+    r.wall = std::chrono::duration<double>(end - it->second.start).count();
+    r.rss_mib = static_cast<double>(ru.ru_maxrss) / 1024.0;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    running.erase(it);
+  }
+  return res;
+}
+
+std::string tail_of(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+std::string join_command(const std::vector<std::string>& argv) {
+  std::string c;
+  for (const auto& a : argv) c += (c.empty() ? "" : " ") + a;
+  return c;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// A point and how to run and evaluate it.
+struct Job {
+  ErrorPoint point;
+  std::vector<std::vector<std::string>> argv; // per repeat
+  std::vector<fs::path> dirs;                 // per repeat
+  std::function<void(ErrorPoint&, const fs::path& dir)> evaluate;
+};
+
+// Runs every job's repeats (repeat-major order, so that repeats of one point are spread in
+// time), fills timings and evaluates each point from its first successful repeat.
+void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
+  std::vector<Task> tasks;
+  std::vector<std::pair<std::size_t, int>> owner;
+  for (int k = 0; k < o.repeats; ++k)
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+      fs::remove_all(jobs[j].dirs[k]);
+      fs::create_directories(jobs[j].dirs[k].parent_path());
+      tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log"});
+      owner.emplace_back(j, k);
+    }
+  const auto res = run_tasks(tasks, o.jobs);
+  for (auto& j : jobs) {
+    j.point.wall.clear();
+    j.point.ok = true;
+  }
+  std::vector<int> first_ok(jobs.size(), -1);
+  for (std::size_t t = 0; t < tasks.size(); ++t) {
+    auto& j = jobs[owner[t].first];
+    if (res[t].exit_code != 0) {
+      j.point.ok = false;
+      if (j.point.message.empty())
+        j.point.message = fmt::format("exit {}: {}", res[t].exit_code, tail_of(tasks[t].log));
+      continue;
+    }
+    // the solver's own time, from the point's result file
+    double solver = res[t].wall;
+    try {
+      std::ifstream in(j.dirs[static_cast<std::size_t>(owner[t].second)].string() + ".json");
+      solver = nlohmann::json::parse(in).value("solver_seconds", res[t].wall);
+    } catch (const std::exception&) {
+    }
+    j.point.wall.push_back(solver);
+    j.point.process_wall.push_back(res[t].wall);
+    j.point.peak_rss_mib = std::max(j.point.peak_rss_mib, res[t].rss_mib);
+    if (first_ok[owner[t].first] < 0) first_ok[owner[t].first] = owner[t].second;
+  }
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    auto& p = jobs[i].point;
+    p.command = join_command(jobs[i].argv[0]);
+    if (!p.wall.empty()) {
+      p.wall_min = *std::min_element(p.wall.begin(), p.wall.end());
+      p.wall_max = *std::max_element(p.wall.begin(), p.wall.end());
+      p.wall_median = median(p.wall);
+      p.process_min = *std::min_element(p.process_wall.begin(), p.process_wall.end());
+      p.process_max = *std::max_element(p.process_wall.begin(), p.process_wall.end());
+      p.process_median = median(p.process_wall);
+    }
+    if (!p.ok) continue;
+    try {
+      jobs[i].evaluate(p, jobs[i].dirs[static_cast<std::size_t>(first_ok[i])]);
+    } catch (const std::exception& e) {
+      p.ok = false;
+      p.message = e.what();
+    }
+  }
+}
+
+// Marks each knob's Pareto front (median wall time against the primary error).
+void mark_fronts(ErrorStudy& st, const std::vector<std::vector<std::string>>& groups) {
+  for (const auto& g : groups) {
+    std::vector<std::size_t> members;
+    std::vector<double> cost, err;
+    for (std::size_t i = 0; i < st.points.size(); ++i) {
+      const auto& p = st.points[i];
+      if (std::find(g.begin(), g.end(), p.knob) == g.end() || !p.ok) continue;
+      const auto e = p.errors.find(st.primary_metric);
+      if (e == p.errors.end()) continue;
+      members.push_back(i);
+      cost.push_back(p.wall_median);
+      err.push_back(e->second);
+    }
+    for (const auto f : pareto_front(cost, err)) st.points[members[f]].pareto = true;
+  }
+}
+
+void add_fit(ErrorStudy& st, const std::string& knob, const std::string& metric,
+             const std::string& against, double x_max) {
+  std::vector<double> x, y;
+  for (const auto& p : st.points) {
+    if (p.knob != knob || !p.ok) continue;
+    const auto e = p.errors.find(metric);
+    if (e == p.errors.end()) continue;
+    const double xv = against == "wall" ? p.wall_median : p.x;
+    if (x_max > 0.0 && against != "wall" && xv > x_max * (1 + 1e-12)) continue;
+    x.push_back(xv);
+    y.push_back(e->second);
+  }
+  ErrorFit f;
+  f.knob = knob;
+  f.metric = metric;
+  f.against = against;
+  f.order = loglog_slope(x, y);
+  f.points = static_cast<int>(x.size());
+  if (!x.empty()) {
+    f.x_min = *std::min_element(x.begin(), x.end());
+    f.x_max = *std::max_element(x.begin(), x.end());
+  }
+  // Errors at round-off (all below 1e-8 relative) carry no order.
+  if (!y.empty() && *std::max_element(y.begin(), y.end()) < 1e-8)
+    f.order = std::numeric_limits<double>::quiet_NaN();
+  // Nor does a wall time that the knob hardly changes (fixed costs dominate: start-up, output).
+  if (against == "wall" && f.points >= 2 && !(f.x_max > 2.0 * f.x_min)) {
+    f.order = std::numeric_limits<double>::quiet_NaN();
+    st.notes.push_back(fmt::format("{}: no {}-against-wall-time order: the solver wall time "
+                                   "varies only from {:.3g} to {:.3g} s over the sweep (fixed "
+                                   "costs dominate)",
+                                   knob, metric, f.x_min, f.x_max));
+  }
+  st.fits.push_back(f);
+}
+
+std::string frac_label(double f) {
+  const double inv = 1.0 / f;
+  if (std::abs(inv - std::round(inv)) < 1e-9 && inv >= 1.0)
+    return fmt::format("1/{}", static_cast<long long>(std::llround(inv)));
+  return fmt::format("{:g}", f);
+}
+
+} // namespace
+
+ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o) {
+  std::string why;
+  const auto cf0 = head_on_closed_form(base, &why);
+  if (!cf0)
+    throw std::runtime_error(fmt::format(
+        "{}: no closed form for the error-vs-time study ({}); closed-form DEM scenes: two listed "
+        "disks meeting head-on (cases/verification/head_on_collision.toml)",
+        base.label(), why));
+  const auto bound = dem::scene_critical_step(base);
+  if (!bound || !(bound->dt > 0.0) || !std::isfinite(bound->dt))
+    throw std::runtime_error(base.label() + ": no stable step bound");
+  ErrorStudy st;
+  st.solver = "dem";
+  st.scene = base.label();
+  st.source = base.source_file;
+  st.repeats = o.repeats;
+  st.jobs = o.jobs;
+  st.reference = "closed form of the head-on collision: Newton restitution above V_0 (separation "
+                 "at K v_n, else v_n), dissipation ½ m* v_n² (1 − K²), contact duration "
+                 "π √(m*/K_n); the centre distance at the end is r1 + r2 + v_sep (t − t_touch − "
+                 "π √(m*/K_n))";
+  st.primary_metric = "distance";
+  st.metric_descriptions = {
+      {"distance", "|d − d_exact| / (d_exact − r1 − r2): centre distance at the end, relative to "
+                   "the gap opened since separation"},
+      {"separation_speed", "|v_sep − K v_n| / (K v_n): relative speed after the collision"},
+      {"dissipated", "|E_rebound − ½ m* v_n² (1 − K²)| / ½ m* v_n² (1 − K²)"}};
+  st.closed_form = {{"m_star", cf0->m_star},
+                    {"approach_speed", cf0->approach},
+                    {"separation_speed", cf0->separation},
+                    {"dissipated", cf0->dissipated},
+                    {"touch_time", cf0->touch_time},
+                    {"contact_time", cf0->contact_time},
+                    {"critical_step", bound->dt}};
+  // The engine's symplectic Euler (paper eqs. 2.16–2.18: velocity first, then position) gives
+  // the same positions as Störmer–Verlet (leapfrog, velocities at half steps; Hairer, Lubich &
+  // Wanner 2006, §I.3), which is second order; the energy-consistent touch and release of the
+  // linear spring (contact_laws.hpp) remove the first-order error of seeing first touch up to one
+  // Δt late, so positions after the collision converge at order 2.
+  st.expected_order = 2.0;
+  st.expected_order_note =
+      "positions of the engine's symplectic Euler equal those of Störmer–Verlet, second order "
+      "(Hairer, Lubich & Wanner 2006, §I.3); the energy-consistent touch and release keep the "
+      "non-smooth contact from degrading it";
+  const fs::path runs = o.out_dir / "runs";
+
+  const auto make_job = [&](const std::string& knob, const std::string& name, double value,
+                            scene::Scene s) {
+    Job j;
+    s.output.figures = false;
+    s.output.vtk = false;
+    s.output.force_chains = false;
+    const auto cf = head_on_closed_form(s);
+    double dt = s.soil.dem->dt;
+    if (!(dt > 0.0)) {
+      const auto b = dem::scene_critical_step(s);
+      dt = b ? s.soil.dem->dt_safety * b->dt : 0.0; // the automatic step (scene.hpp dt_safety)
+    }
+    j.point.knob = knob;
+    j.point.name = name;
+    j.point.value = value;
+    j.point.x = dt;
+    j.point.dt = dt;
+    std::string dir_name = name;
+    std::replace(dir_name.begin(), dir_name.end(), '/', '_');
+    const fs::path dir = runs / dir_name;
+    fs::create_directories(dir);
+    const fs::path toml = dir / "scene.toml";
+    std::ofstream(toml) << scene::to_toml(s);
+    for (int k = 0; k < o.repeats; ++k) {
+      const fs::path rd = dir / fmt::format("rep-{}", k);
+      j.dirs.push_back(rd);
+      j.argv.push_back({o.exe.string(), "study-point", "dem", "--scene", toml.string(), "--out",
+                        rd.string(), "--json", rd.string() + ".json"});
+    }
+    j.evaluate = [cf, dt](ErrorPoint& p, const fs::path& rd) {
+      if (!cf) throw std::runtime_error("no closed form for this point");
+      const auto ck = dem::io::read_checkpoint(rd / "dem" / "checkpoint.ckpt");
+      const auto& q = ck.particles;
+      if (q.size() != 2) throw std::runtime_error("the run did not end with two particles");
+      const double d = std::hypot(q.x[1] - q.x[0], q.z[1] - q.z[0]);
+      const double d_exact = cf->distance(ck.meta.time);
+      p.errors["distance"] = std::abs(d - d_exact) / (d_exact - cf->radius_sum);
+      const double ke = 0.5 * (q.mass[0] * (q.vx[0] * q.vx[0] + q.vz[0] * q.vz[0]) +
+                               q.mass[1] * (q.vx[1] * q.vx[1] + q.vz[1] * q.vz[1]));
+      const double v_sep = std::sqrt(std::max(0.0, 2.0 * (ke - cf->kinetic_cm) / cf->m_star));
+      p.errors["separation_speed"] = std::abs(v_sep - cf->separation) / cf->separation;
+      if (cf->dissipated > 0.0) {
+        const auto t = read_csv(rd / "dem" / "energy.csv");
+        const auto reb = t.column("rebound");
+        if (reb.empty()) throw std::runtime_error("energy.csv has no rebound column");
+        p.errors["dissipated"] = std::abs(reb.back() - cf->dissipated) / cf->dissipated;
+      }
+      p.dt = ck.meta.dt > 0.0 ? ck.meta.dt : dt;
+      p.x = p.dt;
+    };
+    return j;
+  };
+
+  std::vector<Job> jobs;
+  for (const double f : o.dt_fractions) {
+    scene::Scene s = base;
+    s.soil.dem->dt = f * bound->dt;
+    jobs.push_back(make_job("dt", "dt-" + frac_label(f), f, s));
+  }
+  for (const double f : o.kn_factors) {
+    scene::Scene s = base;
+    auto& d = *s.soil.dem;
+    d.kn *= f;
+    d.ks *= f;
+    d.young *= f;
+    d.dt = 0.0; // automatic
+    jobs.push_back(make_job("kn", fmt::format("kn-x{:g}", f), f, s));
+  }
+  st.notes.push_back("particle size at fixed geometry (N ×1, ×4): not applicable, the scene "
+                     "lists its two particles");
+  run_jobs(jobs, o);
+  for (auto& j : jobs) st.points.push_back(j.point);
+  const double fit_max = o.fit_max_fraction > 0.0 ? o.fit_max_fraction * bound->dt : 0.0;
+  for (const auto& m : {"distance", "separation_speed", "dissipated"}) {
+    add_fit(st, "dt", m, "dt", fit_max);
+    add_fit(st, "dt", m, "wall", 0.0);
+  }
+  add_fit(st, "kn", "distance", "wall", 0.0);
+  mark_fronts(st, {{"dt"}, {"kn"}});
+  return st;
+}
+
+ErrorStudy flamant_error_study(const ErrorStudyOptions& o) {
+  ErrorStudy st;
+  st.solver = "continuum";
+  st.scene = "flamant";
+  st.source = "built-in (continuum/src/verification.cpp)";
+  st.repeats = o.repeats;
+  st.jobs = o.jobs;
+  st.reference = "Flamant strip load on an elastic half-plane (Poulos & Davis 1974): "
+                 "settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E";
+  st.primary_metric = "settlement";
+  st.metric_descriptions = {
+      {"settlement", "|Δs − Δs_exact| / Δs_exact, Δs = settlement(centre) − settlement(edge): "
+                     "discretisation and the finite (200 m) block together"},
+      {"settlement_vs_finest",
+       "|Δs − Δs_finest| / Δs_exact, against the most resolved run: the discretisation error "
+       "alone (the block's truncation cancels)"}};
+  st.expected_order = 0.0;
+  st.expected_order_note =
+      "no single theoretical rate: the load's edge is a stress singularity, which limits the "
+      "rate of point displacements below the smooth-solution p + 1, and the closed form is for "
+      "a half-plane, so `settlement` levels off at the block's truncation error";
+  const fs::path runs = o.out_dir / "runs";
+  std::vector<Job> jobs;
+  for (const int p : o.degrees)
+    for (const int r : o.refinements) {
+      // size estimate: 22 050 dofs at degree 2, refinement 1 (measured), ∝ (degree · 2^r)²
+      const double est = 22050.0 * std::pow(p * std::pow(2.0, r) / 4.0, 2);
+      if (est > o.max_dofs) {
+        st.notes.push_back(fmt::format("q{} at refinement {} skipped: ≈ {:.2g} dofs, above the "
+                                       "study's cap of {:.2g}",
+                                       p, r, est, o.max_dofs));
+        continue;
+      }
+      Job j;
+      j.point.knob = fmt::format("mesh-q{}", p);
+      j.point.name = fmt::format("q{}-r{}", p, r);
+      j.point.value = r;
+      for (int k = 0; k < o.repeats; ++k) {
+        const fs::path rd = runs / j.point.name / fmt::format("rep-{}", k);
+        j.dirs.push_back(rd);
+        j.argv.push_back({o.exe.string(), "study-point", "flamant", "--refinement",
+                          std::to_string(r), "--degree", std::to_string(p), "--json",
+                          (rd.string() + ".json")});
+      }
+      j.evaluate = [](ErrorPoint& pt, const fs::path& rd) {
+        std::ifstream in(rd.string() + ".json");
+        if (!in) throw std::runtime_error("no result file " + rd.string() + ".json");
+        const auto js = nlohmann::json::parse(in);
+        if (!js.value("converged", false)) throw std::runtime_error("not converged");
+        const double c = js.at("computed").get<double>(), e = js.at("exact").get<double>();
+        pt.errors["settlement"] = std::abs(c - e) / e;
+        pt.results["settlement"] = c;
+        pt.results["settlement_exact"] = e;
+        pt.x = js.at("h_min").get<double>();
+        pt.dofs = js.at("dofs").get<std::size_t>();
+      };
+      jobs.push_back(std::move(j));
+    }
+  run_jobs(jobs, o);
+  for (auto& j : jobs) st.points.push_back(j.point);
+  // the most resolved run (most dofs; at equal size the higher degree) is the reference of the
+  // discretisation error
+  const ErrorPoint* ref = nullptr;
+  for (const auto& p : st.points)
+    if (p.ok && (!ref || p.dofs > ref->dofs || (p.dofs == ref->dofs && p.knob > ref->knob)))
+      ref = &p;
+  if (ref) {
+    const double r = ref->results.at("settlement"), e = ref->results.at("settlement_exact");
+    st.closed_form["settlement_exact"] = e;
+    st.closed_form["settlement_finest"] = r;
+    st.notes.push_back(
+        fmt::format("reference of settlement_vs_finest: {} ({} dofs)", ref->name, ref->dofs));
+    const std::string ref_name = ref->name;
+    for (auto& p : st.points)
+      if (p.ok && p.name != ref_name)
+        p.errors["settlement_vs_finest"] = std::abs(p.results.at("settlement") - r) / e;
+  }
+  for (const int p : o.degrees) {
+    add_fit(st, fmt::format("mesh-q{}", p), "settlement", "h", 0.0);
+    add_fit(st, fmt::format("mesh-q{}", p), "settlement_vs_finest", "h", 0.0);
+    add_fit(st, fmt::format("mesh-q{}", p), "settlement", "wall", 0.0);
+  }
+  std::vector<std::string> all;
+  for (const int p : o.degrees) all.push_back(fmt::format("mesh-q{}", p));
+  mark_fronts(st, {all});
+  return st;
+}
+
+// ---- outputs -----------------------------------------------------------------------------------
+
+namespace {
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else
+      out += c;
+  }
+  return out;
+}
+
+std::string fmt_order(double v) {
+  return std::isfinite(v) ? fmt::format("{:.2f}", v) : "–";
+}
+
+struct Figure {
+  std::string file, caption;
+};
+
+// Error against wall time (median) of the knobs in `knobs`, with the Pareto front of them all.
+std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::string>& knobs,
+                                  const std::string& stem, const std::string& what,
+                                  const fs::path& dir) {
+  PlotSpec ps;
+  ps.title = fmt::format("{}: {} error against wall time ({})", st.scene, st.primary_metric, what);
+  ps.xlabel = "solver wall time per run, median of repeats [s]";
+  ps.ylabel = fmt::format("relative error ({})", st.primary_metric);
+  ps.log_x = ps.log_y = true;
+  Series front{"Pareto front", {}, {}, "lines", "lw 2 lc rgb '#444444' dt 2"};
+  std::vector<std::pair<double, double>> fr;
+  for (const auto& k : knobs) {
+    Series s{k, {}, {}, "linespoints", "pt 7 ps 1.2"};
+    for (const auto& p : st.points) {
+      if (p.knob != k || !p.ok) continue;
+      const auto e = p.errors.find(st.primary_metric);
+      if (e == p.errors.end()) continue;
+      s.x.push_back(p.wall_median);
+      s.y.push_back(e->second);
+      if (p.pareto) fr.emplace_back(p.wall_median, e->second);
+    }
+    for (const auto& f : st.fits)
+      if (f.knob == k && f.metric == st.primary_metric && f.against == "wall" &&
+          std::isfinite(f.order))
+        s.label += fmt::format(" (error ∝ wall^{})", fmt_order(f.order));
+    // a line joins the settings in knob order only where the cost grows along it
+    if (!std::is_sorted(s.x.begin(), s.x.end())) s.style = "points";
+    if (!s.x.empty()) ps.series.push_back(s);
+  }
+  std::sort(fr.begin(), fr.end());
+  for (const auto& [x, y] : fr) {
+    front.x.push_back(x);
+    front.y.push_back(y);
+  }
+  if (ps.series.empty()) return std::nullopt;
+  ps.series.push_back(front);
+  std::string err;
+  if (!plot(ps, dir / "figures" / (stem + ".png"), &err)) return std::nullopt;
+  return Figure{"figures/" + stem + ".png",
+                fmt::format("Error against wall time, {}: each point is one setting (median of {} "
+                            "runs); lower-left is better; the dashed line is the Pareto front "
+                            "(no other setting is both faster and more accurate).",
+                            what, st.repeats)};
+}
+
+// Error against the convergence abscissa (Δt or h), with the fitted power laws.
+std::optional<Figure> convergence_figure(const ErrorStudy& st,
+                                         const std::vector<std::string>& knobs,
+                                         const std::string& against, const std::string& stem,
+                                         const fs::path& dir) {
+  PlotSpec ps;
+  ps.title = fmt::format("{}: convergence in {}", st.scene, against == "dt" ? "Δt" : "h");
+  ps.xlabel = against == "dt" ? "Δt [s]" : "smallest cell h [m]";
+  ps.ylabel = "relative error";
+  ps.log_x = ps.log_y = true;
+  for (const auto& k : knobs)
+    for (const auto& [metric, desc] : st.metric_descriptions) {
+      Series s{fmt::format("{} {}", k, metric), {}, {}, "points", "pt 7 ps 1.2"};
+      for (const auto& p : st.points) {
+        if (p.knob != k || !p.ok) continue;
+        const auto e = p.errors.find(metric);
+        if (e == p.errors.end() || !(e->second > 0.0)) continue;
+        s.x.push_back(p.x);
+        s.y.push_back(e->second);
+      }
+      if (s.x.empty()) continue;
+      for (const auto& f : st.fits) {
+        if (f.knob != k || f.metric != metric || f.against != against) continue;
+        if (!std::isfinite(f.order)) continue;
+        // the fitted line through the fitted range: log y = a + p log x (least squares)
+        double sx = 0, sy = 0, n = 0;
+        for (std::size_t i = 0; i < s.x.size(); ++i)
+          if (s.x[i] >= f.x_min * (1 - 1e-12) && s.x[i] <= f.x_max * (1 + 1e-12)) {
+            sx += std::log(s.x[i]);
+            sy += std::log(s.y[i]);
+            n += 1;
+          }
+        if (n < 2) continue;
+        const double a = (sy - f.order * sx) / n;
+        Series line{
+            fmt::format("fit {} {}: order {}", k, metric, fmt_order(f.order)),
+            {f.x_min, f.x_max},
+            {std::exp(a + f.order * std::log(f.x_min)), std::exp(a + f.order * std::log(f.x_max))},
+            "lines",
+            "lw 2"};
+        ps.series.push_back(s);
+        ps.series.push_back(line);
+        s.x.clear();
+      }
+      if (!s.x.empty()) ps.series.push_back(s);
+    }
+  if (ps.series.empty()) return std::nullopt;
+  std::string err;
+  if (!plot(ps, dir / "figures" / (stem + ".png"), &err)) return std::nullopt;
+  return Figure{"figures/" + stem + ".png",
+                fmt::format("Error against {}: the slope of each fitted line is the convergence "
+                            "order (least squares in log–log over the points it spans); points "
+                            "without a line are at round-off or outside the fitted range.",
+                            against == "dt" ? "the time step" : "the cell size")};
+}
+
+} // namespace
+
+void write_error_study(const ErrorStudy& st, const fs::path& dir) {
+  fs::create_directories(dir / "figures");
+  nlohmann::json j;
+  j["study"] = "error-vs-time";
+  j["solver"] = st.solver;
+  j["scene"] = st.scene;
+  j["source"] = st.source;
+  j["reference"] = st.reference;
+  j["primary_metric"] = st.primary_metric;
+  j["metrics"] = st.metric_descriptions;
+  j["closed_form"] = st.closed_form;
+  j["expected_order"] = st.expected_order;
+  j["expected_order_note"] = st.expected_order_note;
+  j["repeats"] = st.repeats;
+  j["jobs"] = st.jobs;
+  j["notes"] = st.notes;
+  auto num = [](double v) -> nlohmann::json {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  auto& jp = j["points"];
+  jp = nlohmann::json::array();
+  for (const auto& p : st.points) {
+    nlohmann::json e = nlohmann::json::object();
+    for (const auto& [k, v] : p.errors) e[k] = num(v);
+    jp.push_back({{"knob", p.knob},
+                  {"name", p.name},
+                  {"value", p.value},
+                  {"x", p.x},
+                  {"dt", p.dt},
+                  {"dofs", p.dofs},
+                  {"ok", p.ok},
+                  {"message", p.message},
+                  {"errors", e},
+                  {"results", p.results},
+                  {"wall_seconds", p.wall},
+                  {"wall_min", p.wall_min},
+                  {"wall_median", p.wall_median},
+                  {"wall_max", p.wall_max},
+                  {"process_seconds", p.process_wall},
+                  {"process_min", p.process_min},
+                  {"process_median", p.process_median},
+                  {"process_max", p.process_max},
+                  {"peak_rss_mib", p.peak_rss_mib},
+                  {"pareto", p.pareto},
+                  {"command", p.command}});
+  }
+  auto& jf = j["fits"];
+  jf = nlohmann::json::array();
+  for (const auto& f : st.fits)
+    jf.push_back({{"knob", f.knob},
+                  {"metric", f.metric},
+                  {"against", f.against},
+                  {"order", num(f.order)},
+                  {"points", f.points},
+                  {"x_min", f.x_min},
+                  {"x_max", f.x_max}});
+
+  std::vector<Figure> figs;
+  std::vector<std::vector<std::string>> groups;
+  if (st.solver == "dem")
+    groups = {{"dt"}, {"kn"}};
+  else {
+    std::vector<std::string> all;
+    for (const auto& p : st.points)
+      if (std::find(all.begin(), all.end(), p.knob) == all.end()) all.push_back(p.knob);
+    groups = {all};
+  }
+  for (const auto& g : groups) {
+    const std::string what = st.solver == "dem" ? (g[0] == "dt" ? "Δt as a fraction of the "
+                                                                  "critical step"
+                                                                : "K_n scaling, automatic Δt")
+                                                : "refinement and degree";
+    std::string stem = "error_vs_wall_";
+    for (const auto& k : g) stem += k;
+    if (auto f = wall_figure(st, g, stem, what, dir)) figs.push_back(*f);
+  }
+  if (st.solver == "dem") {
+    if (auto f = convergence_figure(st, {"dt"}, "dt", "convergence_dt", dir)) figs.push_back(*f);
+  } else {
+    if (auto f = convergence_figure(st, groups[0], "h", "convergence_h", dir)) figs.push_back(*f);
+  }
+  j["figures"] = nlohmann::json::array();
+  for (const auto& f : figs) j["figures"].push_back({{"file", f.file}, {"caption", f.caption}});
+  std::ofstream(dir / "study.json") << j.dump(2) << "\n";
+
+  // study.md and study.html: the fits, then every point.
+  std::vector<std::string> metrics;
+  for (const auto& [k, v] : st.metric_descriptions) metrics.push_back(k);
+  std::string md = fmt::format("# Error against run time: {} ({})\n\nReference: {}.\n\n", st.scene,
+                               st.solver, st.reference);
+  std::string html = fmt::format(
+      "<!doctype html><html><head><meta charset=\"utf-8\"><title>Error against run time: {0}"
+      "</title><style>body{{font-family:sans-serif;max-width:1100px}}table{{border-collapse:"
+      "collapse}}td,th{{border:1px solid #aaa;padding:3px 6px;font-size:13px}}.fail{{background:"
+      "#fbe3e3}}.front{{font-weight:bold}}img{{max-width:100%}}</style></head><body><h1>Error "
+      "against run time: {0} ({1})</h1><p>Reference: {2}.</p>",
+      html_escape(st.scene), st.solver, html_escape(st.reference));
+  md += "Metrics:\n\n";
+  html += "<p>Metrics:</p><ul>";
+  for (const auto& [k, v] : st.metric_descriptions) {
+    md += fmt::format("- `{}`: {}\n", k, v);
+    html += fmt::format("<li><code>{}</code>: {}</li>", k, html_escape(v));
+  }
+  html += "</ul>";
+  const std::string timing = fmt::format(
+      "Each run is a separate demfem process, repeated {} times ({} at once). Solver wall time: "
+      "the solver's own timer, the cost the knob controls (the figures, fronts and wall-time "
+      "fits use its median). Process wall time: start to exit, adding the start-up. Peak "
+      "memory: the largest resident set of the process (getrusage).",
+      st.repeats, st.jobs);
+  const std::string expected =
+      st.expected_order > 0.0
+          ? fmt::format("Expected order of the `{}` error: {:g} ({}).", st.primary_metric,
+                        st.expected_order, st.expected_order_note)
+          : st.expected_order_note + ".";
+  md += fmt::format("\n{}\n\n## Fitted orders\n\nLeast squares of log error against log "
+                    "abscissa (Δt, h or solver wall time). {}\n\n| knob | metric | against | "
+                    "order | points | range |\n|---|---|---|---|---|---|\n",
+                    timing, expected);
+  html += fmt::format("<p>{}</p><h2>Fitted orders</h2><p>Least squares of log error against "
+                      "log abscissa (Δt, h or solver wall time). {}</p><table><tr><th>knob</th>"
+                      "<th>metric</th><th>against</th><th>order</th><th>points</th><th>range"
+                      "</th></tr>\n",
+                      html_escape(timing), html_escape(expected));
+  for (const auto& f : st.fits) {
+    const std::string range = f.points > 0 ? fmt::format("{:.3g} – {:.3g}", f.x_min, f.x_max) : "–";
+    md += fmt::format("| {} | {} | {} | {} | {} | {} |\n", f.knob, f.metric, f.against,
+                      fmt_order(f.order), f.points, range);
+    html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                        "</tr>\n",
+                        f.knob, f.metric, f.against, fmt_order(f.order), f.points, range);
+  }
+  html += "</table>";
+  for (const auto& f : figs) {
+    md += fmt::format("\n![{}]({})\n\n{}\n", f.file, f.file, f.caption);
+    html += fmt::format("<figure><img src=\"{}\"><figcaption>{}</figcaption></figure>", f.file,
+                        html_escape(f.caption));
+  }
+  md += "\n## Runs\n\n| point | knob | value | Δt or h | dofs |";
+  html += "<h2>Runs</h2><table><tr><th>point</th><th>knob</th><th>value</th><th>Δt or h</th>"
+          "<th>dofs</th>";
+  for (const auto& m : metrics) {
+    md += fmt::format(" {} |", m);
+    html += fmt::format("<th>{}</th>", m);
+  }
+  md += " solver wall min / median / max [s] | process wall min / median / max [s] | peak memory "
+        "[MiB] | Pareto | note |\n|---|---|---|---|---|";
+  html += "<th>solver wall min / median / max [s]</th><th>process wall min / median / max [s]"
+          "</th><th>peak memory [MiB]</th><th>Pareto</th><th>note</th></tr>\n";
+  for (std::size_t i = 0; i < metrics.size() + 5; ++i) md += "---|";
+  md += "\n";
+  for (const auto& p : st.points) {
+    std::vector<std::string> cells = {p.name, p.knob, fmt::format("{:g}", p.value),
+                                      fmt::format("{:.4g}", p.x),
+                                      p.dofs ? fmt::format("{}", p.dofs) : "–"};
+    for (const auto& m : metrics) {
+      const auto e = p.errors.find(m);
+      cells.push_back(e == p.errors.end() ? "–" : fmt::format("{:.3e}", e->second));
+    }
+    cells.push_back(p.wall.empty() ? "–"
+                                   : fmt::format("{:.3f} / {:.3f} / {:.3f}", p.wall_min,
+                                                 p.wall_median, p.wall_max));
+    cells.push_back(p.process_wall.empty() ? "–"
+                                           : fmt::format("{:.3f} / {:.3f} / {:.3f}", p.process_min,
+                                                         p.process_median, p.process_max));
+    cells.push_back(fmt::format("{:.1f}", p.peak_rss_mib));
+    cells.push_back(p.pareto ? "yes" : "");
+    cells.push_back(p.ok ? "" : p.message);
+    md += "|";
+    html += fmt::format("<tr class=\"{}\">", !p.ok ? "fail" : p.pareto ? "front" : "");
+    for (const auto& c : cells) {
+      std::string m = c;
+      std::replace(m.begin(), m.end(), '|', '/');
+      md += " " + m + " |";
+      html += "<td>" + html_escape(c) + "</td>";
+    }
+    md += "\n";
+    html += "</tr>\n";
+  }
+  html += "</table>";
+  if (!st.notes.empty()) {
+    md += "\nNotes:\n\n";
+    html += "<h2>Notes</h2><ul>";
+    for (const auto& n : st.notes) {
+      md += "- " + n + "\n";
+      html += "<li>" + html_escape(n) + "</li>";
+    }
+    html += "</ul>";
+  }
+  html += "</body></html>\n";
+  std::ofstream(dir / "study.md") << md;
+  std::ofstream(dir / "study.html") << html;
+}
+
+} // namespace demfem::compare
