@@ -10,8 +10,6 @@
 
 namespace demfem::continuum {
 
-namespace {
-// sizes growing geometrically from h0 (after a uniform zone of length `fine`) until `length`
 std::vector<double> graded(double fine, double h0, double length, double growth) {
   std::vector<double> d;
   double x = 0.0;
@@ -28,6 +26,9 @@ std::vector<double> graded(double fine, double h0, double length, double growth)
   }
   return d;
 }
+
+namespace {
+// sizes growing geometrically from h0 (after a uniform zone of length `fine`) until `length`
 } // namespace
 
 FlamantResult flamant_strip_load(int refinement, int degree) {

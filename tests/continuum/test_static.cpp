@@ -21,23 +21,7 @@ std::vector<double> uniform(double length, int n) {
   return std::vector<double>(n, length / n);
 }
 
-// sizes growing geometrically from h0 (after a uniform zone of length `fine`) until `length`
-std::vector<double> graded(double fine, double h0, double length, double growth) {
-  std::vector<double> d;
-  double x = 0.0;
-  while (x < fine - 1e-12) {
-    d.push_back(h0);
-    x += h0;
-  }
-  double h = h0;
-  while (x < length - 1e-9) {
-    h = std::min(h * growth, length - x);
-    if (length - x - h < 0.5 * h) h = length - x; // no sliver at the end
-    d.push_back(h);
-    x += h;
-  }
-  return d;
-}
+using demfem::continuum::graded;
 
 mc::Parameters elastic(double E, double nu) {
   mc::Parameters p;

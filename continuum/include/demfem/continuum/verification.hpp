@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
 namespace demfem::continuum {
 
@@ -21,5 +22,9 @@ struct FlamantResult {
 // b/4 under the strip growing by 1.35 outwards, `refinement` global refinements, elements of
 // polynomial `degree`.
 [[nodiscard]] FlamantResult flamant_strip_load(int refinement, int degree = 2);
+
+// Cell sizes: uniform h0 over `fine`, then growing geometrically by `growth` up to `length`
+// (the last cell absorbs a sliver). Shared by the verification problems and their tests.
+[[nodiscard]] std::vector<double> graded(double fine, double h0, double length, double growth);
 
 } // namespace demfem::continuum
