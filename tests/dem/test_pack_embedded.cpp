@@ -17,38 +17,14 @@
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
+#include "small_bed.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
 
 namespace {
 
-const char* kScene = R"(
-[scene]
-name = "embedded-footing"
-duration = 0.1
-seed = 7
-[domain]
-polygon = [[0, 0], [1.5, 0], [1.5, 1.5], [0, 1.5]]
-[soil.dem]
-count = 300
-radius = { uniform = [0.02, 0.035] }
-kn = 1.0e6
-ks = 3.0e5
-mu_static = 0.5
-mu_dynamic = 0.2
-[soil.dem.packing]
-damping = 0.05
-max_time = 10.0
-[[wall]]
-name = "base"
-points = [[0, 0], [1.5, 0]]
-[[wall]]
-name = "left"
-points = [[0, 1.5], [0, 0]]
-[[wall]]
-name = "right"
-points = [[1.5, 0], [1.5, 1.5]]
+const std::string kScene = test::small_bed("embedded-footing", "", R"(
 [[structure]]
 name = "footing"
 kind = "footing"
@@ -60,7 +36,7 @@ density = 2400
 dof_x = "fixed"
 dof_z = "fixed"
 dof_rotation = "free"
-)";
+)");
 
 fs::path fresh_dir(const std::string& name) {
   return demfem::test::scratch(name);

@@ -13,6 +13,7 @@
 
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
+#include "small_bed.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
@@ -20,35 +21,7 @@ using namespace demfem;
 namespace {
 
 std::string bed(const std::string& packing) {
-  return R"(
-[scene]
-name = "small-bed"
-duration = 0.1
-seed = 7
-[domain]
-polygon = [[0, 0], [1.5, 0], [1.5, 1.5], [0, 1.5]]
-[soil.dem]
-count = 300
-radius = { uniform = [0.02, 0.035] }
-kn = 1.0e6
-ks = 3.0e5
-mu_static = 0.5
-mu_dynamic = 0.2
-[soil.dem.packing]
-damping = 0.05
-max_time = 10.0
-)" + packing +
-         R"(
-[[wall]]
-name = "base"
-points = [[0, 0], [1.5, 0]]
-[[wall]]
-name = "left"
-points = [[0, 1.5], [0, 0]]
-[[wall]]
-name = "right"
-points = [[1.5, 0], [1.5, 1.5]]
-)";
+  return test::small_bed("small-bed", packing);
 }
 
 fs::path fresh_dir(const std::string& name) {
