@@ -801,10 +801,13 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
                                              "at t = {} s: {}",
                                              scene.label(), sk.name, ep->time(), ep->failure()));
     }
+    // Lowered by the whole travel without touching the bed (it stands above it): left where
+    // the scene puts it.
+    const double dz = st.soil_fz > 0.0 ? st.uz : 0.0;
     res.seat_dz.resize(scene.structures.size(), 0.0);
-    res.seat_dz[k] = st.uz;
+    res.seat_dz[k] = dz;
     res.seat_load = st.soil_fz / weight;
-    seat_dz[k] += st.uz;
+    seat_dz[k] += dz;
     restart(none, {});
     const double t_relax = 20.0 * std::sqrt(4.0 * rmax / g);
     res.converged = settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (seat)") &&
