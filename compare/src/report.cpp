@@ -1,4 +1,5 @@
 #include "demfem/compare/report.hpp"
+#include "html.hpp"
 
 #include <algorithm>
 #include <array>
@@ -90,29 +91,6 @@ std::string read_all(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-std::string html_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-    case '&':
-      o += "&amp;";
-      break;
-    case '<':
-      o += "&lt;";
-      break;
-    case '>':
-      o += "&gt;";
-      break;
-    case '"':
-      o += "&quot;";
-      break;
-    default:
-      o += c;
-    }
-  }
-  return o;
 }
 
 std::string img(const fs::path& png, const std::string& caption) {

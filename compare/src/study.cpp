@@ -1,5 +1,6 @@
 // `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
 #include "demfem/compare/study.hpp"
+#include "html.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -109,26 +110,6 @@ std::string md_escape(std::string s) {
       out += ' ';
     else
       out += c;
-  }
-  return out;
-}
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-    case '<':
-      out += "&lt;";
-      break;
-    case '>':
-      out += "&gt;";
-      break;
-    case '&':
-      out += "&amp;";
-      break;
-    default:
-      out += c;
-    }
   }
   return out;
 }

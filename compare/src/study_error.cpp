@@ -1,5 +1,6 @@
 // `demfem study error-vs-time` (issue 11 item 1): resolution sweeps, each run a separate process.
 #include "demfem/compare/error_study.hpp"
+#include "html.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -549,21 +550,6 @@ ErrorStudy flamant_error_study(const ErrorStudyOptions& o) {
 // ---- outputs -----------------------------------------------------------------------------------
 
 namespace {
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else
-      out += c;
-  }
-  return out;
-}
 
 std::string fmt_order(double v) {
   return std::isfinite(v) ? fmt::format("{:.2f}", v) : "–";
