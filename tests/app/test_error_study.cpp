@@ -9,17 +9,14 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+
+#include "cli_util.hpp"
 #include <nlohmann/json.hpp>
 
 namespace fs = std::filesystem;
 
 namespace {
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using demfem::test::slurp;
 } // namespace
 
 // Elastic head-on collision (the base scene: approach 0.8 m/s < V_0): the centre distance after
@@ -37,8 +34,8 @@ TEST(StudyErrorVsTime, HeadOnCollisionSecondOrderInDt) {
                           "--dt-fractions 0.0625,0.03125,0.015625,0.0078125 --kn-factors 1,10 "
                           "--out " +
                           out.string() + " > " + (out.string() + ".log") + " 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << read(out.string() + ".log");
-  const auto j = nlohmann::json::parse(read(out / "study.json"));
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out.string() + ".log");
+  const auto j = nlohmann::json::parse(slurp(out / "study.json"));
   EXPECT_EQ(j.at("solver"), "dem");
   EXPECT_EQ(j.at("expected_order").get<double>(), 2.0);
   double order = NAN;
@@ -48,7 +45,7 @@ TEST(StudyErrorVsTime, HeadOnCollisionSecondOrderInDt) {
       order = f.at("order").get<double>();
       EXPECT_EQ(f.at("points").get<int>(), 4);
     }
-  EXPECT_NEAR(order, 2.0, 0.25) << read(out / "study.md");
+  EXPECT_NEAR(order, 2.0, 0.25) << slurp(out / "study.md");
   // every setting ran, with its timing and memory; the rebound speed of an elastic collision is
   // exact (energy-consistent springs) to round-off
   ASSERT_EQ(j.at("points").size(), 6u);
@@ -59,7 +56,7 @@ TEST(StudyErrorVsTime, HeadOnCollisionSecondOrderInDt) {
     EXPECT_GT(p.at("peak_rss_mib").get<double>(), 1.0);
     EXPECT_LT(p.at("errors").at("separation_speed").get<double>(), 1e-9) << p.dump();
   }
-  EXPECT_NE(read(out / "study.html").find("Pareto"), std::string::npos);
+  EXPECT_NE(slurp(out / "study.html").find("Pareto"), std::string::npos);
   EXPECT_TRUE(fs::exists(out / "figures" / "convergence_dt.png"));
   EXPECT_TRUE(fs::exists(out / "figures" / "error_vs_wall_dt.png"));
   fs::remove_all(out);
@@ -74,8 +71,8 @@ TEST(StudyErrorVsTime, SceneWithoutClosedFormIsRefused) {
                           "/cases/verification/two_disk_column.toml --out " +
                           out.string() + " > " + (out.string() + ".log") + " 2>&1";
   const int st = std::system(cmd.c_str());
-  EXPECT_EQ(WEXITSTATUS(st), 2) << read(out.string() + ".log");
-  EXPECT_NE(read(out.string() + ".log").find("closed form"), std::string::npos);
+  EXPECT_EQ(WEXITSTATUS(st), 2) << slurp(out.string() + ".log");
+  EXPECT_NE(slurp(out.string() + ".log").find("closed form"), std::string::npos);
   EXPECT_FALSE(fs::exists(out / "study.json"));
   fs::remove_all(out);
   fs::remove(out.string() + ".log");

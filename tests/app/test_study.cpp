@@ -9,17 +9,14 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_util.hpp"
+
 #include "../scratch.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-std::string read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using demfem::test::slurp;
 // The "outcome" of the row named `name` in study.json.
 std::string outcome(const std::string& json, const std::string& name) {
   const auto k = json.find("\"name\": \"" + name + "\"");
@@ -36,16 +33,16 @@ TEST(StudyStability, TwoDiskColumnRowsAndTables) {
                           " study stability " DEMFEM_SOURCE_DIR
                           "/cases/verification/two_disk_column.toml --duration 0.3 --out " +
                           out.string() + " > " + (out.string() + ".log") + " 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << read(out.string() + ".log");
-  const auto json = read(out / "study.json");
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out.string() + ".log");
+  const auto json = slurp(out / "study.json");
   EXPECT_EQ(outcome(json, "base"), "completed") << json;
   EXPECT_EQ(outcome(json, "dt-0.9"), "completed") << json;
   EXPECT_EQ(outcome(json, "dt-1.1"), "refused") << json;
   EXPECT_EQ(outcome(json, "dt-2"), "refused") << json;
   EXPECT_EQ(outcome(json, "kn-x1000"), "completed") << json;
   EXPECT_EQ(outcome(json, "radius-ratio-10"), "not applicable") << json;
-  EXPECT_NE(read(out / "study.md").find("| dt-1.1 |"), std::string::npos);
-  EXPECT_NE(read(out / "study.html").find("<table>"), std::string::npos);
+  EXPECT_NE(slurp(out / "study.md").find("| dt-1.1 |"), std::string::npos);
+  EXPECT_NE(slurp(out / "study.html").find("<table>"), std::string::npos);
 }
 
 // The two-disk column has no closed form: error-vs-time refuses it (exit 2).
