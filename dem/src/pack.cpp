@@ -200,7 +200,11 @@ Placement place_lattice(const scene::Scene& scene) {
   const Box fb = bbox(F);
   const double H = fb.z1 - fb.z0;
   std::vector<Box> sboxes;
-  for (const auto& st : scene.structures) sboxes.push_back(bbox(st.outline));
+  std::vector<char> absent; // embedded structures: not there while depositing (carved())
+  for (const auto& st : scene.structures) {
+    sboxes.push_back(bbox(st.outline));
+    absent.push_back(carved(scene, st) ? 1 : 0);
+  }
 
   auto site_ok = [&](double x, double z) {
     const int k = std::max(0, static_cast<int>(std::floor((z - fb.z0) / H)));
@@ -210,7 +214,7 @@ Placement place_lattice(const scene::Scene& scene) {
     for (const auto& w : scene.walls)
       if (boundary_distance(w.points, p, false) < half) return false;
     for (std::size_t i = 0; i < scene.structures.size(); ++i) {
-      if (carved(scene, scene.structures[i])) continue; // absent while depositing
+      if (absent[i]) continue;
       const auto& o = scene.structures[i].outline;
       if (scene::contains(o, p) || boundary_distance(o, p, true) < half) return false;
       // Not above a structure: it would land on it.
@@ -267,7 +271,11 @@ Placement place_random(const scene::Scene& scene) {
   const Box fb = bbox(F);
   const double H = fb.z1 - fb.z0;
   std::vector<Box> sboxes;
-  for (const auto& st : scene.structures) sboxes.push_back(bbox(st.outline));
+  std::vector<char> absent; // embedded structures: not there while depositing (carved())
+  for (const auto& st : scene.structures) {
+    sboxes.push_back(bbox(st.outline));
+    absent.push_back(carved(scene, st) ? 1 : 0);
+  }
   double solid = 0.0;
   for (double r : radii) solid += 3.14159265358979323846 * r * r; // disk area πr²
   double top = fb.z0 + solid / (kPlacedFraction * std::max(fb.x1 - fb.x0, 1e-12));
@@ -284,7 +292,7 @@ Placement place_random(const scene::Scene& scene) {
     for (const auto& w : scene.walls)
       if (boundary_distance(w.points, p, false) < clear) return false;
     for (std::size_t i = 0; i < scene.structures.size(); ++i) {
-      if (carved(scene, scene.structures[i])) continue; // absent while depositing
+      if (absent[i]) continue;
       const auto& o = scene.structures[i].outline;
       if (scene::contains(o, p) || boundary_distance(o, p, true) < clear) return false;
       if (x > sboxes[i].x0 - clear && x < sboxes[i].x1 + clear && z > sboxes[i].z0) return false;
