@@ -97,7 +97,8 @@ TEST(ContinuumSeating, EmbeddedBlockRestsOnTheSoilUnderItsWeight) {
 // The rocking foundation's set-up (foundation_rocking.toml, variant 2-A): a seated embedded block,
 // x and z fixed, rotation free about its base centre under F = A·t·sin(ωt) at a point above the
 // pivot. The explicit integrator (lumped mass, automatic step) and implicit Newmark (dt = 0.005 s)
-// agree on the rotation history: RMS difference < 3 % of the peak rotation, peaks within 3 %.
+// agree on the rotation history: RMS difference < 1 % of the peak rotation, peaks within 1 %
+// (measured: 0.02 %).
 // (0.5 Hz on a 12 m layer is quasi-static: the soil's first mode is ≈ 3.5 Hz.)
 TEST(ContinuumSeating, RockingBlockUnderGrowingCyclicLoadExplicitMatchesImplicit) {
   const double omega = 3.141592653589793, A = 2.0e5, T = 2.0; // 0.5 Hz, one cycle
@@ -127,6 +128,6 @@ TEST(ContinuumSeating, RockingBlockUnderGrowingCyclicLoadExplicitMatchesImplicit
               "%.2f %% of the peak\n",
               peak_e, peak_i, 100.0 * rms / peak);
   EXPECT_GT(peak, 1e-6); // it rocks
-  EXPECT_LT(rms, 0.03 * peak);
-  EXPECT_NEAR(peak_e, peak_i, 0.03 * peak);
+  EXPECT_LT(rms, 0.01 * peak);
+  EXPECT_NEAR(peak_e, peak_i, 0.01 * peak);
 }
