@@ -662,8 +662,14 @@ ContinuumOptions read_continuum_options(Reader& r) {
   ContinuumOptions o;
   o.refinement = r.integer("refinement", o.refinement, 0, 12);
   o.degree = r.integer("degree", o.degree, 1, 4);
+  o.mesh_size_near = r.non_negative("mesh_size_near", o.mesh_size_near);
+  o.mesh_grading = r.in_range("mesh_grading", o.mesh_grading, 1.0, 3.0);
   o.bbar = r.boolean("bbar", o.bbar);
   o.dt = r.non_negative("dt", o.dt);
+  if (const toml::node* n = r.node("dt")) { // kept for the explicit step check (validate.hpp)
+    o.dt_line = static_cast<int>(n->source().begin.line);
+    o.dt_column = static_cast<int>(n->source().begin.column);
+  }
   o.newmark_beta = r.in_range("newmark_beta", o.newmark_beta, 0.0, 0.5);
   o.newmark_gamma = r.in_range("newmark_gamma", o.newmark_gamma, 0.0, 1.0);
   o.rayleigh_alpha = r.non_negative("rayleigh_alpha", o.rayleigh_alpha);
@@ -696,6 +702,8 @@ ContinuumOptions read_continuum_options(Reader& r) {
             "local_damping",
             "refinement",
             "degree",
+            "mesh_size_near",
+            "mesh_grading",
             "bbar",
             "dt",
             "newmark_beta",

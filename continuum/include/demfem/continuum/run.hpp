@@ -2,10 +2,12 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
+#include "demfem/scene/validate.hpp"
 
 namespace demfem::continuum {
 
@@ -26,6 +28,14 @@ struct RunSummary {
   std::size_t dofs = 0;
 };
 
+// An explicit-integrator continuum.dt above the stable step is refused with scene::SceneError
+// located at the scene's continuum.dt (as the scene check refuses it), before any computation.
 RunSummary run(const scene::Scene& scene, const RunOptions& options);
+
+// The explicit integrator's automatic step for the scene (explicit_safety × the critical step of
+// its mesh, from the moduli the scene states: apply a calibration first), with how it was
+// obtained; nothing when the scene cannot be meshed. Builds the mesh only (no K0 procedure).
+std::optional<scene::ContinuumStepLimit> stable_step(const scene::Scene& scene,
+                                                     const RunOptions& options = {});
 
 } // namespace demfem::continuum
