@@ -127,8 +127,10 @@ std::string packing_key(const scene::Scene& scene) {
     f.points(s.outline);
     f.num(s.mu_static.value_or(-1.0));
     f.num(s.mu_dynamic.value_or(-1.0));
-    if (carved(scene, s))
-      f.str("carved+seated"); // embedded structures (carved()); others keep keys
+    if (carved(scene, s)) // embedded structures (carved()); others keep keys
+      f.str(s.dof_z == scene::DofMode::Fixed && s.dof_rotation == scene::DofMode::Free
+                ? "carved+seated+turned;boundary-history"
+                : "carved+seated;boundary-history");
   }
   return fmt::format("{:016x}", f.h);
 }
@@ -411,6 +413,8 @@ std::string stats_text(const PackResult& r) {
            std::string t = fmt::format(";seat_load={:.17g}", r.seat_load);
            for (std::size_t k = 0; k < r.seat_dz.size(); ++k)
              t += fmt::format(";seat_dz{}={:.17g}", k, r.seat_dz[k]);
+           for (std::size_t k = 0; k < r.seat_rot.size(); ++k)
+             t += fmt::format(";seat_rot{}={:.17g}", k, r.seat_rot[k]);
            return t;
          }();
 }
@@ -450,6 +454,12 @@ void parse_stats(const std::string& s, PackResult& r) {
       if (idx < 4096) {
         if (r.seat_dz.size() <= idx) r.seat_dz.resize(idx + 1, 0.0);
         r.seat_dz[idx] = v;
+      }
+    } else if (k.starts_with("seat_rot")) {
+      const auto idx = static_cast<std::size_t>(std::strtoul(k.c_str() + 8, nullptr, 10));
+      if (idx < 4096) {
+        if (r.seat_rot.size() <= idx) r.seat_rot.resize(idx + 1, 0.0);
+        r.seat_rot[idx] = v;
       }
     }
   }
@@ -606,9 +616,10 @@ struct Trial {
   bool converged = false;
   double dt = 0.0;
   double scale = 1.0;
-  std::size_t carved = 0;      // particles removed from embedded structures' outlines
-  std::vector<double> seat_dz; // per scene structure: vertical offset from seating [m]
-  double seat_load = 0.0;      // bed reaction / weight of the last seated structure
+  std::size_t carved = 0;       // particles removed from embedded structures' outlines
+  std::vector<double> seat_dz;  // per scene structure: vertical offset from seating [m]
+  std::vector<double> seat_rot; // per scene structure: rotation from seating [rad]
+  double seat_load = 0.0;       // bed reaction / weight of the last seated structure
   PackingMeasure measure;
 };
 
@@ -640,16 +651,18 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   const Box fb = bbox(F);
   // Walls, structures (fixed obstacles, unloaded; embedded ones only once carved) and the
   // temporary container: fill edges that do not face upwards and are not already a wall.
-  // seat_dz: the structures' vertical offsets so far; `lowered`: the one being seated (its z
-  // prescribed by `lowering`), or none.
+  // seat_dz, seat_rot: the structures' offsets so far; `lowered`: the one being seated (its z
+  // prescribed by `lowering`), or none; `turning`: the one left free to rotate, or none.
   constexpr std::size_t none = ~std::size_t{0};
   auto add_boundaries = [&](Engine& en, bool with_embedded, const std::vector<double>& seat_dz,
+                            const std::vector<double>& seat_rot,
                             std::size_t lowered = ~std::size_t{0},
-                            const scene::TimeFunction& lowering = {}) {
+                            const scene::TimeFunction& lowering = {},
+                            std::size_t turning = ~std::size_t{0}) {
     for (const auto& w : scene.walls) en.add_wall(w); // openings stay closed while depositing
     for (std::size_t k = 0; k < scene.structures.size(); ++k) {
       if (!with_embedded && carved(scene, scene.structures[k])) continue;
-      auto st = scene::shifted(scene.structures[k], seat_dz[k]);
+      auto st = scene::rotated(scene::shifted(scene.structures[k], seat_dz[k]), seat_rot[k]);
       st.dof_x = st.dof_z = st.dof_rotation = scene::DofMode::Fixed;
       st.force_x = st.force_z = st.moment = scene::TimeFunction{};
       st.motion_x = st.motion_z = st.motion_rotation = scene::TimeFunction{};
@@ -657,6 +670,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
         st.dof_z = scene::DofMode::Prescribed;
         st.motion_z = lowering;
       }
+      if (k == turning) st.dof_rotation = scene::DofMode::Free;
       en.add_structure(st);
     }
     const double tol = 1e-6 * std::max(fb.x1 - fb.x0, fb.z1 - fb.z0);
@@ -676,8 +690,8 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   auto eng = std::make_unique<Engine>(c);
   Engine* ep = eng.get();
   for (std::size_t i = 0; i < pl.x.size(); ++i) ep->add_particle(pl.x[i], pl.z[i], pl.r[i]);
-  std::vector<double> seat_dz(scene.structures.size(), 0.0);
-  add_boundaries(*ep, false, seat_dz);
+  std::vector<double> seat_dz(scene.structures.size(), 0.0), seat_rot = seat_dz;
+  add_boundaries(*ep, false, seat_dz, seat_rot);
   ep->set_dt(d.dt > 0.0 ? d.dt : ep->auto_dt());
 
   Trial res;
@@ -759,7 +773,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
       else
         next->add_particle(P.x[i], P.z[i], P.radius[i]);
     }
-    add_boundaries(*next, true, seat_dz);
+    add_boundaries(*next, true, seat_dz, seat_rot);
     next->set_dt(ep->dt());
     next->set_time(ep->time());
     const auto en = ep->energy();
@@ -778,14 +792,18 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   // v = 0.02 √(g r_max) (quasi-static: well below the bed's free-fall speed over one radius)
   // until the bed carries its weight, at most 2 r_max; the run uses the seated position
   // (PackResult::seat_dz).
-  auto restart = [&](std::size_t lowered, const scene::TimeFunction& lowering) {
+  auto restart = [&](std::size_t lowered, const scene::TimeFunction& lowering,
+                     std::size_t turning = ~std::size_t{0}) {
     Particles P = ep->particles();
     sort_by_id(P);
-    const auto history = ep->save_contact_history(false);
+    // With the boundaries' history (the same walls, structures and container in the same order,
+    // so the same feature ids): the shear springs on a seated structure's faces carry part of its
+    // weight and moment.
+    const auto history = ep->save_contact_history(true);
     auto next = std::make_unique<Engine>(c_scene);
     for (std::size_t i = 0; i < P.size(); ++i) // id order: the history's ids stay valid
       next->add_particle(P.x[i], P.z[i], P.radius[i], P.vx[i], P.vz[i], P.omega[i]);
-    add_boundaries(*next, true, seat_dz, lowered, lowering);
+    add_boundaries(*next, true, seat_dz, seat_rot, lowered, lowering, turning);
     next->load_contact_history(history);
     next->set_dt(ep->dt());
     next->set_time(ep->time());
@@ -816,16 +834,30 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
     res.seat_dz[k] = dz;
     res.seat_load = st.soil_fz / weight;
     seat_dz[k] += dz;
-    restart(none, {});
+    // A structure the run leaves free to rotate settles with its rotation free too (no load), so
+    // the run starts in moment equilibrium: resting on the few highest particles under its base,
+    // held fixed it would carry their unbalanced moment and tip in the run's first second
+    // (foundation 2-A: −1.95e7 N·m, −2.2e-3 rad). Its pivot stays where seating left it.
+    const bool turns = sk.dof_rotation == scene::DofMode::Free;
+    restart(none, {}, turns ? k : none);
     const double t_relax = 20.0 * std::sqrt(4.0 * rmax / g);
     res.converged = settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (seat)") &&
                     res.converged;
+    if (turns) {
+      const double rot = ep->structures()[k].rot;
+      res.seat_rot.resize(scene.structures.size(), 0.0);
+      res.seat_rot[k] = rot;
+      seat_rot[k] += rot;
+      restart(none, {}); // held at the rest rotation, as the run will place it
+    }
   }
   res.time = ep->time();
   res.steps = steps_before + ep->stats().steps;
   res.dt = ep->dt();
   res.particles = ep->particles();
-  res.history = ep->save_contact_history(false);
+  // Embedded structures keep the history of their contacts (the run adds the scene's walls and
+  // structures first, in this order, so their feature ids match; the container's are dropped).
+  res.history = ep->save_contact_history(!embedded.empty());
   sort_by_id(res.particles);
   auto& P = res.particles;
   std::fill(P.vx.begin(), P.vx.end(), 0.0);
@@ -911,6 +943,7 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
   res.friction_scale = best.scale;
   res.carved = best.carved;
   res.seat_dz = best.seat_dz;
+  res.seat_rot = best.seat_rot;
   res.seat_load = best.seat_load;
   res.trials = trials;
   res.target_met = met;
@@ -971,6 +1004,10 @@ void write_packing_json(const PackResult& r, const scene::Scene& scene, const fs
       js +=
           fmt::format("  \"seated_{}\": {{\"dz_m\": {:.6g}, \"bed_load_over_weight\": {:.4g}}},\n",
                       scene.structures[k].name, r.seat_dz[k], r.seat_load);
+  for (std::size_t k = 0; k < r.seat_rot.size() && k < scene.structures.size(); ++k)
+    if (r.seat_rot[k] != 0.0)
+      js += fmt::format("  \"seat_rotation_{}_rad\": {:.6g},\n", scene.structures[k].name,
+                        r.seat_rot[k]);
   js += fmt::format("  \"deposition_time_s\": {:.6g},\n", r.deposition_time);
   js += fmt::format("  \"ke_ratio\": {:.3e},\n", r.ke_ratio);
   js += fmt::format("  \"converged\": {},\n", r.converged ? "true" : "false");

@@ -192,24 +192,34 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       return summary;
     }
   }
-  std::vector<double> seat_dz; // per structure: where the packing seated it (pack.hpp)
+  // per structure: where the packing seated it, height and rotation (pack.hpp)
+  std::vector<double> seat_dz, seat_rot;
+  std::vector<std::byte> history; // the packing's contact history
 #ifdef DEMFEM_DEM_HAS_PACK
-  if (resume_from && scene.soil.dem->particles.empty() && !scene.structures.empty())
-    seat_dz = pack_or_load(scene, options.out_dir, options.progress).seat_dz; // cached
+  if (resume_from && scene.soil.dem->particles.empty() && !scene.structures.empty()) {
+    const PackResult pr = pack_or_load(scene, options.out_dir, options.progress); // cached
+    seat_dz = pr.seat_dz;
+    seat_rot = pr.seat_rot;
+  }
   if (!resume_from) { // a resumed run takes its particles from the checkpoint
     const PackResult pr = pack_or_load(scene, options.out_dir, options.progress);
     seat_dz = pr.seat_dz;
+    seat_rot = pr.seat_rot;
     for (std::size_t k = 0; k < seat_dz.size() && k < scene.structures.size(); ++k)
       if (seat_dz[k] != 0.0)
         spdlog::info("packing: structure '{}' seated {:.3g} m {} its stated position (the bed "
                      "carries {:.3g} × its weight there)",
                      scene.structures[k].name, std::abs(seat_dz[k]),
                      seat_dz[k] < 0.0 ? "below" : "above", pr.seat_load);
+    for (std::size_t k = 0; k < seat_rot.size() && k < scene.structures.size(); ++k)
+      if (seat_rot[k] != 0.0)
+        spdlog::info("packing: structure '{}' came to rest on the bed turned {:.3g} rad "
+                     "(counter-clockwise, about its pivot); its rotation is counted from there",
+                     scene.structures[k].name, seat_rot[k]);
     const auto& p = pr.particles;
     for (std::size_t i = 0; i < p.size(); ++i)
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
-    // The packing's shear springs (ids 0…count−1 match: the particles are added in id order).
-    if (!pr.contact_history.empty()) e.load_contact_history(pr.contact_history);
+    history = pr.contact_history;
     // The packing's density and contacts, for the run's summary (issue 14).
     write_packing_json(pr, scene, out / "packing.json");
     spdlog::info(
@@ -236,8 +246,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
 #endif
   for (const auto& w : scene.walls) e.add_wall(w);
   for (std::size_t k = 0; k < scene.structures.size(); ++k)
-    e.add_structure(k < seat_dz.size() ? scene::shifted(scene.structures[k], seat_dz[k])
-                                       : scene.structures[k]);
+    e.add_structure(
+        scene::rotated(scene::shifted(scene.structures[k], k < seat_dz.size() ? seat_dz[k] : 0.0),
+                       k < seat_rot.size() ? seat_rot[k] : 0.0));
+  // The packing's shear springs (ids 0…count−1 match: the particles are added in id order), after
+  // the walls and structures, whose contacts a packing with embedded structures keeps too.
+  if (!history.empty()) e.load_contact_history(history);
   const double dt_scene = scene.soil.dem->dt;
   try {
     e.set_dt(dt_scene > 0.0 ? dt_scene : e.auto_dt());

@@ -106,4 +106,18 @@ Structure shifted(Structure st, double dz) {
   return st;
 }
 
+Structure rotated(Structure st, double rot) {
+  if (rot == 0.0) return st;
+  const double c = std::cos(rot), s = std::sin(rot);
+  const Vec2 o = st.pivot;
+  auto turn = [&](Vec2& q) { // rigid rotation about the pivot, counter-clockwise positive
+    const double lx = q.x - o.x, lz = q.z - o.z;
+    q = {o.x + c * lx - s * lz, o.z + s * lx + c * lz};
+  };
+  for (auto& q : st.outline) turn(q);
+  turn(st.base_centre);
+  turn(st.load_point);
+  return st;
+}
+
 } // namespace demfem::scene

@@ -58,17 +58,24 @@ TEST(PackEmbedded, FoundationIsCarvedSeatedAndCarriedByTheBed) {
   EXPECT_LE(r.seat_dz[0], 0.0);
   EXPECT_GT(r.seat_dz[0], -2.0 * rmax);
   EXPECT_GE(r.seat_load, 1.0);
-  const auto st = scene::shifted(s.structures[0], r.seat_dz[0]);
+  // The footing is free to rotate in the run: it was seated free to rotate too.
+  ASSERT_EQ(r.seat_rot.size(), 1u);
+  EXPECT_LT(std::abs(r.seat_rot[0]), 0.05); // a small tilt, not a topple
+  const auto st = scene::rotated(scene::shifted(s.structures[0], r.seat_dz[0]), r.seat_rot[0]);
   const double z0 = st.base_centre.z, x0 = st.base_centre.x - 0.2, x1 = st.base_centre.x + 0.2;
   // Particles touch the base (within 2 % of their radius): no hollow under it. Lowered until the
   // bed carries its weight, the footing rests on the highest few (measured: 1 here, with
   // 7 diameters across the base; 4 of ≈ 11 under foundation 2-A).
   int touching = 0;
+  const double tilt = r.seat_rot[0];
   for (std::size_t i = 0; i < P.size(); ++i) {
-    if (P.x[i] < x0 || P.x[i] > x1 || P.z[i] > z0) continue;
-    if (z0 - P.z[i] - P.radius[i] < 0.02 * P.radius[i]) ++touching;
+    // gap to the (tilted) base line through the base centre
+    const double zb = z0 + std::tan(tilt) * (P.x[i] - st.base_centre.x);
+    if (P.x[i] < x0 || P.x[i] > x1 || P.z[i] > zb) continue;
+    const double gap = (zb - P.z[i]) * std::cos(tilt) - P.radius[i];
+    if (gap < 0.02 * P.radius[i]) ++touching;
     // and none is pushed into it by more than a loaded contact's overlap
-    EXPECT_GT(z0 - P.z[i] - P.radius[i], -0.05 * P.radius[i]) << i;
+    EXPECT_GT(gap, -0.05 * P.radius[i]) << i;
   }
   EXPECT_GE(touching, 1);
   // The run's engine with the seated footing: the bed pushes it up from the first step.
@@ -76,9 +83,21 @@ TEST(PackEmbedded, FoundationIsCarvedSeatedAndCarriedByTheBed) {
   for (std::size_t i = 0; i < P.size(); ++i) e.add_particle(P.x[i], P.z[i], P.radius[i]);
   for (const auto& w : s.walls) e.add_wall(w);
   e.add_structure(st);
+  e.load_contact_history(r.contact_history); // as dem::run: with the footing's shear springs
   e.run_steps(1);
   const double weight = e.structures()[0].mass * s.load.gravity;
   EXPECT_GT(e.structures()[0].soil_fz, 0.5 * weight);
+  // and in moment equilibrium about its pivot: the bed's moment balances that of the weight
+  // (centroid off the pivot's vertical by the seat rotation), within 2 % of W × half-width
+  // (measured: 1e-13). Seated with its rotation held, a footing carries the bed's unbalanced
+  // moment into the run (foundation 2-A: −1.95e7 N·m, and it tipped 2.2e-3 rad in the first
+  // second); without the face contacts' shear springs, 25 % of W × half-width here.
+  {
+    const auto& fs0 = e.structures()[0];
+    // centroid's x offset from the pivot (cx_local: of the outline as placed, turned already)
+    const double m_weight = -weight * fs0.cx_local; // moment of −W ẑ at that offset
+    EXPECT_LT(std::abs(fs0.soil_moment + m_weight), 0.02 * weight * 0.2);
+  }
   // Cached: the second call reads the same bed and seat back.
   const auto c = dem::pack_or_load(s, dir);
   EXPECT_TRUE(c.from_cache);

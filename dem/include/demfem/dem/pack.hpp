@@ -79,10 +79,10 @@ private:
 
 // Density and contacts of a packing (see the header comment for the window).
 struct PackingMeasure {
-  double porosity = 0.0;     // n = void area / total area in the window
-  double void_ratio = 0.0;   // e = void area / solid area = n / (1 − n) (2D)
-  double coordination = 0.0; // Z = 2 C / N, particle–particle contacts
-  double rattlers = 0.0;     // fraction of particles without a particle contact
+  double porosity = 0.0;              // n = void area / total area in the window
+  double void_ratio = 0.0;            // e = void area / solid area = n / (1 − n) (2D)
+  double coordination = 0.0;          // Z = 2 C / N, particle–particle contacts
+  double rattlers = 0.0;              // fraction of particles without a particle contact
   double z_bottom = 0.0, z_top = 0.0; // the measurement window [m]
 };
 [[nodiscard]] PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p);
@@ -105,14 +105,18 @@ struct PackResult {
   // flags; Engine::save_contact_history without boundaries, whose features differ between the
   // deposition and the run). Empty for explicit particles and packings cached without it.
   std::vector<std::byte> contact_history;
-  PackingMeasure measure;            // of the packing as returned
-  double friction_scale = 1.0;       // s of the deposition kept (1 without a target)
-  int trials = 1;                    // depositions made to reach the target
-  bool target_met = true;            // |porosity − target| ≤ tolerance (true without a target)
-  std::size_t carved = 0;            // particles removed where embedded structures stand
+  PackingMeasure measure;      // of the packing as returned
+  double friction_scale = 1.0; // s of the deposition kept (1 without a target)
+  int trials = 1;              // depositions made to reach the target
+  bool target_met = true;      // |porosity − target| ≤ tolerance (true without a target)
+  std::size_t carved = 0;      // particles removed where embedded structures stand
   // Per scene structure (empty: none seated): the vertical offset [m] at which an embedded,
   // vertically fixed structure rests on the bed after seating (pack.cpp); the run places it there.
   std::vector<double> seat_dz;
+  // Per scene structure (empty: none turned): the rotation [rad, counter-clockwise, about the
+  // pivot] at which a seated structure the run leaves free to rotate came to rest on the bed; the
+  // run places it so (scene::rotated), so it starts in moment equilibrium.
+  std::vector<double> seat_rot;
   double seat_load = 0.0; // the bed's reaction / the structure's weight when seating stopped
 };
 

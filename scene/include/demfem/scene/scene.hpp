@@ -316,6 +316,9 @@ struct Bounds {
 [[nodiscard]] double segment_distance(Vec2 q, Vec2 a, Vec2 b);
 // The structure moved vertically by dz: outline, base centre, pivot and load point.
 [[nodiscard]] Structure shifted(Structure st, double dz);
+// The structure turned by rot [rad] (counter-clockwise) about its pivot: outline, base centre and
+// load point (the engine's convention for a structure's rotation).
+[[nodiscard]] Structure rotated(Structure st, double rot);
 [[nodiscard]] Vec2 centroid(const Polygon& p);
 
 template <std::size_t N>
