@@ -403,9 +403,11 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
 }
 
 // [soil.continuum] calibrate = "dem": the scene with the calibrated values filled in (computed,
-// or read from the cache). Logs one line per key; `notes` gets them for the report.
+// or read from the cache). Logs one line per key; `notes` gets them. `figures`: draw the
+// calibration's figures into out/calibration even when it came from the cache (the comparison
+// report embeds them); otherwise only when it was computed now.
 scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
-                              std::vector<std::string>* notes = nullptr) {
+                              std::vector<std::string>* notes = nullptr, bool figures = false) {
   scene::Scene r = s;
   if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !r.uses(scene::Solver::Continuum))
     return r;
@@ -415,8 +417,7 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
   o.progress = [&](const scene::Progress& p) { reporter(p); };
   const auto c = compare::load_or_calibrate(s, o);
   reporter.finish();
-  // figures from the cached curves too: the comparison report embeds them
-  const auto files = compare::write_calibration(c, o.out_dir, true);
+  const auto files = compare::write_calibration(c, o.out_dir, figures || !c.from_cache);
   for (const auto& p : files.problems) spdlog::warn("calibration figure: {}", p);
   for (const auto& line : compare::apply_calibration(r, c)) {
     spdlog::info("{}: continuum {}", s.label(), line);
@@ -589,8 +590,8 @@ int cmd_compare(const RunArgs& a) {
   for (const scene::Scene* s0 : scenes) {
     const fs::path out = run_dir_for(*s0, a, scenes.size());
     std::vector<std::string> calibrated;
-    const scene::Scene cs =
-        a.report_only ? calibration_of_run(*s0, out) : with_calibration(*s0, out, &calibrated);
+    const scene::Scene cs = a.report_only ? calibration_of_run(*s0, out)
+                                          : with_calibration(*s0, out, &calibrated, true);
     const scene::Scene* s = &cs; // issue 9: calibrate = "dem" resolved
     if (a.report_only) {
       if (!fs::is_directory(out)) {
@@ -609,7 +610,11 @@ int cmd_compare(const RunArgs& a) {
     ro.command = reproduce_command(*s0, out, a);
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
-    for (const auto& n : calibrated) ro.notes.push_back(n);
+    // The calibrated values and their provenance are in the report's parameter table (once).
+    if (!calibrated.empty())
+      ro.notes.push_back("The continuum is calibrated from the DEM (soil.continuum.calibrate = "
+                         "\"dem\"; a value stated in the scene wins): each value and where it "
+                         "came from is in \"Parameters of both models\".");
     bool any_ok = false;
     for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
       const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";

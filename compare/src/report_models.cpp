@@ -368,9 +368,13 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
 
   // 2. soil surface, density and mass
   {
-    const double n = f.calibration ? f.cal_porosity : f.packing ? f.packing_porosity : -1.0;
-    std::string dem =
-        fmt::format("deposited bed of {} disks, ρ_s = {} kg/m³", d.count, g4(d.density));
+    // (listed particles are not a deposited bed: no porosity)
+    const double n = f.calibration                      ? f.cal_porosity
+                     : f.packing && d.particles.empty() ? f.packing_porosity
+                                                        : -1.0;
+    std::string dem = fmt::format("{} of {} disks, ρ_s = {} kg/m³",
+                                  d.particles.empty() ? "deposited bed" : "listed particles",
+                                  d.count, g4(d.density));
     if (n >= 0.0)
       dem += fmt::format(", porosity {:.4f} → bulk density {} kg/m³", n, g4(d.density * (1.0 - n)));
     if (f.calibration)
@@ -425,8 +429,11 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
                             : given(c, "k0")    ? "stated in the scene"
                             : c.k0 >= 0.0       ? "set"
                                                 : "Jaky 1 − sin φ (no k0 given)";
-    std::string dem = "the deposited bed's own stresses (gravity deposition, then friction "
-                      "reset)";
+    std::string dem = !d.particles.empty() ? "the listed particles' initial state (no deposition)"
+                      : d.packing.target_porosity
+                          ? "the deposited bed's own stresses (deposition under gravity "
+                            "at raised friction, then the scene's friction, settled)"
+                          : "the deposited bed's own stresses (deposition under gravity)";
     if (f.calibration)
       dem +=
           fmt::format("; K0 = σ_xx/σ_zz = {:.3f} (Love–Weber stress, away from walls)", f.cal_k0);
@@ -502,7 +509,9 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
           edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
       std::string why;
       bool matched = false;
-      if (std::string(side.name) == "base") {
+      if (!any && !edge) {
+        why = "The DEM soil has no wall on this side; the continuum's is held there.";
+      } else if (std::string(side.name) == "base") {
         why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
         if (s.load.shaking && s.load.shaking->direction == 'x' && any) {
           // Rigid block on a Coulomb base: it starts sliding when |a| > μ_s g and keeps sliding
@@ -811,7 +820,7 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
                     d.packing.target_porosity
                         ? fmt::format("target porosity {:.4f}", *d.packing.target_porosity)
                         : "no density target"));
-    if (f.packing)
+    if (f.packing && d.particles.empty())
       rows.push_back({"DEM", "porosity of the deposited bed",
                       fmt::format("{:.4f}", f.packing_porosity), "measured: dem/packing.json"});
   }
