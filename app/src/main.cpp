@@ -200,7 +200,7 @@ void check_figures(const compare::RunFigures& f) {
 }
 
 // Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum).
-// Each run also records itself in out/<solver>/run.json (compare::SolverRun: outcome, the solver's
+// Each run also records itself in out/run_<solver>.json (compare::SolverRun: outcome, the solver's
 // own and the total wall time, steps, Δt, resolution), which the comparison report reads.
 SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::path& out,
                          const RunArgs& a) {
@@ -283,7 +283,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     rec.total_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     try {
-      compare::write_solver_run(out / rec.solver, rec);
+      compare::write_solver_run(out, rec);
     } catch (const std::exception& e) {
       spdlog::warn("{}: {}", s.label(), e.what()); // the run's results stand without it
     }
@@ -454,8 +454,9 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
 }
 
 // What the solvers, figures and report write into a run directory (what --force clears).
-constexpr const char* kRunOutputs[] = {"dem",          "continuum",   "figures",
-                                       "summary.json", "report.html", "metrics.json"};
+constexpr const char* kRunOutputs[] = {"dem",          "continuum",         "figures",
+                                       "summary.json", "report.html",       "metrics.json",
+                                       "run_dem.json", "run_continuum.json"};
 
 // The resolved scene without its comment lines (they name the file it came from).
 std::vector<std::string> scene_lines(const std::string& toml) {
@@ -553,11 +554,11 @@ int cmd_run(const RunArgs& a) {
     // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
     // the same directory record the same resolved scene
     const scene::Scene sc = with_calibration(*s, out);
-    if (const int p =
-            prepare_run_dir(sc, out, a, "run",
-                            solver == scene::Solver::Dem
-                                ? std::vector<std::string>{"dem", "figures", "summary.json"}
-                                : std::vector<std::string>{"continuum"});
+    if (const int p = prepare_run_dir(
+            sc, out, a, "run",
+            solver == scene::Solver::Dem
+                ? std::vector<std::string>{"dem", "figures", "summary.json", "run_dem.json"}
+                : std::vector<std::string>{"continuum", "run_continuum.json"});
         p != kOk)
       return p;
     if (const int d = start_run_dir(sc, out, a.resume); d != kOk) return d;

@@ -597,8 +597,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     std::string files;
     for (const fs::path& f :
          dem ? std::vector<fs::path>{run_dir / "summary.json", sd / "packing.json",
-                                     sd / "energy_budget.json", sd / "run.json"}
-             : std::vector<fs::path>{sd / "run.json", sd / "log.txt"})
+                                     sd / "energy_budget.json", run_dir / "run_dem.json"}
+             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / "log.txt"})
       if (fs::exists(f))
         files += fmt::format("{}<a href=\"{}\">{}</a>", files.empty() ? "" : ", ",
                              html_escape(fs::relative(f, run_dir).generic_string()),

@@ -204,9 +204,14 @@ double mean_diameter(const scene::DemSoil& d) {
   return 0.0;
 }
 
-// ---- run.json ----------------------------------------------------------------------------------
+// ---- run_<solver>.json
+// ------------------------------------------------------------------------------
 
-void write_solver_run(const fs::path& solver_dir, const SolverRun& r) {
+fs::path solver_run_file(const fs::path& run_dir, const std::string& solver) {
+  return run_dir / ("run_" + solver + ".json");
+}
+
+void write_solver_run(const fs::path& run_dir, const SolverRun& r) {
   json j;
   j["solver"] = r.solver;
   j["ok"] = r.ok;
@@ -240,14 +245,14 @@ void write_solver_run(const fs::path& solver_dir, const SolverRun& r) {
     when = buf;
   }
   j["finished_utc"] = when;
-  fs::create_directories(solver_dir);
-  scene::write_file_atomic(solver_dir / "run.json", j.dump(2) + "\n");
+  fs::create_directories(run_dir);
+  scene::write_file_atomic(solver_run_file(run_dir, r.solver), j.dump(2) + "\n");
 }
 
-SolverRun read_solver_run(const fs::path& solver_dir) {
+SolverRun read_solver_run(const fs::path& run_dir, const std::string& solver) {
   SolverRun r;
   json j;
-  if (!parse_file(solver_dir / "run.json", j)) return r;
+  if (!parse_file(solver_run_file(run_dir, solver), j)) return r;
   try {
     r.present = true;
     r.solver = j.value("solver", std::string());
@@ -280,8 +285,8 @@ SolverRun read_solver_run(const fs::path& solver_dir) {
 
 ModelFacts read_model_facts(const fs::path& run_dir) {
   ModelFacts f;
-  f.dem = read_solver_run(run_dir / "dem");
-  f.continuum = read_solver_run(run_dir / "continuum");
+  f.dem = read_solver_run(run_dir, "dem");
+  f.continuum = read_solver_run(run_dir, "continuum");
   json p;
   if (parse_file(run_dir / "dem" / "packing.json", p)) {
     f.packing = true;

@@ -136,7 +136,7 @@ std::string runs_section(const ModelFacts& f, const std::string& command) {
     const char* name = dem ? "DEM" : "continuum";
     if (!r->present) {
       o += fmt::format("<tr><td class=\"l\">{}</td><td class=\"l\" colspan=\"8\">not recorded "
-                       "(no {}/run.json: the solver did not run here, or an older demfem ran "
+                       "(no run_{}.json: the solver did not run here, or an older demfem ran "
                        "it)</td></tr>\n",
                        name, dem ? "dem" : "continuum");
       continue;

@@ -1,5 +1,5 @@
 // `demfem compare` end to end on a tiny two-solver scene: each solver records its run
-// (<run>/<solver>/run.json) and the report shows the reproducing command, the run times and the
+// (<run>/run_<solver>.json) and the report shows the reproducing command, the run times and the
 // "what differs between the two models" table built from that scene.
 #include <filesystem>
 #include <string>
@@ -74,13 +74,13 @@ TEST(CompareReport, RecordsRunsAndListsWhatDiffers) {
   const Result r = run("compare " + scene.string() + " --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* solver : {"dem", "continuum"}) {
-    const auto j = nlohmann::json::parse(slurp(out / solver / "run.json"));
+    const auto j = nlohmann::json::parse(slurp(out / (std::string("run_") + solver + ".json")));
     EXPECT_TRUE(j["ok"].get<bool>()) << solver;
     EXPECT_GT(j["steps"].get<long long>(), 0) << solver;
     EXPECT_GT(j["dt_s"].get<double>(), 0.0) << solver;
     EXPECT_GT(j["total_seconds"].get<double>(), 0.0) << solver;
   }
-  const auto c = nlohmann::json::parse(slurp(out / "continuum" / "run.json"));
+  const auto c = nlohmann::json::parse(slurp(out / "run_continuum.json"));
   EXPECT_EQ(c["refinement"].get<int>(), 0);
   EXPECT_EQ(c["degree"].get<int>(), 1);
   EXPECT_GT(c["dofs"].get<long long>(), 0);

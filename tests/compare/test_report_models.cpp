@@ -156,7 +156,7 @@ TEST(ReportModels, ParametersCarryTheirProvenance) {
 }
 
 TEST(ReportModels, SolverRunRoundTrips) {
-  const fs::path dir = demfem::test::scratch("run") / "continuum";
+  const fs::path dir = demfem::test::scratch("run");
   compare::SolverRun r;
   r.solver = "continuum";
   r.ok = true;
@@ -171,14 +171,15 @@ TEST(ReportModels, SolverRunRoundTrips) {
   r.integrator = "explicit";
   r.seated = {{"footing", 0.01}};
   compare::write_solver_run(dir, r);
-  const auto b = compare::read_solver_run(dir);
+  EXPECT_TRUE(fs::exists(dir / "run_continuum.json"));
+  const auto b = compare::read_solver_run(dir, "continuum");
   EXPECT_TRUE(b.present);
   EXPECT_DOUBLE_EQ(b.solver_seconds, 12.5);
   EXPECT_EQ(b.dofs, 14690u);
   EXPECT_EQ(b.integrator, "explicit");
   ASSERT_EQ(b.seated.size(), 1u);
   EXPECT_EQ(b.seated[0].first, "footing");
-  EXPECT_FALSE(compare::read_solver_run(dir.parent_path() / "dem").present);
+  EXPECT_FALSE(compare::read_solver_run(dir, "dem").present);
 }
 
 // The page: what differs, parameters, run times with the reproducing command, the study link.
@@ -202,7 +203,7 @@ TEST(ReportModels, ReportShowsModelsRunTimesAndStudies) {
   dem.total_seconds = 75.0;
   dem.steps = 123456;
   dem.dt = 2.4e-5;
-  compare::write_solver_run(run / "dem", dem);
+  compare::write_solver_run(run, dem);
   // a stability study of this scene beside the run, and one of another scene
   fs::create_directories(root / "study-stability" / "quick");
   std::ofstream(root / "study-stability" / "quick" / "study.json")
@@ -226,8 +227,9 @@ TEST(ReportModels, ReportShowsModelsRunTimesAndStudies) {
   EXPECT_NE(html.find("boundary: structure faces"), std::string::npos);
   EXPECT_NE(html.find("Parameters of both models"), std::string::npos);
   EXPECT_NE(html.find("demfem compare cases/box_wall.toml --variant quick"), std::string::npos);
-  EXPECT_NE(html.find("61.0 s"), std::string::npos);       // the DEM's recorded wall time
-  EXPECT_NE(html.find("not recorded"), std::string::npos); // the continuum wrote no run.json
+  EXPECT_NE(html.find("61.0 s"), std::string::npos); // the DEM's recorded wall time
+  EXPECT_NE(html.find("not recorded"),
+            std::string::npos); // the continuum wrote no run_continuum.json
   ASSERT_EQ(r.studies.size(), 1u);
   EXPECT_EQ(r.studies[0].scene, "box-wall/quick");
   EXPECT_EQ(r.studies[0].summary, "2 rows: 1 completed, 1 refused");

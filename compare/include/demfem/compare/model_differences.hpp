@@ -3,7 +3,7 @@
 // stress, boundaries, damping, excitation, structure placement, time integration, resolution),
 // with what the DEM does, what the continuum does, the consequence, and whether the two are
 // matched. Built from the resolved scene (after calibrate = "dem" is applied), from what each
-// solver recorded about its run (<run>/<solver>/run.json, written by the app) and from the
+// solver recorded about its run (<run>/run_<solver>.json, written by the app) and from the
 // calibration and packing the run used (<run>/calibration/calibration.json, <run>/dem/
 // packing.json) — never from fixed prose: each row states what the code does for this scene
 // (continuum boundaries: continuum/src/run.cpp and fem.hpp; DEM walls: dem/src/engine.cpp).
@@ -18,7 +18,8 @@
 
 namespace demfem::compare {
 
-// One solver's run as the app recorded it (<run>/<solver>/run.json).
+// One solver's run as the app recorded it (<run>/run_<solver>.json; beside the solver's folder,
+// which stays byte-identical between an interrupted-and-resumed run and an uninterrupted one).
 struct SolverRun {
   bool present = false; // the file exists
   std::string solver;   // "dem" | "continuum"
@@ -43,8 +44,11 @@ struct SolverRun {
   std::string finished_utc;
 };
 
-void write_solver_run(const std::filesystem::path& solver_dir, const SolverRun& r);
-[[nodiscard]] SolverRun read_solver_run(const std::filesystem::path& solver_dir);
+[[nodiscard]] std::filesystem::path solver_run_file(const std::filesystem::path& run_dir,
+                                                    const std::string& solver);
+void write_solver_run(const std::filesystem::path& run_dir, const SolverRun& r);
+[[nodiscard]] SolverRun read_solver_run(const std::filesystem::path& run_dir,
+                                        const std::string& solver);
 
 // What the run directory says about both models beyond the scene.
 struct ModelFacts {

@@ -60,7 +60,7 @@ struct ReportResult {
 [[nodiscard]] double interpolate(const std::vector<double>& t, const std::vector<double>& y,
                                  double at);
 
-// Reads <run>/dem/*.csv, <run>/continuum/*.csv, <run>/<solver>/run.json, <run>/dem/packing.json,
+// Reads <run>/dem/*.csv, <run>/continuum/*.csv, <run>/run_<solver>.json, <run>/dem/packing.json,
 // <run>/calibration/ and figures under <run>/*/figures, and writes <run>/report.html (figures
 // embedded) and <run>/metrics.json.
 ReportResult write_report(const std::filesystem::path& run_dir, const ReportOptions& options);
