@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <signal.h>
 #include <sstream>
 #include <stdexcept>
@@ -29,6 +30,7 @@
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -452,6 +454,32 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
   if (a.degree >= 1) c += fmt::format(" --degree {}", a.degree);
   return c;
 }
+
+#ifdef DEMFEM_WITH_CONTINUUM
+// The continuum's explicit stable step for the scene check (scene::set_continuum_step_limit):
+// with calibrate = "dem", from the cached calibration (unknown until it exists: the run, which
+// calibrates first, refuses the same step at the same key).
+std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene& s) {
+  scene::Scene r = s;
+  if (r.soil.continuum && r.soil.continuum->calibrate_dem) {
+    const compare::CalibrateOptions o;
+    const fs::path f = compare::calibration_cache_dir(r, o) /
+                       ("calibration-" + compare::calibration_key(r, o) + ".json");
+    std::error_code ec;
+    if (!fs::exists(f, ec)) return std::nullopt;
+    try {
+      compare::apply_calibration(r, compare::load_or_calibrate(r, o));
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+  }
+  try {
+    return continuum::stable_step(r);
+  } catch (const std::exception&) { // a scene the continuum cannot mesh: the run says why
+    return std::nullopt;
+  }
+}
+#endif
 
 // What the solvers, figures and report write into a run directory (what --force clears).
 constexpr const char* kRunOutputs[] = {"dem",          "continuum",         "figures",
@@ -1000,6 +1028,10 @@ int main(int argc, char** argv) {
   // Loading a scene checks soil.dem.dt against the DEM's stable limit (issue 11): `check` and
   // `run` refuse the same step, at the key's file:line:col.
   scene::set_dem_step_limit(&dem::scene_step_limit);
+#ifdef DEMFEM_WITH_CONTINUUM
+  // … and an explicit-integrator continuum.dt against the continuum's stable step (issue 10).
+  scene::set_continuum_step_limit(&continuum_step_limit);
+#endif
 
   RunArgs ra;
   auto* run = app.add_subcommand("run", "Run one solver on a scene (or some of its variants).");

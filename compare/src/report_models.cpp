@@ -602,8 +602,11 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
     }
     std::string cont;
     const bool viscous = co.rayleigh_alpha > 0.0 || co.rayleigh_beta > 0.0;
-    cont = viscous ? fmt::format("Rayleigh α = {} /s, β = {} s", g3(co.rayleigh_alpha),
-                                 g3(co.rayleigh_beta))
+    // calibrate = "dem" sets α, β from the DEM's small-strain ξ0 (compare::apply_calibration)
+    const std::string* rayleigh = provenance(c, "continuum.rayleigh");
+    cont = viscous ? fmt::format("Rayleigh α = {} /s, β = {} s{}", g3(co.rayleigh_alpha),
+                                 g3(co.rayleigh_beta),
+                                 rayleigh ? " (calibrated — " + *rayleigh + ")" : std::string())
                    : "no Rayleigh damping (α = β = 0)";
     if (co.local_damping > 0.0 && co.integrator == "explicit")
       cont += fmt::format("; local damping α_L = {}", g3(co.local_damping));
@@ -614,9 +617,13 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
       why = mc ? "Below yield the continuum dissipates nothing; the DEM dissipates by sliding at "
                  "every amplitude."
                : "The continuum dissipates nothing at all.";
+    else if (viscous)
+      why = "Both dissipate, by different mechanisms: the continuum's Rayleigh damping is "
+            "viscous (frequency-dependent, the same at every amplitude), the DEM's friction "
+            "grows with the strain amplitude.";
     else
-      why = "Both dissipate, but by different mechanisms (viscous or local against frictional).";
-    if (!f.cal_cyclic.empty())
+      why = "Both dissipate, by different mechanisms (local non-viscous against frictional).";
+    if (!f.cal_cyclic.empty() && !rayleigh)
       why += " The calibration's ξ(γ) is measured but not used by the continuum.";
     rows.push_back({"damping", dem, cont, why, false});
   }
@@ -888,8 +895,12 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
                         ? fmt::format("frictional, δ = {}", deg(co.interface_friction_angle))
                         : co.interface,
                     cs});
+    const std::string* rayleigh = provenance(c, "continuum.rayleigh");
     rows.push_back({"continuum", "continuum.rayleigh_alpha / rayleigh_beta",
-                    g3(co.rayleigh_alpha) + " / " + g3(co.rayleigh_beta), cs});
+                    g3(co.rayleigh_alpha) + " 1/s / " + g3(co.rayleigh_beta) + " s",
+                    rayleigh             ? "calibrated from the DEM — " + *rayleigh
+                    : co.rayleigh_stated ? "stated in the scene"
+                                         : cs});
     if (co.integrator == "explicit")
       rows.push_back({"continuum", "continuum.local_damping", g3(co.local_damping), cs});
     rows.push_back({"continuum", "continuum.bbar", co.bbar ? "on" : "off", cs});

@@ -39,6 +39,7 @@ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
 // For library callers (the app) that did not start MPI: starts it once for the process.
 void ensure_mpi();
 
@@ -237,8 +238,13 @@ public:
   [[nodiscard]] const std::string& log() const;
 
 private:
+  friend double stable_time_step(const Problem& pb);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The explicit integrator's automatic step of `pb` (Model::stable_time_step) from its mesh, dofs
+// and materials alone: no constraints, matrices or K0 state (cheap enough for a scene check).
+[[nodiscard]] double stable_time_step(const Problem& pb);
 
 } // namespace demfem::continuum::fem

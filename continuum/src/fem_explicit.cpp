@@ -477,6 +477,11 @@ StepStats Model::Impl::explicit_advance(double dt) {
   return st;
 }
 
+double stable_time_step(const Problem& pb) {
+  Model::Impl lite(pb, true);
+  return lite.explicit_stable_step();
+}
+
 double Model::stable_time_step() {
   Impl& m = *impl_;
   if (!m.ex.ready) return m.explicit_stable_step();

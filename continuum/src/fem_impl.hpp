@@ -153,7 +153,9 @@ struct Model::Impl {
   std::string log_str;
   std::vector<std::pair<double, std::string>> pvd_records;
 
-  explicit Impl(const Problem& p);
+  // mesh_only: the mesh, dofs and materials, no constraints, matrices or state (what the
+  // explicit stable step needs: fem::stable_time_step)
+  explicit Impl(const Problem& p, bool mesh_only = false);
 
   unsigned nq() const { return quad.size(); }
 
@@ -198,7 +200,8 @@ struct Model::Impl {
     return out;
   }
 
-  void setup();
+  void setup_dofs_and_materials();
+  void setup(); // constraints, geometry, state, matrices (after setup_dofs_and_materials)
   // rigid-body lines, box/patch/periodic constraints, sparsity, matrices and vectors (sized)
   void build_constraints();
   // the constraints again after a region's DoF modes changed (structure seating): u and v keep

@@ -33,11 +33,12 @@ void ensure_mpi() {
   static MpiScope scope(argc, argv);
 }
 
-Model::Impl::Impl(const Problem& p)
+Model::Impl::Impl(const Problem& p, bool mesh_only)
     : pb(p), fe(FE_Q<2>(static_cast<unsigned>(p.degree)), 2),
       quad(static_cast<unsigned>(p.degree) + 1), face_quad(static_cast<unsigned>(p.degree) + 1) {
   build_mesh();
-  setup();
+  setup_dofs_and_materials();
+  if (!mesh_only) setup();
 }
 
 void Model::Impl::build_mesh() {
@@ -85,7 +86,7 @@ void Model::Impl::build_mesh() {
   tria.refine_global(static_cast<unsigned>(std::max(0, m.refinement)));
 }
 
-void Model::Impl::setup() {
+void Model::Impl::setup_dofs_and_materials() {
   dof.reinit(tria);
   dof.distribute_dofs(fe);
   owned = dof.locally_owned_dofs();
@@ -121,6 +122,9 @@ void Model::Impl::setup() {
   models.clear();
   for (const auto& p : mat) models.push_back(constitutive::Material::from(p));
   iface_model = constitutive::Material::from(iface_mat);
+}
+
+void Model::Impl::setup() {
   // region geometry (all cells: every rank holds the whole shared mesh)
   geom.assign(pb.regions.size() + 1, RegionGeom{});
   {

@@ -29,8 +29,11 @@
 #include <numbers>
 #include <set>
 
+#include "demfem/scene/load.hpp"
+#include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
 #include "fem.hpp"
+#include "mesh_grading.hpp"
 
 namespace demfem::continuum {
 namespace {
@@ -125,49 +128,53 @@ private:
   std::string error_;
 };
 
-} // namespace
+// The scene with its structures where the DEM packing seated them (calibrate = "dem";
+// ContinuumSoil::structure_offsets), so both models hold a foundation at the same height.
+scene::Scene seated(const scene::Scene& scene_in) {
+  scene::Scene s = scene_in;
+  if (s.soil.continuum)
+    for (const auto& [name, dz] : s.soil.continuum->structure_offsets)
+      for (auto& st : s.structures)
+        if (st.name == name) st = scene::shifted(st, dz);
+  return s;
+}
 
-RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
-  // Structures where the DEM packing seated them (calibrate = "dem"; ContinuumSoil::
-  // structure_offsets), so both models hold a foundation at the same height.
-  const scene::Scene scene = [&] {
-    scene::Scene s = scene_in;
-    if (s.soil.continuum)
-      for (const auto& [name, dz] : s.soil.continuum->structure_offsets)
-        for (auto& st : s.structures)
-          if (st.name == name) st = scene::shifted(st, dz);
-    return s;
-  }();
-  RunSummary summary;
-  const auto t_start = std::chrono::steady_clock::now();
+// The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
+// procedures. Returns false with `message` when the scene cannot be meshed.
+struct Setup {
+  fem::Problem pb;
+  scene::Polygon domain; // the continuum soil
+  double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300;
+};
+bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& su,
+                   std::string& message) {
   if (!scene.soil.continuum) {
-    summary.message = "the scene has no [soil.continuum] section";
-    return summary;
+    message = "the scene has no [soil.continuum] section";
+    return false;
   }
   if (scene.domain.size() < 3) {
-    summary.message = "the scene has no domain polygon";
-    return summary;
+    message = "the scene has no domain polygon";
+    return false;
   }
-  fem::ensure_mpi();
-  const bool root = fem::MpiScope::rank() == 0;
   const scene::ContinuumSoil& soil = *scene.soil.continuum;
   const scene::ContinuumOptions& co = scene.continuum;
   // the continuum soil: the domain polygon, below the ground surface when one is given
-  scene::Polygon domain = scene.domain;
+  scene::Polygon& domain = su.domain;
+  domain = scene.domain;
   if (soil.surface) {
     domain = clip_below(scene.domain, *soil.surface);
     if (domain.size() < 3 || std::abs(scene::signed_area(domain)) <= 0.0) {
-      summary.message = fmt::format("soil.continuum.surface = {} m leaves no soil in the domain "
-                                    "polygon; give a height above its lowest point",
-                                    *soil.surface);
-      return summary;
+      message = fmt::format("soil.continuum.surface = {} m leaves no soil in the domain "
+                            "polygon; give a height above its lowest point",
+                            *soil.surface);
+      return false;
     }
   }
 
-  fem::Problem pb;
+  fem::Problem& pb = su.pb;
   // ---- mesh
   std::set<double> xs, zs;
-  double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300;
+  double &xmin = su.xmin, &xmax = su.xmax, &zmin = su.zmin, &zmax = su.zmax;
   auto add = [&](const scene::Vec2& p) {
     xs.insert(p.x);
     zs.insert(p.z);
@@ -183,8 +190,23 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   const double h0 = std::min(xmax - xmin, zmax - zmin) / 4.0;
   pb.mesh.x0 = xmin;
   pb.mesh.z0 = zmin;
-  pb.mesh.dx = steps_through(xs, h0);
-  pb.mesh.dz = steps_through(zs, h0);
+  if (co.mesh_size_near > 0.0 && !scene.structures.empty()) {
+    // graded towards the structures' bounding box (continuum.mesh_size_near, mesh_grading)
+    double bx0 = 1e300, bx1 = -1e300, bz0 = 1e300, bz1 = -1e300;
+    for (const auto& s : scene.structures)
+      for (const auto& p : s.outline) {
+        bx0 = std::min(bx0, p.x);
+        bx1 = std::max(bx1, p.x);
+        bz0 = std::min(bz0, p.z);
+        bz1 = std::max(bz1, p.z);
+      }
+    const double hn = std::min(co.mesh_size_near, h0);
+    pb.mesh.dx = graded_steps_through(xs, h0, hn, co.mesh_grading, bx0, bx1);
+    pb.mesh.dz = graded_steps_through(zs, h0, hn, co.mesh_grading, bz0, bz1);
+  } else {
+    pb.mesh.dx = steps_through(xs, h0);
+    pb.mesh.dz = steps_through(zs, h0);
+  }
   for (const auto& p : domain) pb.mesh.domain.push_back({p.x, p.z});
   pb.mesh.refinement = options.refinement >= 0 ? options.refinement : co.refinement;
   pb.degree = options.degree >= 1 ? options.degree : co.degree;
@@ -255,11 +277,11 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     // friction angle δ.
     const double mu = std::tan(co.interface_friction_angle);
     if (mu >= 1.0) {
-      summary.message = fmt::format(
+      message = fmt::format(
           "continuum.interface_friction_angle = {:.4g}°: the thin-layer interface needs δ < 45° "
           "(its layer friction angle is asin(tan δ))",
           co.interface_friction_angle * 180.0 / std::numbers::pi);
-      return summary;
+      return false;
     }
     pb.interface_friction = std::asin(mu);
     pb.interface_cohesion = 0.0;
@@ -284,8 +306,54 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   pb.integrator = co.integrator;
   pb.explicit_safety = co.explicit_safety;
   pb.local_damping = co.local_damping;
+  if (co.integrator == "explicit") pb.explicit_dt = co.dt; // 0 = automatic
+  return true;
+}
+
+// The explicit step limit of a prepared problem, for messages and the scene check.
+scene::ContinuumStepLimit step_limit(const Setup& su, const scene::Scene& scene) {
+  const fem::Problem& pb = su.pb;
+  scene::ContinuumStepLimit lim;
+  lim.dt = fem::stable_time_step(pb);
+  lim.formula = fmt::format(
+      "explicit_safety {} × 2/ω_max, ω_max bounded by the largest element eigenvalue (Irons "
+      "1970) of the refinement-{} Q{} mesh, E = {:.4g} Pa, ν = {:.3g}, ρ = {:.4g} kg/m³{}",
+      pb.explicit_safety, pb.mesh.refinement, pb.degree, pb.soil.young, pb.soil.poisson, pb.density,
+      scene.soil.continuum && scene.soil.continuum->calibrate_dem ? " (calibrated)" : "");
+  return lim;
+}
+
+} // namespace
+
+std::optional<scene::ContinuumStepLimit> stable_step(const scene::Scene& scene_in,
+                                                     const RunOptions& options) {
+  const scene::Scene scene = seated(scene_in);
+  Setup su;
+  std::string message;
+  if (!build_problem(scene, options, su, message)) return std::nullopt;
+  fem::ensure_mpi();
+  return step_limit(su, scene);
+}
+
+RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
+  const scene::Scene scene = seated(scene_in);
+  RunSummary summary;
+  const auto t_start = std::chrono::steady_clock::now();
+  Setup su;
+  if (!build_problem(scene, options, su, summary.message)) return summary;
+  fem::ensure_mpi();
+  const bool root = fem::MpiScope::rank() == 0;
+  const scene::ContinuumSoil& soil = *scene.soil.continuum;
+  const scene::ContinuumOptions& co = scene.continuum;
+  const fem::Problem& pb = su.pb;
+  const scene::Polygon& domain = su.domain;
+  const double xmin = su.xmin, xmax = su.xmax, zmin = su.zmin, zmax = su.zmax;
   const bool explicit_dyn = co.integrator == "explicit";
-  if (explicit_dyn) pb.explicit_dt = co.dt; // 0 = automatic
+  // an explicit step above the stable step: refused at continuum.dt, as `demfem check` does
+  // (scene::set_continuum_step_limit), before the K0 procedure
+  if (explicit_dyn && co.dt > 0.0)
+    if (const auto lim = step_limit(su, scene); co.dt > lim.dt)
+      throw scene::SceneError({scene::continuum_step_diagnostic(scene, lim)});
 
   const std::filesystem::path dir = options.out_dir / "continuum";
   std::error_code ec;
@@ -315,9 +383,17 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     CheckedStream log;
     if (root) {
       log.open(dir / "log.txt");
+      const double scale = std::ldexp(1.0, -std::max(0, pb.mesh.refinement));
+      const auto [dx0, dx1] = std::minmax_element(pb.mesh.dx.begin(), pb.mesh.dx.end());
+      const auto [dz0, dz1] = std::minmax_element(pb.mesh.dz.begin(), pb.mesh.dz.end());
       log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}, "
-                         "linear solver {}\n",
+                         "cells {:.3g}–{:.3g} m wide, {:.3g}–{:.3g} m tall{}, linear solver {}\n",
                          scene.label(), m.n_cells(), m.n_dofs(), pb.degree, pb.mesh.refinement,
+                         *dx0 * scale, *dx1 * scale, *dz0 * scale, *dz1 * scale,
+                         co.mesh_size_near > 0.0
+                             ? fmt::format(" (graded: {} m coarse at the structures, ratio {})",
+                                           co.mesh_size_near, co.mesh_grading)
+                             : std::string(),
                          pb.linear_solver)
           << std::flush; // kept if the run is killed
       if (co.absorbing)
@@ -355,15 +431,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                     ? co.dt
                     : std::min(scene.output.probe_interval, duration / 100.0);
     if (explicit_dyn) {
-      const double stable = m.stable_time_step();
-      if (co.dt > stable) {
-        summary.message = fmt::format(
-            "continuum.dt = {:.4g} s exceeds the explicit integrator's stable step {:.4g} s "
-            "({} × the critical step of the finest cell); give continuum.dt ≤ {:.4g} s or 0 "
-            "(automatic)",
-            co.dt, stable, co.explicit_safety, stable);
-        return summary;
-      }
+      const double stable = m.stable_time_step(); // co.dt ≤ stable: checked above
       const double h = co.dt > 0.0 ? co.dt : stable;
       summary.dt = h;
       if (root)

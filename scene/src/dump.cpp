@@ -222,6 +222,10 @@ std::string to_toml(const Scene& s) {
                             {"local_damping", o.local_damping}});
     if (o.seat_structures)
       root.get_as<toml::table>("continuum")->insert("seat_structures", *o.seat_structures);
+    if (o.mesh_size_near > 0.0) { // written only when set: uniform grids resolve as before
+      root.get_as<toml::table>("continuum")->insert("mesh_size_near", o.mesh_size_near);
+      root.get_as<toml::table>("continuum")->insert("mesh_grading", o.mesh_grading);
+    }
   }
 
   if (!s.walls.empty()) {

@@ -662,12 +662,19 @@ ContinuumOptions read_continuum_options(Reader& r) {
   ContinuumOptions o;
   o.refinement = r.integer("refinement", o.refinement, 0, 12);
   o.degree = r.integer("degree", o.degree, 1, 4);
+  o.mesh_size_near = r.non_negative("mesh_size_near", o.mesh_size_near);
+  o.mesh_grading = r.in_range("mesh_grading", o.mesh_grading, 1.0, 3.0);
   o.bbar = r.boolean("bbar", o.bbar);
   o.dt = r.non_negative("dt", o.dt);
+  if (const toml::node* n = r.node("dt")) { // kept for the explicit step check (validate.hpp)
+    o.dt_line = static_cast<int>(n->source().begin.line);
+    o.dt_column = static_cast<int>(n->source().begin.column);
+  }
   o.newmark_beta = r.in_range("newmark_beta", o.newmark_beta, 0.0, 0.5);
   o.newmark_gamma = r.in_range("newmark_gamma", o.newmark_gamma, 0.0, 1.0);
   o.rayleigh_alpha = r.non_negative("rayleigh_alpha", o.rayleigh_alpha);
   o.rayleigh_beta = r.non_negative("rayleigh_beta", o.rayleigh_beta);
+  o.rayleigh_stated = r.has("rayleigh_alpha") || r.has("rayleigh_beta");
   o.absorbing = r.boolean("absorbing", o.absorbing);
   o.linear_solver = r.string("linear_solver", o.linear_solver);
   if (o.linear_solver != "cg-amg" && o.linear_solver != "gmres-amg" && o.linear_solver != "direct")
@@ -690,10 +697,28 @@ ContinuumOptions read_continuum_options(Reader& r) {
   o.explicit_safety = r.in_range("explicit_safety", o.explicit_safety, 0.01, 1.0);
   o.local_damping = r.in_range("local_damping", o.local_damping, 0.0, 1.0);
   if (r.has("seat_structures")) o.seat_structures = r.boolean("seat_structures", true);
-  r.finish({"integrator", "explicit_safety", "local_damping", "refinement", "degree", "bbar", "dt",
-            "newmark_beta", "newmark_gamma", "rayleigh_alpha", "rayleigh_beta", "absorbing",
-            "linear_solver", "interface", "interface_friction_angle", "load_steps",
-            "newton_tolerance", "newton_max_iterations", "max_displacement", "seat_structures"});
+  r.finish({"integrator",
+            "explicit_safety",
+            "local_damping",
+            "refinement",
+            "degree",
+            "mesh_size_near",
+            "mesh_grading",
+            "bbar",
+            "dt",
+            "newmark_beta",
+            "newmark_gamma",
+            "rayleigh_alpha",
+            "rayleigh_beta",
+            "absorbing",
+            "linear_solver",
+            "interface",
+            "interface_friction_angle",
+            "load_steps",
+            "newton_tolerance",
+            "newton_max_iterations",
+            "max_displacement",
+            "seat_structures"});
   return o;
 }
 

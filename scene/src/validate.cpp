@@ -145,8 +145,30 @@ std::string human_bytes(double b) {
 }
 
 DemStepLimitFn g_dem_step_limit = nullptr;
+ContinuumStepLimitFn g_continuum_step_limit = nullptr;
 
 } // namespace
+
+void set_continuum_step_limit(ContinuumStepLimitFn fn) {
+  g_continuum_step_limit = fn;
+}
+
+std::string continuum_step_refusal(double dt, const ContinuumStepLimit& limit) {
+  return fmt::format("time step {:.4g} s is above the explicit integrator's stable step {:.4g} s "
+                     "({}); use dt ≤ {:.4g} s, or 0 for the automatic step, or integrator = "
+                     "\"implicit\"",
+                     dt, limit.dt, limit.formula, limit.dt);
+}
+
+Diagnostic continuum_step_diagnostic(const Scene& sc, const ContinuumStepLimit& limit) {
+  Diagnostic d;
+  d.file = sc.source_file;
+  d.line = sc.continuum.dt_line;
+  d.column = sc.continuum.dt_column;
+  d.key = "continuum.dt";
+  d.message = continuum_step_refusal(sc.continuum.dt, limit);
+  return d;
+}
 
 void set_dem_step_limit(DemStepLimitFn fn) {
   g_dem_step_limit = fn;
@@ -302,6 +324,13 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                         sc.probes[p].points[k].z, dom));
         break;
       }
+
+  // ---- continuum: an explicit step above the stable step (the run refuses the same; issue 10)
+  if (g_continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
+      sc.continuum.integrator == "explicit" && sc.continuum.dt > 0.0)
+    if (const auto lim = g_continuum_step_limit(sc); lim && sc.continuum.dt > lim->dt)
+      add(locate(root, {"continuum", "dt"}), "continuum.dt",
+          continuum_step_refusal(sc.continuum.dt, *lim));
 
   if (!sc.soil.dem) return;
   const auto& d = *sc.soil.dem;

@@ -137,6 +137,25 @@ TEST(ReportModels, SoilModelAndInitialStressRowsFollowTheScene) {
   EXPECT_EQ(model->continuum.find("Mohr–Coulomb"), std::string::npos);
 }
 
+TEST(ReportModels, DampingRowSaysWhetherTheContinuumUsesTheMeasuredDamping) {
+  auto s = wall_scene();
+  compare::ModelFacts f;
+  f.cal_cyclic = {{1.4e-4, 1.5e6, 0.008}, {4.6e-3, 1.1e6, 0.061}};
+  auto rows = compare::model_differences(s, f);
+  const auto* d = row(rows, "damping");
+  ASSERT_NE(d, nullptr);
+  EXPECT_NE(d->continuum.find("no Rayleigh damping"), std::string::npos) << d->continuum;
+  EXPECT_NE(d->consequence.find("measured but not used"), std::string::npos) << d->consequence;
+  s.continuum.rayleigh_alpha = 0.5;
+  s.continuum.rayleigh_beta = 1e-3;
+  s.soil.continuum->provenance = {{"continuum.rayleigh", "dem calibration abc: ξ0 = 0.0080"}};
+  rows = compare::model_differences(s, f);
+  d = row(rows, "damping");
+  EXPECT_NE(d->continuum.find("Rayleigh α = 0.5 /s"), std::string::npos) << d->continuum;
+  EXPECT_NE(d->continuum.find("calibrated"), std::string::npos) << d->continuum;
+  EXPECT_EQ(d->consequence.find("measured but not used"), std::string::npos) << d->consequence;
+}
+
 TEST(ReportModels, ParametersCarryTheirProvenance) {
   auto s = wall_scene();
   s.soil.continuum->given = {"k0"};

@@ -2,12 +2,14 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
+#include "demfem/scene/validate.hpp"
 
 namespace demfem::continuum {
 
@@ -36,6 +38,14 @@ struct RunSummary {
   std::vector<std::pair<std::string, double>> seated; // (structure, settlement [m]) when seated
 };
 
+// An explicit-integrator continuum.dt above the stable step is refused with scene::SceneError
+// located at the scene's continuum.dt (as the scene check refuses it), before any computation.
 RunSummary run(const scene::Scene& scene, const RunOptions& options);
+
+// The explicit integrator's automatic step for the scene (explicit_safety × the critical step of
+// its mesh, from the moduli the scene states: apply a calibration first), with how it was
+// obtained; nothing when the scene cannot be meshed. Builds the mesh only (no K0 procedure).
+std::optional<scene::ContinuumStepLimit> stable_step(const scene::Scene& scene,
+                                                     const RunOptions& options = {});
 
 } // namespace demfem::continuum

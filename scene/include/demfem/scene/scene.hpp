@@ -167,12 +167,23 @@ struct ContinuumSoil {
 struct ContinuumOptions {
   int refinement = 3;
   int degree = 2;
+  // Graded coarse grid (continuum/README.md): coarse cells of mesh_size_near [m] next to the
+  // structures (their bounding box), growing by mesh_grading per cell away from it up to the
+  // default coarse size min(W, H)/4; the run's cells are these / 2^refinement. 0 = uniform.
+  double mesh_size_near = 0.0;
+  double mesh_grading = 1.25;
   bool bbar = true; // B-bar: volumetric strain projected onto P(degree−1) per cell (no locking)
   double dt = 0.0;  // dynamic step [s] (0 = automatic)
+  // Where `dt` was given in the scene file (line, column; 0 = not given): an explicit step above
+  // the stable limit is refused there, by the scene check and by the run (validate.hpp).
+  int dt_line = 0, dt_column = 0;
   double newmark_beta = 0.25;
   double newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0;
   double rayleigh_beta = 0.0;
+  // rayleigh_alpha or rayleigh_beta stated in the file: a calibrated continuum keeps them
+  // (otherwise `calibrate = "dem"` sets both from the DEM's small-strain damping ratio)
+  bool rayleigh_stated = false;
   bool absorbing = false;                   // Lysmer dashpots on the sides and base
   std::string linear_solver = "cg-amg";     // cg-amg | gmres-amg | direct
   std::string interface = "tied";           // tied | frictional

@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 
+#include "demfem/scene/load.hpp"
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::scene {
@@ -33,6 +34,25 @@ using DemStepLimitFn = std::optional<DemStepLimit> (*)(const Scene&);
 void set_dem_step_limit(DemStepLimitFn fn);
 // The message for a step above the limit (shared by the scene check and the DEM engine).
 [[nodiscard]] std::string dem_step_refusal(double dt, const DemStepLimit& limit, double auto_dt);
+
+// The continuum's explicit stable step of a scene (issue 10/11): explicit_safety × the critical
+// central-difference step of its mesh (continuum/README.md), computed by the continuum layer,
+// which scene/ does not link. Installed by the application (app/src/main.cpp) when the continuum
+// is built; it returns nothing when the scene's moduli are not known yet (calibrate = "dem"
+// without a cached calibration). Then load_scene_file() refuses an explicit-integrator
+// continuum.dt above it at the dt key's file:line:col, and the continuum run refuses the same
+// step with the same message (continuum_step_refusal) at the same place.
+struct ContinuumStepLimit {
+  double dt = 0.0;     // the stable step [s] (explicit_safety × the critical step)
+  std::string formula; // how it was obtained (mesh, moduli), for messages
+};
+using ContinuumStepLimitFn = std::optional<ContinuumStepLimit> (*)(const Scene&);
+void set_continuum_step_limit(ContinuumStepLimitFn fn);
+// The message for an explicit continuum step above the stable step.
+[[nodiscard]] std::string continuum_step_refusal(double dt, const ContinuumStepLimit& limit);
+// The Diagnostic for it, located at the scene's continuum.dt (scene.source_file, dt_line/column).
+[[nodiscard]] Diagnostic continuum_step_diagnostic(const Scene& scene,
+                                                   const ContinuumStepLimit& limit);
 
 struct Estimates {
   // DEM (only when the scene has [soil.dem]):

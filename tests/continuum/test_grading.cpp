@@ -1,0 +1,45 @@
+// Graded coarse grids (continuum.mesh_size_near, mesh_grading; continuum/src/mesh_grading.hpp).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "mesh_grading.hpp"
+
+using demfem::continuum::graded_steps_through;
+
+// The foundation 2-A geometry along x: box 0–160 m, foundation 65–95 m, coarse size 28 m.
+TEST(MeshGrading, FineAtTheFocusGrowingByAtMostTheRatioAndThroughEveryBreak) {
+  const double h0 = 28.0, hn = 3.0, g = 1.25;
+  const auto d = graded_steps_through({0.0, 65.0, 95.0, 160.0}, h0, hn, g, 65.0, 95.0);
+  EXPECT_NEAR(std::accumulate(d.begin(), d.end(), 0.0), 160.0, 1e-9);
+  // every break is a node
+  std::vector<double> nodes{0.0};
+  for (double s : d) nodes.push_back(nodes.back() + s);
+  for (double b : {65.0, 95.0})
+    EXPECT_TRUE(std::any_of(nodes.begin(), nodes.end(), [&](double x) {
+      return std::abs(x - b) < 1e-9;
+    })) << b;
+  // across the focus: 30 m / 3 m = 10 equal cells
+  int inside = 0;
+  for (std::size_t k = 0; k + 1 < nodes.size(); ++k)
+    if (nodes[k] >= 65.0 - 1e-9 && nodes[k + 1] <= 95.0 + 1e-9) {
+      ++inside;
+      EXPECT_NEAR(nodes[k + 1] - nodes[k], 3.0, 1e-6);
+    }
+  EXPECT_EQ(inside, 10);
+  // neighbours differ by at most the ratio (+ the rounding of ⌈∫dx/h⌉), none above h0
+  for (std::size_t k = 0; k + 1 < d.size(); ++k) {
+    EXPECT_LE(std::max(d[k], d[k + 1]) / std::min(d[k], d[k + 1]), g * 1.15) << k;
+    EXPECT_LE(d[k], h0 + 1e-9);
+  }
+  // fewer cells than a uniform 3 m grid (54), more than the uniform 28 m one (7)
+  EXPECT_LT(d.size(), 30u);
+  EXPECT_GT(d.size(), 7u);
+}
+
+TEST(MeshGrading, RatioOneIsUniformAtTheNearSize) {
+  const auto d = graded_steps_through({0.0, 10.0}, 5.0, 1.0, 1.0, 4.0, 6.0);
+  ASSERT_EQ(d.size(), 10u);
+  for (double s : d) EXPECT_NEAR(s, 1.0, 1e-9);
+}
