@@ -786,6 +786,25 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
   return out;
 }
 
+namespace {
+// The frequency [Hz] that drives a scene: its shaking's, else the first sine (or t·sin ωt) load on
+// a structure; 0 when neither.
+double excitation_frequency(const scene::Scene& sc) {
+  auto freq = [](const scene::TimeFunction& f) {
+    using K = scene::TimeFunction::Kind;
+    if (f.kind == K::Sine) return f.frequency;
+    if (f.kind == K::TSine) return f.omega / (2.0 * kPi);
+    return 0.0;
+  };
+  if (sc.load.shaking)
+    if (const double f = freq(sc.load.shaking->acceleration); f > 0.0) return f;
+  for (const auto& st : sc.structures)
+    for (const auto* f : {&st.force_x, &st.force_z, &st.moment})
+      if (const double v = freq(*f); v > 0.0) return v;
+  return 0.0;
+}
+} // namespace
+
 std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibration& c) {
   std::vector<std::string> lines;
   if (!scene.soil.continuum) return lines;
@@ -821,6 +840,36 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
       "height holding the DEM bed's soil mass at that density");
   s.surface = surf;
   if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
+  // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
+  // smallest amplitude; larger strains dissipate by plasticity in the continuum) at the layer's
+  // first shear mode and at the excitation frequency.
+  if (!c.cyclic.empty() && !scene.continuum.rayleigh_stated) {
+    const auto p0 =
+        *std::min_element(c.cyclic.begin(), c.cyclic.end(),
+                          [](const auto& a, const auto& b) { return a.gamma < b.gamma; });
+    double zmin = s.surface.value_or(0.0);
+    for (const auto& q : scene.domain) zmin = std::min(zmin, q.z);
+    const double h = s.surface.value_or(0.0) - zmin;
+    const double gmod = s.young / (2.0 * (1.0 + s.poisson)); // G = E / 2(1 + ν)
+    // f1 = V_s / 4H: first shear mode of a uniform layer on a rigid base (Kramer 1996, eq. 7.41)
+    const double f1 = h > 0.0 && s.density > 0.0 ? std::sqrt(gmod / s.density) / (4.0 * h) : 0.0;
+    double fe = excitation_frequency(scene);
+    if (!(fe > 0.0)) fe = f1;
+    if (f1 > 0.0 && p0.xi > 0.0) {
+      const double w1 = 2.0 * kPi * f1, w2 = 2.0 * kPi * fe;
+      // ξ(ω) = α/2ω + βω/2 equal to ξ0 at ω1 and ω2 (Chopra, Dynamics of Structures, eq. 11.4.9)
+      scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w1 * w2 / (w1 + w2);
+      scene.continuum.rayleigh_beta = 2.0 * p0.xi / (w1 + w2);
+      const std::string note = fmt::format(
+          "{}: ξ0 = {:.4f} (cyclic test at γ = {:.2g}) at f1 = V_s/4H = {:.3g} Hz and {} {:.3g} Hz",
+          src, p0.xi, p0.gamma, f1, fe == f1 ? "again" : "the excitation's", fe);
+      s.provenance.emplace_back("continuum.rayleigh", note);
+      lines.push_back(fmt::format("continuum.rayleigh_alpha = {:.4g} 1/s, rayleigh_beta = {:.4g} "
+                                  "s: {}",
+                                  scene.continuum.rayleigh_alpha, scene.continuum.rayleigh_beta,
+                                  note));
+    }
+  }
   // Structures at the height where the DEM packing seated them (always: geometry is not a
   // continuum parameter a scene can state against it). The DEM run seats them itself.
   s.structure_offsets = c.seat_dz;

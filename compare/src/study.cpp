@@ -232,8 +232,13 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
     md += "|";
     html += fmt::format("<tr class=\"{}\">", r.outcome == "not applicable" ? "na" : r.outcome);
     for (const auto& c : cells) {
-      md += " " + md_escape(c) + " |";
-      html += "<td>" + html_escape(c) + "</td>";
+      // appended piecewise: GCC 12 reports a false -Wrestrict on "…" + std::string + "…" here
+      md += ' ';
+      md += md_escape(c);
+      md += " |";
+      html += "<td>";
+      html += html_escape(c);
+      html += "</td>";
     }
     md += "\n";
     html += "</tr>\n";

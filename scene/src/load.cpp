@@ -674,6 +674,7 @@ ContinuumOptions read_continuum_options(Reader& r) {
   o.newmark_gamma = r.in_range("newmark_gamma", o.newmark_gamma, 0.0, 1.0);
   o.rayleigh_alpha = r.non_negative("rayleigh_alpha", o.rayleigh_alpha);
   o.rayleigh_beta = r.non_negative("rayleigh_beta", o.rayleigh_beta);
+  o.rayleigh_stated = r.has("rayleigh_alpha") || r.has("rayleigh_beta");
   o.absorbing = r.boolean("absorbing", o.absorbing);
   o.linear_solver = r.string("linear_solver", o.linear_solver);
   if (o.linear_solver != "cg-amg" && o.linear_solver != "gmres-amg" && o.linear_solver != "direct")

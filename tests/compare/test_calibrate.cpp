@@ -158,8 +158,31 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = compare::apply_calibration(r, d);
-  EXPECT_EQ(lines.size(), 8u);
+  EXPECT_EQ(lines.size(), 9u); // 8 parameters and the damping
   EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
+  // Damping: Rayleigh α, β giving the smallest-amplitude cyclic ξ0 at the layer's first shear
+  // mode f1 = V_s/4H (recomputed here from the resolved continuum), ξ(ω) = α/2ω + βω/2.
+  {
+    ASSERT_FALSE(d.cyclic.empty());
+    const auto& sc = *r.soil.continuum;
+    double zmin = *sc.surface;
+    for (const auto& q : r.domain) zmin = std::min(zmin, q.z);
+    const double vs = std::sqrt(sc.young / (2.0 * (1.0 + sc.poisson)) / sc.density);
+    const double w1 = 2.0 * M_PI * vs / (4.0 * (*sc.surface - zmin));
+    double xi0 = d.cyclic.front().xi, g0 = d.cyclic.front().gamma;
+    for (const auto& p : d.cyclic)
+      if (p.gamma < g0) g0 = p.gamma, xi0 = p.xi;
+    const double a = r.continuum.rayleigh_alpha, b = r.continuum.rayleigh_beta;
+    EXPECT_GT(a, 0.0);
+    EXPECT_GT(b, 0.0);
+    EXPECT_NEAR(a / (2.0 * w1) + b * w1 / 2.0, xi0, 1e-9 * xi0);
+    // stated Rayleigh coefficients win
+    scene::Scene kept = stated.base;
+    kept.continuum.rayleigh_stated = true;
+    (void)compare::apply_calibration(kept, d);
+    EXPECT_EQ(kept.continuum.rayleigh_alpha, 0.0);
+    EXPECT_EQ(kept.continuum.rayleigh_beta, 0.0);
+  }
   EXPECT_DOUBLE_EQ(r.soil.continuum->k0, 0.5);
   EXPECT_DOUBLE_EQ(r.soil.continuum->poisson, d.poisson);
   EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle * M_PI / 180.0, 1e-12);

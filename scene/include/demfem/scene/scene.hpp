@@ -181,6 +181,9 @@ struct ContinuumOptions {
   double newmark_gamma = 0.5;
   double rayleigh_alpha = 0.0;
   double rayleigh_beta = 0.0;
+  // rayleigh_alpha or rayleigh_beta stated in the file: a calibrated continuum keeps them
+  // (otherwise `calibrate = "dem"` sets both from the DEM's small-strain damping ratio)
+  bool rayleigh_stated = false;
   bool absorbing = false;                   // Lysmer dashpots on the sides and base
   std::string linear_solver = "cg-amg";     // cg-amg | gmres-amg | direct
   std::string interface = "tied";           // tied | frictional
