@@ -23,6 +23,7 @@
 #include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/error_study.hpp"
 #include "demfem/compare/figures.hpp"
+#include "demfem/compare/model_differences.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/compare/study.hpp"
 #include "demfem/dem/pack.hpp"
@@ -201,9 +202,15 @@ void check_figures(const compare::RunFigures& f) {
 }
 
 // Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum).
+// Each run also records itself in out/run_<solver>.json (compare::SolverRun: outcome, the solver's
+// own and the total wall time, steps, Δt, resolution), which the comparison report reads.
 SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::path& out,
                          const RunArgs& a) {
   SolverOutcome r;
+  const auto t0 = std::chrono::steady_clock::now();
+  compare::SolverRun rec;
+  rec.solver = solver == scene::Solver::Dem ? "dem" : "continuum";
+  rec.threads = solver == scene::Solver::Dem ? a.threads : 1;
   app::ProgressReporter reporter;
   const auto progress = [&](const scene::Progress& p) { reporter(p); };
   try {
@@ -219,6 +226,11 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       r.ok = x.ok;
       r.interrupted = x.interrupted;
       r.message = x.message;
+      rec.solver_seconds = x.wall_seconds;
+      rec.steps = x.steps;
+      rec.dt = x.dt;
+      rec.simulated_time = x.simulated_time;
+      rec.particles = x.particles;
       if (x.ok && s.output.figures) { // issue 4: the run's figures and summary.json
         const auto f = compare::write_run_figures(s, out, x.wall_seconds, x.steps);
         for (const auto& p : f.problems) spdlog::warn("figure: {}", p);
@@ -238,6 +250,19 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       r.ok = x.ok;
       r.message = x.message;
       r.note = x.note;
+      rec.solver_seconds = x.wall_seconds;
+      rec.steps = x.steps;
+      rec.dt = x.dt;
+      rec.simulated_time = x.simulated_time;
+      rec.dofs = x.dofs;
+      rec.cells = x.cells;
+      rec.refinement = x.refinement;
+      rec.degree = x.degree;
+      rec.integrator = x.integrator;
+      rec.substeps = x.substeps;
+      rec.h_min = x.h_min;
+      rec.h_max = x.h_max;
+      rec.seated = x.seated;
       if (!x.note.empty()) spdlog::warn("{}: continuum: {}", s.label(), x.note);
 #else
       r.message = "the continuum solver is not in this build (-DDEMFEM_WITH_CONTINUUM=OFF)";
@@ -253,6 +278,18 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     r.message = e.what();
   }
   reporter.finish();
+  if (r.ran && !r.bad_input && !r.interrupted) {
+    rec.ok = r.ok;
+    rec.message = r.message;
+    rec.note = r.note;
+    rec.total_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    try {
+      compare::write_solver_run(out, rec);
+    } catch (const std::exception& e) {
+      spdlog::warn("{}: {}", s.label(), e.what()); // the run's results stand without it
+    }
+  }
   return r;
 }
 
@@ -368,9 +405,11 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
 }
 
 // [soil.continuum] calibrate = "dem": the scene with the calibrated values filled in (computed,
-// or read from the cache). Logs one line per key; `notes` gets them for the report.
+// or read from the cache). Logs one line per key; `notes` gets them. `figures`: draw the
+// calibration's figures into out/calibration even when it came from the cache (the comparison
+// report embeds them); otherwise only when it was computed now.
 scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
-                              std::vector<std::string>* notes = nullptr) {
+                              std::vector<std::string>* notes = nullptr, bool figures = false) {
   scene::Scene r = s;
   if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !r.uses(scene::Solver::Continuum))
     return r;
@@ -380,12 +419,40 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
   o.progress = [&](const scene::Progress& p) { reporter(p); };
   const auto c = compare::load_or_calibrate(s, o);
   reporter.finish();
-  compare::write_calibration(c, o.out_dir, !c.from_cache);
+  const auto files = compare::write_calibration(c, o.out_dir, figures || !c.from_cache);
+  for (const auto& p : files.problems) spdlog::warn("calibration figure: {}", p);
   for (const auto& line : compare::apply_calibration(r, c)) {
     spdlog::info("{}: continuum {}", s.label(), line);
     if (notes) notes->push_back("Continuum " + line);
   }
   return r;
+}
+
+// --report-only: the scene with the calibration its run used (<out>/calibration/calibration.json)
+// applied, without computing anything; the scene as is when there is none.
+scene::Scene calibration_of_run(const scene::Scene& s, const fs::path& out) {
+  scene::Scene r = s;
+  const fs::path f = out / "calibration" / "calibration.json";
+  if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !fs::is_regular_file(f)) return r;
+  try {
+    compare::apply_calibration(r, compare::read_calibration(f));
+  } catch (const std::exception& e) {
+    spdlog::warn("{}: {} unreadable ({}); the report shows the scene's values", s.label(),
+                 f.string(), e.what());
+    return s;
+  }
+  return r;
+}
+
+// `demfem compare` as the user would type it again for this run directory.
+std::string reproduce_command(const scene::Scene& s, const fs::path& out, const RunArgs& a) {
+  std::string c = "demfem compare " + shell_quote(a.scene);
+  if (!s.variant.empty()) c += " --variant " + shell_quote(s.variant);
+  if (!a.out.empty()) c += " --out " + shell_quote(out.string());
+  if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+  if (a.refinement >= 0) c += fmt::format(" --refinement {}", a.refinement);
+  if (a.degree >= 1) c += fmt::format(" --degree {}", a.degree);
+  return c;
 }
 
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -415,8 +482,9 @@ std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene
 #endif
 
 // What the solvers, figures and report write into a run directory (what --force clears).
-constexpr const char* kRunOutputs[] = {"dem",          "continuum",   "figures",
-                                       "summary.json", "report.html", "metrics.json"};
+constexpr const char* kRunOutputs[] = {"dem",          "continuum",         "figures",
+                                       "summary.json", "report.html",       "metrics.json",
+                                       "run_dem.json", "run_continuum.json"};
 
 // The resolved scene without its comment lines (they name the file it came from).
 std::vector<std::string> scene_lines(const std::string& toml) {
@@ -514,11 +582,11 @@ int cmd_run(const RunArgs& a) {
     // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
     // the same directory record the same resolved scene
     const scene::Scene sc = with_calibration(*s, out);
-    if (const int p =
-            prepare_run_dir(sc, out, a, "run",
-                            solver == scene::Solver::Dem
-                                ? std::vector<std::string>{"dem", "figures", "summary.json"}
-                                : std::vector<std::string>{"continuum"});
+    if (const int p = prepare_run_dir(
+            sc, out, a, "run",
+            solver == scene::Solver::Dem
+                ? std::vector<std::string>{"dem", "figures", "summary.json", "run_dem.json"}
+                : std::vector<std::string>{"continuum", "run_continuum.json"});
         p != kOk)
       return p;
     if (const int d = start_run_dir(sc, out, a.resume); d != kOk) return d;
@@ -551,7 +619,8 @@ int cmd_compare(const RunArgs& a) {
   for (const scene::Scene* s0 : scenes) {
     const fs::path out = run_dir_for(*s0, a, scenes.size());
     std::vector<std::string> calibrated;
-    const scene::Scene cs = a.report_only ? *s0 : with_calibration(*s0, out, &calibrated);
+    const scene::Scene cs = a.report_only ? calibration_of_run(*s0, out)
+                                          : with_calibration(*s0, out, &calibrated, true);
     const scene::Scene* s = &cs; // issue 9: calibrate = "dem" resolved
     if (a.report_only) {
       if (!fs::is_directory(out)) {
@@ -567,9 +636,14 @@ int cmd_compare(const RunArgs& a) {
     }
     compare::ReportOptions ro;
     ro.scene = s;
+    ro.command = reproduce_command(*s0, out, a);
     ro.title = fmt::format("demfem comparison: {}", s->label());
     if (!s->info.description.empty()) ro.notes.push_back(s->info.description);
-    for (const auto& n : calibrated) ro.notes.push_back(n);
+    // The calibrated values and their provenance are in the report's parameter table (once).
+    if (!calibrated.empty())
+      ro.notes.push_back("The continuum is calibrated from the DEM (soil.continuum.calibrate = "
+                         "\"dem\"; a value stated in the scene wins): each value and where it "
+                         "came from is in \"Parameters of both models\".");
     bool any_ok = false;
     for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
       const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";

@@ -688,6 +688,14 @@ std::string continuum_block(const Calibration& c) {
   return s;
 }
 
+Calibration read_calibration(const fs::path& json_file) {
+  std::ifstream in(json_file);
+  if (!in) throw std::runtime_error("cannot read " + json_file.string());
+  Calibration c = from_json(json::parse(in));
+  c.from_cache = true;
+  return c;
+}
+
 CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bool figures) {
   CalibrationFiles out;
   fs::create_directories(dir);

@@ -1,5 +1,6 @@
 #include "demfem/compare/report.hpp"
 #include "html.hpp"
+#include "report_sections.hpp"
 
 #include <algorithm>
 #include <array>
@@ -94,10 +95,7 @@ std::string read_all(const fs::path& p) {
 }
 
 std::string img(const fs::path& png, const std::string& caption) {
-  if (!fs::exists(png)) return {};
-  return fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"/><figcaption>{0}"
-                     "</figcaption></figure>\n",
-                     html_escape(caption), base64(read_all(png)));
+  return detail::embed_png(png, caption);
 }
 
 std::string safe_name(const std::string& s) {
@@ -106,22 +104,6 @@ std::string safe_name(const std::string& s) {
     o += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
   while (!o.empty() && o.back() == '_') o.pop_back();
   return o;
-}
-
-std::string summary_table(const fs::path& json_path) {
-  if (!fs::exists(json_path)) return {};
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_all(json_path));
-  } catch (const std::exception&) {
-    return "<p>(summary.json could not be read)</p>";
-  }
-  std::string rows;
-  for (const auto& [k, v] : j.items()) {
-    if (v.is_object() || v.is_array()) continue;
-    rows += fmt::format("<tr><td>{}</td><td>{}</td></tr>", html_escape(k), html_escape(v.dump()));
-  }
-  return rows.empty() ? std::string() : "<table>" + rows + "</table>\n";
 }
 
 // "<wall>.bin<k> [Pa]" columns form a pressure profile, compared as a profile, not as 14 series.
@@ -154,6 +136,13 @@ double mean_over(const std::vector<double>& t, const std::vector<double>& y, dou
 }
 
 } // namespace
+
+std::string detail::embed_png(const fs::path& png, const std::string& caption) {
+  if (!fs::exists(png)) return {};
+  return fmt::format("<figure><img alt=\"{0}\" src=\"data:image/png;base64,{1}\"/><figcaption>{0}"
+                     "</figcaption></figure>\n",
+                     html_escape(caption), base64(read_all(png)));
+}
 
 namespace {
 
@@ -422,6 +411,51 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                          {"figures", res.fields.figures}};
   }
 
+  // ---- the two models: what differs, parameters, run records, studies ------------------------
+  ModelFacts facts = read_model_facts(run_dir);
+  facts.kernel_width = res.fields.width;
+  if (options.scene) {
+    res.differences = model_differences(*options.scene, facts);
+    res.parameters = model_parameters(*options.scene, facts);
+    res.studies = find_studies(run_dir, *options.scene);
+  }
+  const std::string command = !options.command.empty() ? options.command
+                              : options.scene          ? detail::default_command(*options.scene)
+                                                       : std::string("demfem compare SCENE");
+  metrics["command"] = command;
+  {
+    nlohmann::json jd = nlohmann::json::array();
+    for (const auto& r : res.differences)
+      jd.push_back({{"aspect", r.aspect},
+                    {"dem", r.dem},
+                    {"continuum", r.continuum},
+                    {"consequence", r.consequence},
+                    {"matched", r.matched}});
+    metrics["what_differs"] = jd;
+    nlohmann::json jp = nlohmann::json::array();
+    for (const auto& r : res.parameters)
+      jp.push_back(
+          {{"model", r.model}, {"key", r.name}, {"value", r.value}, {"provenance", r.provenance}});
+    metrics["parameters"] = jp;
+    nlohmann::json jt = nlohmann::json::object();
+    for (const SolverRun* r : {&facts.dem, &facts.continuum})
+      if (r->present)
+        jt[r == &facts.dem ? "dem" : "continuum"] = {{"ok", r->ok},
+                                                     {"solver_seconds", r->solver_seconds},
+                                                     {"total_seconds", r->total_seconds},
+                                                     {"steps", r->steps},
+                                                     {"dt_s", r->dt}};
+    if (facts.calibration) jt["calibration_seconds_when_computed"] = facts.cal_wall_seconds;
+    metrics["run_times"] = jt;
+    nlohmann::json js = nlohmann::json::array();
+    for (const auto& st : res.studies)
+      js.push_back({{"kind", st.kind},
+                    {"scene", st.scene},
+                    {"html", st.html.string()},
+                    {"summary", st.summary}});
+    metrics["studies"] = js;
+  }
+
   res.metrics_json = run_dir / "metrics.json";
   scene::write_file_atomic(res.metrics_json, metrics.dump(2) + "\n"); // throws WriteError
 
@@ -434,6 +468,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
        "table.v{font-size:78%}table.v td{white-space:nowrap}table.v "
        "td.l{white-space:normal;min-width:9em}td.l,th.l{text-align:left}figure{margin:1em "
        "0}img{max-width:100%;border:1px solid #eee}"
+       "table.d{font-size:82%}table.d td{max-width:26em}"
        ".note{background:#fff6d6;padding:.6em 1em;border-left:4px solid #e6b800}"
        ".div{color:#b00;font-weight:bold}.ok{color:#070;font-weight:bold}"
        "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
@@ -445,9 +480,15 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                    "{} solver column(s) folded into them, {} zero in both).</p>\n",
                    html_escape(run_dir.string()), res.compared.size(), res.aliases.size(),
                    res.zero.size());
+  h += "<p>Sections: <a href=\"#verdicts\">verdicts</a>, <a href=\"#what-differs\">what differs "
+       "between the two models</a>, <a href=\"#metrics\">metric table</a>, <a "
+       "href=\"#parameters\">parameters and calibration</a>, <a "
+       "href=\"#studies\">studies</a>.</p>\n";
+  h += detail::runs_section(facts, command);
   if (!res.compared.empty()) {
     h += fmt::format(
-        "<h2>Verdicts</h2><p>Each series is split into its <b>static</b> value ({}), its "
+        "<h2 id=\"verdicts\">Verdicts</h2><p>Each series is split into its <b>static</b> value "
+        "({}), its "
         "<b>increment</b> (series − "
         "static; the table gives its mean over the late window {:.3g}–{:.3g} s) and its "
         "<b>oscillation</b> (increment − its moving mean over {:.3g} s of whole loading periods; "
@@ -497,8 +538,10 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
            html_escape(res.zero[k].note) + ")";
     h += ".</p>\n";
   }
+  h += detail::differences_section(res.differences);
   if (!res.compared.empty()) {
-    h += "<h2>Metric table</h2><p>Each quantity is defined once; the columns of the solvers' "
+    h += "<h2 id=\"metrics\">Metric table</h2><p>Each quantity is defined once; the columns of the "
+         "solvers' "
          "files it is read from are named.</p><table><tr><th class=\"l\">key</th>"
          "<th class=\"l\">quantity</th><th>unit</th><th class=\"l\">DEM</th>"
          "<th class=\"l\">continuum</th><th class=\"l\">meaning</th></tr>\n";
@@ -542,12 +585,25 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     }
     for (const auto& f : res.fields.figures) h += img(run_dir / f, fs::path(f).stem().string());
   }
+  h += detail::parameters_section(run_dir, res.parameters, facts, options.scene);
+  h += detail::studies_section(run_dir, res.studies, options.scene);
   for (const char* solver : {"dem", "continuum"}) {
     const fs::path sd = run_dir / solver;
     if (!fs::is_directory(sd)) continue;
-    h += fmt::format("<h2>{}</h2>\n",
-                     std::string(solver) == "dem" ? "Granular assembly (DEM)" : "Continuum (FEM)");
-    h += summary_table(sd / "summary.json");
+    const bool dem = std::string(solver) == "dem";
+    h += fmt::format("<h2>{}</h2>\n", dem ? "Granular assembly (DEM)" : "Continuum (FEM)");
+    // The solver's own records (headline numbers, log), linked: the compared quantities are
+    // above, each once.
+    std::string files;
+    for (const fs::path& f :
+         dem ? std::vector<fs::path>{run_dir / "summary.json", sd / "packing.json",
+                                     sd / "energy_budget.json", run_dir / "run_dem.json"}
+             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / "log.txt"})
+      if (fs::exists(f))
+        files += fmt::format("{}<a href=\"{}\">{}</a>", files.empty() ? "" : ", ",
+                             html_escape(fs::relative(f, run_dir).generic_string()),
+                             html_escape(fs::relative(f, run_dir).generic_string()));
+    if (!files.empty()) h += "<p>Records: " + files + ".</p>\n";
     std::vector<fs::path> pngs;
     std::vector<fs::path> dirs{sd / "figures"};
     if (std::string(solver) == "dem") dirs.push_back(run_dir / "figures"); // per-run DEM figures

@@ -367,6 +367,19 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   try {
     fem::Model m(pb);
     summary.dofs = m.n_dofs();
+    summary.cells = m.n_cells();
+    summary.refinement = pb.mesh.refinement;
+    summary.degree = pb.degree;
+    summary.integrator = pb.integrator;
+    {
+      const double scale = std::ldexp(1.0, -std::max(0, pb.mesh.refinement));
+      summary.h_min = 1e300;
+      for (const auto* d : {&pb.mesh.dx, &pb.mesh.dz})
+        for (const double v : *d) {
+          summary.h_min = std::min(summary.h_min, v * scale);
+          summary.h_max = std::max(summary.h_max, v * scale);
+        }
+    }
     CheckedStream log;
     if (root) {
       log.open(dir / "log.txt");
@@ -394,6 +407,8 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       return summary;
     }
     for (const fem::Seating& st : m.seating())
+      summary.seated.emplace_back(pb.regions[st.region].name, st.settlement);
+    for (const fem::Seating& st : m.seating())
       if (root)
         log << fmt::format("seated structure '{}' (continuum.seat_structures): it settled {:.4g} m "
                            "under its weight with dof_z free and is held there from t = 0; soil "
@@ -418,6 +433,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     if (explicit_dyn) {
       const double stable = m.stable_time_step(); // co.dt ≤ stable: checked above
       const double h = co.dt > 0.0 ? co.dt : stable;
+      summary.dt = h;
       if (root)
         log << fmt::format("explicit central differences: step {:.4g} s ({}), stable step {:.4g} "
                            "s, lumped mass, local damping {}, Rayleigh α = {}, β = {}\n",
@@ -428,6 +444,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     dt = std::max(dt, 1e-9);
     const long long nsteps = std::max<long long>(1, std::llround(std::ceil(duration / dt - 1e-9)));
     dt = duration / double(nsteps);
+    if (!explicit_dyn) summary.dt = dt;
 
     // ---- probes, with the DEM run's names, signs and units (dem/src/run.cpp):
     // structures.csv: <s>.settlement [m] (−z displacement of the pivot), <s>.rotation [rad]
@@ -692,6 +709,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     raise_write_errors();
     summary.ok = true;
     summary.simulated_time = m.time();
+    summary.substeps = substeps_total;
     summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
   } catch (const std::exception& e) {
     summary.ok = false;

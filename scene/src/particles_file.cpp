@@ -10,6 +10,8 @@
 #include <string_view>
 
 #include <fmt/format.h>
+
+#include "demfem/scene/write_file.hpp"
 #include <fmt/ranges.h>
 
 namespace demfem::scene {
@@ -235,29 +237,28 @@ std::vector<ParticleRow> read_particles_file(const std::filesystem::path& path,
 }
 
 void write_particles_file(const std::filesystem::path& path, const std::vector<ParticleRow>& rows) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  std::string s;
   if (lower_ext(path) == ".npy") {
     std::string h =
         fmt::format("{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 6), }}", rows.size());
     const std::size_t total = 10 + h.size() + 1;
     h.append((64 - total % 64) % 64, ' ');
     h.push_back('\n');
-    out.write("\x93NUMPY\x01\x00", 8);
+    s.append("\x93NUMPY\x01\x00", 8);
     const auto len = static_cast<std::uint16_t>(h.size());
-    const char l2[2] = {static_cast<char>(len & 0xff), static_cast<char>(len >> 8)};
-    out.write(l2, 2);
-    out.write(h.data(), static_cast<std::streamsize>(h.size()));
+    s.push_back(static_cast<char>(len & 0xff));
+    s.push_back(static_cast<char>(len >> 8));
+    s += h;
     for (const auto& q : rows)
-      out.write(reinterpret_cast<const char*>(q.data()), sizeof(double) * q.size());
+      s.append(reinterpret_cast<const char*>(q.data()), sizeof(double) * q.size());
   } else {
-    std::string s = "x,z,r,vx,vz,omega\n";
+    s = "x,z,r,vx,vz,omega\n";
     for (const auto& q : rows)
       s += fmt::format("{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", q[0], q[1], q[2], q[3],
                        q[4], q[5]);
-    out << s;
   }
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  // checked and atomic: a full disk or an unwritable folder throws WriteError naming the file
+  write_file_atomic(path, s);
 }
 
 } // namespace demfem::scene

@@ -115,6 +115,10 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o);
 // The cached calibration when it exists, else calibrate().
 Calibration load_or_calibrate(const scene::Scene& scene, const CalibrateOptions& o);
 
+// A calibration.json written by write_calibration (e.g. a run directory's); throws on a missing or
+// malformed file.
+[[nodiscard]] Calibration read_calibration(const std::filesystem::path& json_file);
+
 // calibration.json, calibration.toml and (with figures) figures/*.png in `dir`; returns the
 // figure paths written and problems met.
 struct CalibrationFiles {

@@ -1,7 +1,9 @@
 // The comparison report of a run directory: the metric table (metrics.hpp: each physical quantity
 // once, with how each solver's output yields it), each quantity split into static / increment /
 // oscillation and compared with a verdict, pressure and surface profiles, coarse-grained field
-// maps (coarse_grain.hpp), in a self-contained HTML page plus metrics.json.
+// maps (coarse_grain.hpp), what differs between the two models and both models' parameters with
+// their provenance (model_differences.hpp), the calibration, run times, the reproducing command
+// and links to `demfem study` pages of the scene, in a self-contained HTML page plus metrics.json.
 #pragma once
 
 #include <filesystem>
@@ -10,6 +12,7 @@
 
 #include "demfem/compare/coarse_grain.hpp"
 #include "demfem/compare/metrics.hpp"
+#include "demfem/compare/model_differences.hpp"
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::compare {
@@ -21,7 +24,23 @@ struct ReportOptions {
   const scene::Scene* scene = nullptr; // load start, periods, structures, domain (may be null)
   double kernel_width = 0.0;           // coarse-graining support radius [m] (0: 2 mean diameters)
   bool fields = true;                  // coarse-grained field maps (needs both solvers' snapshots)
+  std::string command;                 // the reproducing command ("" = demfem compare SCENE …)
 };
+
+// A `demfem study` page of the compared scene (study.json + study.html).
+struct StudyLink {
+  std::filesystem::path html;
+  std::string kind;    // "stability" | "error-vs-time"
+  std::string scene;   // the study's scene label
+  std::string summary; // e.g. "14 rows: 10 completed, 2 refused, 2 stopped"
+};
+
+// Studies of the same scene (study.json "scene" = name or name/variant): <dir>/study*/study.json
+// and <dir>/study*/*/study.json for dir = the run directory, its parent, and runs/<scene name>
+// (the default `demfem study` output, relative to the working directory). The run's own
+// variant first.
+[[nodiscard]] std::vector<StudyLink> find_studies(const std::filesystem::path& run_dir,
+                                                  const scene::Scene& scene);
 
 struct ReportResult {
   std::filesystem::path html;
@@ -31,6 +50,9 @@ struct ReportResult {
   std::vector<Alias> aliases;               // solver columns folded into a compared quantity
   std::vector<std::string> profile_figures; // pressure and surface profiles
   FieldComparison fields;                   // coarse-grained DEM against continuum
+  std::vector<DiffRow> differences;         // what differs between the two models
+  std::vector<ParamRow> parameters;         // both models' parameters with provenance
+  std::vector<StudyLink> studies;           // linked study pages
   std::size_t dem_series = 0, continuum_series = 0;
 };
 
@@ -38,8 +60,9 @@ struct ReportResult {
 [[nodiscard]] double interpolate(const std::vector<double>& t, const std::vector<double>& y,
                                  double at);
 
-// Reads <run>/dem/*.csv, <run>/continuum/*.csv, <run>/*/summary.json and figures under
-// <run>/*/figures, and writes <run>/report.html (figures embedded) and <run>/metrics.json.
+// Reads <run>/dem/*.csv, <run>/continuum/*.csv, <run>/run_<solver>.json, <run>/dem/packing.json,
+// <run>/calibration/ and figures under <run>/*/figures, and writes <run>/report.html (figures
+// embedded) and <run>/metrics.json.
 ReportResult write_report(const std::filesystem::path& run_dir, const ReportOptions& options);
 
 } // namespace demfem::compare

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
@@ -26,6 +28,14 @@ struct RunSummary {
   double simulated_time = 0.0;
   double wall_seconds = 0.0;
   std::size_t dofs = 0;
+  // What was run, for the comparison report's "what differs" table (compare/report.hpp):
+  std::size_t cells = 0;
+  int refinement = 0, degree = 0;
+  std::string integrator;          // "implicit" | "explicit"
+  double dt = 0.0;                 // time step [s] (explicit: the central-difference step)
+  long long substeps = 0;          // explicit: central-difference steps taken
+  double h_min = 0.0, h_max = 0.0; // cell sizes [m] (coarse grid steps / 2^refinement)
+  std::vector<std::pair<std::string, double>> seated; // (structure, settlement [m]) when seated
 };
 
 // An explicit-integrator continuum.dt above the stable step is refused with scene::SceneError
