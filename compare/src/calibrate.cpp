@@ -26,7 +26,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 4; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 5; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -78,22 +78,34 @@ scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache)
   return sp;
 }
 
-// Area of the polygon below height z (Sutherland–Hodgman clip, then the shoelace formula).
-double area_below(const scene::Polygon& poly, double z) {
-  std::vector<scene::Vec2> out;
+// The part of the polygon where a·x + b·z ≤ c (Sutherland–Hodgman clip against a half-plane).
+scene::Polygon clip(const scene::Polygon& poly, double a, double b, double c) {
+  scene::Polygon out;
   const std::size_t n = poly.size();
   for (std::size_t k = 0; k < n; ++k) {
     const auto p = poly[k], q = poly[(k + 1) % n];
-    const bool pin = p.z <= z, qin = q.z <= z;
-    if (pin) out.push_back(p);
-    if (pin != qin) out.push_back({p.x + (z - p.z) / (q.z - p.z) * (q.x - p.x), z});
+    const double fp = a * p.x + b * p.z - c, fq = a * q.x + b * q.z - c;
+    if (fp <= 0.0) out.push_back(p);
+    if ((fp <= 0.0) != (fq <= 0.0)) {
+      const double t = fp / (fp - fq);
+      out.push_back({p.x + t * (q.x - p.x), p.z + t * (q.z - p.z)});
+    }
   }
+  return out;
+}
+
+double area(const scene::Polygon& p) {
   double s = 0.0;
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    const auto p = out[k], q = out[(k + 1) % out.size()];
-    s += p.x * q.z - q.x * p.z; // shoelace
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const auto a = p[k], b = p[(k + 1) % p.size()];
+    s += a.x * b.z - b.x * a.z; // shoelace
   }
   return 0.5 * std::abs(s);
+}
+
+// Area of the polygon below height z.
+double area_below(const scene::Polygon& poly, double z) {
+  return area(clip(poly, 0.0, 1.0, z));
 }
 
 struct Fit {
@@ -448,9 +460,19 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   // equals the DEM soil mass (bisection).
   {
     const double target = c.soil_mass / (c.bulk_density * d.thickness);
+    // Structures displace soil only where they stand inside the fill (clipped to its bounding
+    // box): a retaining wall beside the fill holds none of it.
+    const auto fb = scene::bounds(fill);
+    std::vector<scene::Polygon> inside;
+    for (const auto& st : structures) {
+      auto p = clip(st.outline, -1.0, 0.0, -fb.x0); // x ≥ x0
+      p = clip(p, 1.0, 0.0, fb.x1);                 // x ≤ x1
+      p = clip(p, 0.0, -1.0, -fb.z0);               // z ≥ z0
+      if (p.size() >= 3) inside.push_back(std::move(p));
+    }
     auto soil_area = [&](double z) {
       double a = area_below(fill, z);
-      for (const auto& st : structures) a -= area_below(st.outline, z);
+      for (const auto& p : inside) a -= area_below(p, z);
       return a;
     };
     double ztop = zb;
@@ -845,7 +867,11 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   set("k0", s.k0, c.k0, fmt::format("{:.3f}", c.k0), "σ_xx/σ_zz of the deposited bed");
   double surf = s.surface.value_or(0.0);
   set("surface", surf, c.surface, fmt::format("{:.4g} m", c.surface),
-      "height holding the DEM bed's soil mass at that density");
+      c.soil_mass > 0.0 && std::abs(c.continuum_mass / c.soil_mass - 1.0) > 0.005
+          ? fmt::format("the fill's top: the continuum there holds {:.3f} × the DEM bed's soil "
+                        "mass at that density",
+                        c.continuum_mass / c.soil_mass)
+          : std::string("height holding the DEM bed's soil mass at that density"));
   s.surface = surf;
   if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
   // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
