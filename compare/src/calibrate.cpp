@@ -894,9 +894,22 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
       // ξ(ω) = α/2ω + βω/2 equal to ξ0 at ω1 and ω2 (Chopra, Dynamics of Structures, eq. 11.4.9)
       scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w1 * w2 / (w1 + w2);
       scene.continuum.rayleigh_beta = 2.0 * p0.xi / (w1 + w2);
-      const std::string note = fmt::format(
+      std::string note = fmt::format(
           "{}: ξ0 = {:.4f} (cyclic test at γ = {:.2g}) at f1 = V_s/4H = {:.3g} Hz and {} {:.3g} Hz",
           src, p0.xi, p0.gamma, f1, fe == f1 ? "again" : "the excitation's", fe);
+      if (scene.continuum.integrator == "explicit") {
+        // Explicit central differences: no stiffness-proportional part (β cuts the stable step
+        // by √(1 + ξ²) − ξ, ξ = βω_max/2: 2–5× on the paper scenes; issue 10). Mass-proportional
+        // only, ξ(ω) = α/2ω equal to ξ0 at the excitation frequency (Chopra, Dynamics of Structures
+        // §11.4).
+        scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w2;
+        scene.continuum.rayleigh_beta = 0.0;
+        note = fmt::format("{}: ξ0 = {:.4f} (cyclic test at γ = {:.2g}) at {} {:.3g} Hz, mass-"
+                           "proportional only (explicit integrator; ξ = {:.4f} at f1 = V_s/4H = "
+                           "{:.3g} Hz)",
+                           src, p0.xi, p0.gamma, fe == f1 ? "f1 = V_s/4H =" : "the excitation's",
+                           fe, p0.xi * w2 / w1, f1);
+      }
       s.provenance.emplace_back("continuum.rayleigh", note);
       lines.push_back(fmt::format("continuum.rayleigh_alpha = {:.4g} 1/s, rayleigh_beta = {:.4g} "
                                   "s: {}",

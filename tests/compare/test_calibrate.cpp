@@ -176,6 +176,13 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     EXPECT_GT(a, 0.0);
     EXPECT_GT(b, 0.0);
     EXPECT_NEAR(a / (2.0 * w1) + b * w1 / 2.0, xi0, 1e-9 * xi0);
+    // explicit integrator (issue 10): mass-proportional only, ξ0 at the excitation frequency
+    // (none here: f1), no β (it would cut the stable step)
+    scene::Scene ex = stated.base;
+    ex.continuum.integrator = "explicit";
+    (void)compare::apply_calibration(ex, d);
+    EXPECT_EQ(ex.continuum.rayleigh_beta, 0.0);
+    EXPECT_NEAR(ex.continuum.rayleigh_alpha / (2.0 * w1), xi0, 1e-9 * xi0);
     // stated Rayleigh coefficients win
     scene::Scene kept = stated.base;
     kept.continuum.rayleigh_stated = true;
