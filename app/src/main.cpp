@@ -293,14 +293,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
   return r;
 }
 
-std::string shell_quote(const std::string& w) {
-  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                        "0123456789_-./=:+,@%") == std::string::npos)
-    return w;
-  std::string q = "'";
-  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
+using compare::shell_quote;
 
 // The command that continues an interrupted run of one scene (variant) in `out`.
 std::string resume_command(const char* sub, const scene::Scene& s, const fs::path& out,

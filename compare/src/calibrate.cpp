@@ -78,22 +78,6 @@ scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache)
   return sp;
 }
 
-// The part of the polygon where a·x + b·z ≤ c (Sutherland–Hodgman clip against a half-plane).
-scene::Polygon clip(const scene::Polygon& poly, double a, double b, double c) {
-  scene::Polygon out;
-  const std::size_t n = poly.size();
-  for (std::size_t k = 0; k < n; ++k) {
-    const auto p = poly[k], q = poly[(k + 1) % n];
-    const double fp = a * p.x + b * p.z - c, fq = a * q.x + b * q.z - c;
-    if (fp <= 0.0) out.push_back(p);
-    if ((fp <= 0.0) != (fq <= 0.0)) {
-      const double t = fp / (fp - fq);
-      out.push_back({p.x + t * (q.x - p.x), p.z + t * (q.z - p.z)});
-    }
-  }
-  return out;
-}
-
 double area(const scene::Polygon& p) {
   double s = 0.0;
   for (std::size_t k = 0; k < p.size(); ++k) {
@@ -105,7 +89,7 @@ double area(const scene::Polygon& p) {
 
 // Area of the polygon below height z.
 double area_below(const scene::Polygon& poly, double z) {
-  return area(clip(poly, 0.0, 1.0, z));
+  return area(scene::clip(poly, 0.0, 1.0, z));
 }
 
 struct Fit {
@@ -465,9 +449,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     const auto fb = scene::bounds(fill);
     std::vector<scene::Polygon> inside;
     for (const auto& st : structures) {
-      auto p = clip(st.outline, -1.0, 0.0, -fb.x0); // x ≥ x0
-      p = clip(p, 1.0, 0.0, fb.x1);                 // x ≤ x1
-      p = clip(p, 0.0, -1.0, -fb.z0);               // z ≥ z0
+      auto p = scene::clip(st.outline, -1.0, 0.0, -fb.x0); // x ≥ x0
+      p = scene::clip(p, 1.0, 0.0, fb.x1);                 // x ≤ x1
+      p = scene::clip(p, 0.0, -1.0, -fb.z0);               // z ≥ z0
       if (p.size() >= 3) inside.push_back(std::move(p));
     }
     auto soil_area = [&](double z) {

@@ -62,21 +62,6 @@ double num_or(const json& j, const char* key, double fallback = 0.0) {
   return it != j.end() && it->is_number() ? it->get<double>() : fallback;
 }
 
-// Polygon p clipped to the half-plane a·x + b·z ≤ c (Sutherland–Hodgman).
-scene::Polygon clip(const scene::Polygon& p, double a, double b, double c) {
-  scene::Polygon out;
-  for (std::size_t k = 0; k < p.size(); ++k) {
-    const auto& u = p[k];
-    const auto& v = p[(k + 1) % p.size()];
-    const double fu = a * u.x + b * u.z - c, fv = a * v.x + b * v.z - c;
-    if (fu <= 0.0) out.push_back(u);
-    if ((fu <= 0.0) != (fv <= 0.0)) {
-      const double w = fu / (fu - fv);
-      out.push_back({u.x + w * (v.x - u.x), u.z + w * (v.z - u.z)});
-    }
-  }
-  return out;
-}
 double area(const scene::Polygon& p) {
   return p.size() < 3 ? 0.0 : std::abs(scene::signed_area(p));
 }

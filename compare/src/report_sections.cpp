@@ -22,16 +22,6 @@ std::string h(const std::string& s) {
   return html_escape(s);
 }
 
-// Shell-safe word (single quotes when needed).
-std::string quote(const std::string& w) {
-  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                        "0123456789_-./=:+,@%") == std::string::npos)
-    return w;
-  std::string q = "'";
-  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 std::string seconds(double s) {
   if (!(s > 0.0)) return "—";
   if (s < 120.0) return fmt::format("{:.1f} s", s);
@@ -117,11 +107,22 @@ std::vector<StudyLink> find_studies(const fs::path& run_dir, const scene::Scene&
   return out;
 }
 
+// Shell-safe word (single quotes when needed).
+std::string shell_quote(const std::string& w) {
+  if (!w.empty() && w.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                        "0123456789_-./=:+,@%") == std::string::npos)
+    return w;
+  std::string q = "'";
+  for (const char c : w) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
 namespace detail {
 
 std::string default_command(const scene::Scene& s) {
-  std::string c = "demfem compare " + quote(s.source_file.empty() ? "SCENE.toml" : s.source_file);
-  if (!s.variant.empty()) c += " --variant " + quote(s.variant);
+  std::string c =
+      "demfem compare " + shell_quote(s.source_file.empty() ? "SCENE.toml" : s.source_file);
+  if (!s.variant.empty()) c += " --variant " + shell_quote(s.variant);
   return c;
 }
 
@@ -198,8 +199,8 @@ std::string parameters_section(const fs::path& run_dir, const std::vector<ParamR
     o += "<p>This run has no calibration (<code>soil.continuum.calibrate</code> is not "
          "<code>\"dem\"</code>): the continuum's parameters are the scene's.";
     if (scene && scene->soil.dem && scene->soil.continuum) {
-      std::string c = "demfem calibrate " + quote(scene->source_file);
-      if (!scene->variant.empty()) c += " --variant " + quote(scene->variant);
+      std::string c = "demfem calibrate " + shell_quote(scene->source_file);
+      if (!scene->variant.empty()) c += " --variant " + shell_quote(scene->variant);
       o += " <code>" + h(c) + "</code> computes them from DEM element tests.";
     }
     return o + "</p>\n";
@@ -251,8 +252,8 @@ std::string studies_section(const fs::path& run_dir, const std::vector<StudyLink
          "<code>runs/&lt;scene&gt;/</code>).</p>\n";
   }
   if (!scene) return o;
-  std::string stab = "demfem study stability " + quote(scene->source_file);
-  if (!scene->variant.empty()) stab += " --variant " + quote(scene->variant);
+  std::string stab = "demfem study stability " + shell_quote(scene->source_file);
+  if (!scene->variant.empty()) stab += " --variant " + shell_quote(scene->variant);
   o += "<p>Stability of the DEM under stiff and extreme variants of this scene: <code>" + h(stab) +
        "</code> (writes <code>runs/" + h(scene->info.name) + "/study-stability" +
        (scene->variant.empty() ? "" : "/" + h(scene->variant)) +
@@ -260,7 +261,7 @@ std::string studies_section(const fs::path& run_dir, const std::vector<StudyLink
   std::string why;
   if (head_on_closed_form(*scene, &why))
     o += "Error against run time: <code>demfem study error-vs-time " +
-         h(quote(scene->source_file)) + "</code>.</p>\n";
+         h(shell_quote(scene->source_file)) + "</code>.</p>\n";
   else
     o += "Error against run time needs a closed form, which this scene has not (" + h(why) +
          "); the solvers' convergence is measured on <code>demfem study error-vs-time "

@@ -98,6 +98,20 @@ double segment_distance(Vec2 q, Vec2 a, Vec2 b) {
   return std::hypot(q.x - a.x - t * ex, q.z - a.z - t * ez); // point–segment distance
 }
 
+Polygon clip(const Polygon& p, double a, double b, double c) {
+  Polygon out;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const Vec2 u = p[k], v = p[(k + 1) % p.size()];
+    const double fu = a * u.x + b * u.z - c, fv = a * v.x + b * v.z - c;
+    if (fu <= 0.0) out.push_back(u);
+    if ((fu <= 0.0) != (fv <= 0.0)) {
+      const double w = fu / (fu - fv);
+      out.push_back({u.x + w * (v.x - u.x), u.z + w * (v.z - u.z)});
+    }
+  }
+  return out;
+}
+
 Structure shifted(Structure st, double dz) {
   for (auto& q : st.outline) q.z += dz;
   st.base_centre.z += dz;

@@ -27,6 +27,10 @@ struct ReportOptions {
   std::string command;                 // the reproducing command ("" = demfem compare SCENE …)
 };
 
+// A word of a shell command, single-quoted when it holds anything but [A-Za-z0-9_-./=:+,@%]
+// (the report's reproducing command; `demfem run` and `compare` log the same).
+[[nodiscard]] std::string shell_quote(const std::string& word);
+
 // A `demfem study` page of the compared scene (study.json + study.html).
 struct StudyLink {
   std::filesystem::path html;

@@ -316,6 +316,8 @@ struct Scene {
 
 // ---- geometry helpers used by validation and both solvers --------------------------------------
 [[nodiscard]] double signed_area(const Polygon& p); // > 0 when counter-clockwise
+// The part of polygon p where a·x + b·z ≤ c (Sutherland–Hodgman clip against a half-plane).
+[[nodiscard]] Polygon clip(const Polygon& p, double a, double b, double c);
 [[nodiscard]] bool self_intersects(const Polygon& p);
 [[nodiscard]] bool contains(const Polygon& p, Vec2 q); // even–odd rule
 // Axis-aligned bounding box of a point list (all zero when empty).
