@@ -860,7 +860,8 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
   // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
   // smallest amplitude; larger strains dissipate by plasticity in the continuum) at the layer's
-  // first shear mode and at the excitation frequency.
+  // first shear mode and at the excitation frequency (implicit), or mass-proportional at the
+  // excitation frequency only (explicit).
   if (!c.cyclic.empty() && !scene.continuum.rayleigh_stated) {
     const auto p0 =
         *std::min_element(c.cyclic.begin(), c.cyclic.end(),
@@ -875,12 +876,7 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     if (!(fe > 0.0)) fe = f1;
     if (f1 > 0.0 && p0.xi > 0.0) {
       const double w1 = 2.0 * kPi * f1, w2 = 2.0 * kPi * fe;
-      // ξ(ω) = α/2ω + βω/2 equal to ξ0 at ω1 and ω2 (Chopra, Dynamics of Structures, eq. 11.4.9)
-      scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w1 * w2 / (w1 + w2);
-      scene.continuum.rayleigh_beta = 2.0 * p0.xi / (w1 + w2);
-      std::string note = fmt::format(
-          "{}: ξ0 = {:.4f} (cyclic test at γ = {:.2g}) at f1 = V_s/4H = {:.3g} Hz and {} {:.3g} Hz",
-          src, p0.xi, p0.gamma, f1, fe == f1 ? "again" : "the excitation's", fe);
+      std::string note;
       if (scene.continuum.integrator == "explicit") {
         // Explicit central differences: no stiffness-proportional part (β cuts the stable step
         // by √(1 + ξ²) − ξ, ξ = βω_max/2: 2–5× on the paper scenes; issue 10). Mass-proportional
@@ -893,6 +889,13 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
                            "{:.3g} Hz)",
                            src, p0.xi, p0.gamma, fe == f1 ? "f1 = V_s/4H =" : "the excitation's",
                            fe, p0.xi * w2 / w1, f1);
+      } else {
+        // ξ(ω) = α/2ω + βω/2 equal to ξ0 at ω1 and ω2 (Chopra, Dynamics of Structures, eq. 11.4.9)
+        scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w1 * w2 / (w1 + w2);
+        scene.continuum.rayleigh_beta = 2.0 * p0.xi / (w1 + w2);
+        note = fmt::format("{}: ξ0 = {:.4f} (cyclic test at γ = {:.2g}) at f1 = V_s/4H = {:.3g} Hz "
+                           "and {} {:.3g} Hz",
+                           src, p0.xi, p0.gamma, f1, fe == f1 ? "again" : "the excitation's", fe);
       }
       s.provenance.emplace_back("continuum.rayleigh", note);
       lines.push_back(fmt::format("continuum.rayleigh_alpha = {:.4g} 1/s, rayleigh_beta = {:.4g} "

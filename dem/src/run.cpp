@@ -196,15 +196,16 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   std::vector<double> seat_dz, seat_rot;
   std::vector<std::byte> history; // the packing's contact history
 #ifdef DEMFEM_DEM_HAS_PACK
-  if (resume_from && scene.soil.dem->particles.empty() && !scene.structures.empty()) {
-    const PackResult pr = pack_or_load(scene, options.out_dir, options.progress); // cached
-    seat_dz = pr.seat_dz;
-    seat_rot = pr.seat_rot;
+  // A resumed run takes its particles from the checkpoint, but its structures' seat from the
+  // (cached) packing.
+  std::optional<PackResult> packed;
+  if (!resume_from || (scene.soil.dem->particles.empty() && !scene.structures.empty())) {
+    packed = pack_or_load(scene, options.out_dir, options.progress);
+    seat_dz = packed->seat_dz;
+    seat_rot = packed->seat_rot;
   }
-  if (!resume_from) { // a resumed run takes its particles from the checkpoint
-    const PackResult pr = pack_or_load(scene, options.out_dir, options.progress);
-    seat_dz = pr.seat_dz;
-    seat_rot = pr.seat_rot;
+  if (!resume_from) {
+    const PackResult& pr = *packed;
     for (std::size_t k = 0; k < seat_dz.size() && k < scene.structures.size(); ++k)
       if (seat_dz[k] != 0.0)
         spdlog::info("packing: structure '{}' seated {:.3g} m {} its stated position (the bed "
