@@ -67,6 +67,11 @@ struct Region {
   // region is then held at that position and the soil keeps its stresses, so that at t = 0 the
   // soil carries the region's weight (as the DEM packing seats an embedded foundation).
   bool seat = false;
+  // In Coulomb contact (issue 9): the region is not meshed; it is a rigid body at rest in the
+  // shaking frame whose faces are Problem::contacts with `region` = its index. The soil keeps its
+  // own nodes on those faces (no shared nodes); soil_reaction and soil_pressure come from the
+  // contact forces. Explicit integrator; every mode Fixed.
+  bool contact = false;
 };
 
 // One seated region's initial static stage (Model::seating).
@@ -106,6 +111,33 @@ struct Patch {
   Point pivot;
 };
 
+// Zero-thickness Coulomb contact of the soil with a rigid plane at rest in the shaking frame
+// (issue 9, "boundary friction"; explicit integrator only). The soil nodes on the boundary faces
+// whose centre lies on the segment a–b (axis-aligned, as the mesh's faces are) may not cross the
+// plane (unilateral: a node pulled away leaves it) and slide along it against Coulomb friction:
+// sticking while the tangential force needed stays ≤ μ_static N, sliding against μ_dynamic N
+// otherwise. In the implicit stages before t = 0 (K0 state, seating) the nodes stick to the plane
+// (both components held; with μ_static = 0: the normal one only, a roller). μ = 0 is a roller
+// that lets the soil separate.
+struct ContactPlane {
+  std::string name;
+  Point a, b;
+  double mu_static = 0.5, mu_dynamic = 0.2;
+  // ≥ 0: a face of that region (Region::contact): its soil reaction, moment and pressure profile
+  // come from this plane's contact forces
+  int region = -1;
+};
+
+// Contact forces on a plane (Model::contact_force): the force of the soil on it, the sums of the
+// normal (compression positive) and tangential magnitudes, and the frictional work dissipated
+// since t = 0 [J/m]; nodes in contact, of which sliding, and nodes separated from the plane.
+struct ContactForce {
+  double fx = 0.0, fz = 0.0, moment = 0.0; // moment about the region's pivot (region planes)
+  double normal = 0.0, tangential = 0.0;
+  double dissipated = 0.0;
+  int nodes = 0, sliding = 0, open = 0;
+};
+
 struct Reaction {
   double fx = 0.0, fz = 0.0, moment = 0.0; // force of the patch on the soil reversed: the force
                                            // the soil exerts on the patch is −(fx, fz)
@@ -130,6 +162,9 @@ struct Problem {
   bool fix_z_everywhere = false; // pure horizontal kinematics (shear column)
   std::vector<Traction> tractions;
   std::vector<Patch> patches;
+  // Coulomb contact planes (ContactPlane; explicit integrator only). Their nodes ignore the box
+  // boundary conditions in the explicit run.
+  std::vector<ContactPlane> contacts;
   std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
@@ -212,6 +247,8 @@ public:
   [[nodiscard]] Point displacement(Point p) const;
   [[nodiscard]] Point velocity(Point p) const;
   [[nodiscard]] Reaction reaction(std::size_t patch) const; // collective
+  // Contact forces on Problem::contacts[plane] (explicit runs; zero before the first step).
+  [[nodiscard]] ContactForce contact_force(std::size_t plane) const;
   // Mean displacement and rotation (½ curl u averaged over the area) of region k (collective).
   struct RegionMotion {
     double ux = 0, uz = 0, rotation = 0;

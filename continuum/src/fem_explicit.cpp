@@ -202,12 +202,93 @@ void Model::Impl::explicit_setup() {
     e.damp[j] += e.damp[i];
   }
   for (const auto& [i, val] : e.prescribed) e.u[i] = val;
+  explicit_contact_setup();
   e.dt_stable = explicit_stable_step();
   e.ready = true;
   log << "explicit: " << N << " dofs, " << e.cell_base.size() << " cells with stresses, "
-      << e.bodies.size() << " rigid bodies, ω_max ≤ " << e.omega_max
-      << " rad/s, Δt = " << e.dt_stable << " s (" << pb.explicit_safety
-      << " of the critical step)\n";
+      << e.bodies.size() << " rigid bodies, " << e.contacts.size()
+      << " Coulomb contact nodes, ω_max ≤ " << e.omega_max << " rad/s, Δt = " << e.dt_stable
+      << " s (" << pb.explicit_safety << " of the critical step)\n";
+}
+
+// Coulomb contact nodes: every soil node on a contact plane's faces, unless one of its dofs is
+// held otherwise (a rigid body, a prescribed or periodic dof, or fixed by a box boundary
+// condition of a face off the planes, e.g. the corner with a fixed base): such a node keeps
+// those constraints and takes no contact force.
+void Model::Impl::explicit_contact_setup() {
+  Explicit& e = ex;
+  e.contacts.clear();
+  e.contact_work.assign(pb.contacts.size(), 0.0);
+  const auto nodes = contact_nodes();
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    for (const ContactNode& c : nodes[k]) {
+      bool held = false, rigid_or_linked = false;
+      for (const auto i : {c.ix, c.iz}) {
+        held = held || (e.kind[i] != 0 && !(e.kind[i] == 1 && contact_roller[i]));
+        rigid_or_linked = rigid_or_linked || e.kind[i] >= 2;
+      }
+      if (rigid_or_linked) continue; // its force belongs to a rigid body, a patch or a master
+      Explicit::Contact ct;
+      ct.held = held;
+      ct.ix = c.ix;
+      ct.iz = c.iz;
+      ct.nx = c.nx;
+      ct.nz = c.nz;
+      ct.x = c.X[0];
+      ct.z = c.X[1];
+      ct.plane = k;
+      e.contacts.push_back(ct);
+    }
+  for (const auto& c : e.contacts)
+    if (!c.held) e.kind[c.ix] = e.kind[c.iz] = 0;
+}
+
+// Kinematic node-on-plane contact with Coulomb friction for explicit central differences
+// (forward-increment Lagrange multipliers, Carpenter, Taylor & Katona 1991; Belytschko, Liu &
+// Moran 2000 §10.4): from the trial acceleration a* = f/m of each contact node, the normal force
+// N = m (g + Δt v_n + Δt τ a*_n)/(Δt τ) puts the node back on the plane at the next step
+// (g = u·n, penetration positive); N ≤ 0 means the node leaves the plane (no force). The stick
+// force F = −m (v_t/τ + a*_t) stops its tangential motion at the next velocity; Coulomb: it
+// sticks when |F| ≤ μ_s N, otherwise it slides under μ_d N against the trial tangential motion
+// (sign F). τ is the time to the next velocity (Δt, or Δt/2 at the initial acceleration).
+void Model::Impl::explicit_contacts() {
+  Explicit& e = ex;
+  const double dt = e.contact_dt, tau = e.contact_tau;
+  for (auto& c : e.contacts) {
+    c.fx = c.fz = c.N = c.Ft = 0.0;
+    c.slide = false;
+    if (c.held) { // the normal part of the reaction −f that holds the fixed dof at rest
+      const types::global_dof_index i = std::abs(c.nx) > 0.5 ? c.ix : c.iz;
+      if (e.kind[i] != 1) continue;
+      const double r = -e.f[i];
+      (i == c.ix ? c.fx : c.fz) = r;
+      c.N = std::max(0.0, -(c.fx * c.nx + c.fz * c.nz));
+      continue;
+    }
+    if (dt <= 0 || tau <= 0) continue;
+    const double m = e.mass[c.ix];
+    const double tx = -c.nz, tz = c.nx;
+    const double g = c.nx * e.u[c.ix] + c.nz * e.u[c.iz];
+    const double vn = c.nx * e.v[c.ix] + c.nz * e.v[c.iz];
+    const double an = c.nx * e.a[c.ix] + c.nz * e.a[c.iz];
+    const double N = m * (g + dt * vn + dt * tau * an) / (dt * tau);
+    if (N <= 0.0) continue; // separating: the node leaves the plane
+    const double vt = tx * e.v[c.ix] + tz * e.v[c.iz];
+    const double at = tx * e.a[c.ix] + tz * e.a[c.iz];
+    const ContactPlane& p = pb.contacts[c.plane];
+    double F = -m * (vt / tau + at); // stick
+    if (std::abs(F) > p.mu_static * N) {
+      F = (F > 0 ? 1.0 : -1.0) * p.mu_dynamic * N; // Coulomb sliding
+      c.slide = true;
+    }
+    // force of the plane on the soil node: −N n + F t
+    c.N = N;
+    c.Ft = F;
+    c.fx = -N * c.nx + F * tx;
+    c.fz = -N * c.nz + F * tz;
+    e.a[c.ix] += c.fx / m;
+    e.a[c.iz] += c.fz / m;
+  }
 }
 
 // Irons (1970): the largest eigenvalue of (K, M) is bounded by the largest element eigenvalue
@@ -350,6 +431,7 @@ void Model::Impl::explicit_accel(double dt) {
     e.a[i] = fi / e.mass[i];
   }
   for (const auto& [i, j] : e.follows) e.a[i] = e.a[j];
+  if (!e.contacts.empty()) explicit_contacts();
   // rigid bodies: M_q a_q = F_q, F_q = Σ row_i f_i; fixed components at rest, prescribed ones
   // with the motion's acceleration (second difference), free ones solved for
   for (auto& b : e.bodies) {
@@ -418,10 +500,14 @@ void Model::Impl::explicit_move(double dt) {
     }
   }
   t += dt;
+  e.contact_dt = e.contact_tau = dt;
   explicit_accel(dt);
   for (std::size_t i = 0; i < N; ++i)
     if (e.kind[i] == 0) e.v[i] += 0.5 * dt * e.a[i];
   for (const auto& [i, j] : e.follows) e.v[i] = e.v[j];
+  // work of the contact forces on the soil over the step around t_{n+1}: Δt f·v_{n+1}
+  for (const auto& c : e.contacts)
+    e.contact_work[c.plane] += dt * (c.fx * e.v[c.ix] + c.fz * e.v[c.iz]);
   for (auto& b : e.bodies) {
     const Region& reg = pb.regions[b.region];
     for (int a = 0; a < 3; ++a)
@@ -450,11 +536,8 @@ void Model::Impl::explicit_sync() {
 StepStats Model::Impl::explicit_advance(double dt) {
   StepStats st;
   lambda = 1.0;
-  if (!ex.ready) {
-    explicit_setup();
-    explicit_accel(0.0); // a_0 = M⁻¹(f_ext − f_int(u_0) − C v_0)
-    dyn_init = true;
-  }
+  const bool init = !ex.ready;
+  if (init) explicit_setup();
   double h = ex.dt_stable;
   if (pb.explicit_dt > 0) {
     if (pb.explicit_dt > ex.dt_stable)
@@ -465,6 +548,14 @@ StepStats Model::Impl::explicit_advance(double dt) {
     h = pb.explicit_dt;
   }
   const long k = std::max(1L, static_cast<long>(std::ceil(dt / h - 1e-9)));
+  if (init) {
+    // a_0 = M⁻¹(f_ext − f_int(u_0) − C v_0); contact looks ahead over the first step, whose
+    // velocity update v_½ = v_0 + ½Δt a_0 is a half step
+    ex.contact_dt = dt / double(k);
+    ex.contact_tau = 0.5 * ex.contact_dt;
+    explicit_accel(0.0);
+    dyn_init = true;
+  }
   for (long s = 0; s < k; ++s) explicit_move(dt / double(k));
   st.substeps = k;
   double norm = 0;
@@ -475,6 +566,60 @@ StepStats Model::Impl::explicit_advance(double dt) {
   }
   explicit_sync();
   return st;
+}
+
+std::vector<Model::Impl::Explicit::Contact> Model::Impl::contact_state(std::size_t plane) const {
+  std::vector<Explicit::Contact> out;
+  if (ex.ready) {
+    for (const auto& c : ex.contacts)
+      if (c.plane == plane) out.push_back(c);
+    return out;
+  }
+  // before the explicit run (K0 state, seating): the reactions of the constraints that hold the
+  // nodes on the plane, f_int − f_ext at their dofs (the force of the soil on the support)
+  const auto nodes = contact_nodes();
+  for (const ContactNode& n : nodes.at(plane)) {
+    Explicit::Contact c;
+    c.ix = n.ix;
+    c.iz = n.iz;
+    c.nx = n.nx;
+    c.nz = n.nz;
+    c.x = n.X[0];
+    c.z = n.X[1];
+    c.plane = plane;
+    const double rx = owned.is_element(n.ix) && hom.is_constrained(n.ix) ? res(n.ix) : 0.0;
+    const double rz = owned.is_element(n.iz) && hom.is_constrained(n.iz) ? res(n.iz) : 0.0;
+    c.fx = rx; // the plane's force on the soil: f_int − f_ext at a held dof
+    c.fz = rz;
+    c.N = -(c.fx * c.nx + c.fz * c.nz);
+    c.Ft = c.fx * -c.nz + c.fz * c.nx;
+    if (c.N <= 0.0) c.fx = c.fz = c.N = c.Ft = 0.0;
+    out.push_back(c);
+  }
+  return out;
+}
+
+ContactForce Model::contact_force(std::size_t plane) const {
+  const Impl& m = *impl_;
+  const ContactPlane& p = m.pb.contacts.at(plane);
+  ContactForce out;
+  Point pivot;
+  if (p.region >= 0) pivot = m.pb.regions.at(static_cast<std::size_t>(p.region)).pivot;
+  for (const auto& c : m.contact_state(plane)) {
+    if (c.N <= 0.0) {
+      ++out.open;
+      continue;
+    }
+    ++out.nodes;
+    out.sliding += c.slide ? 1 : 0;
+    out.fx -= c.fx; // the soil pushes the plane with −(the plane's force on it)
+    out.fz -= c.fz;
+    out.moment += -(c.x - pivot.x) * c.fz + (c.z - pivot.z) * c.fx; // (X − p) × (−f)
+    out.normal += c.N;
+    out.tangential += std::abs(c.Ft);
+  }
+  if (plane < m.ex.contact_work.size()) out.dissipated = -m.ex.contact_work[plane];
+  return out;
 }
 
 double stable_time_step(const Problem& pb) {

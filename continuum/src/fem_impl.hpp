@@ -44,6 +44,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -114,7 +115,8 @@ struct Model::Impl {
     std::vector<char> is_dof;                           // by global dof index
     std::vector<std::pair<types::global_dof_index, std::pair<unsigned, dealii::Point<2>>>> dofs;
   };
-  std::vector<Rigid> rigid; // by region (empty is_dof for elastic regions)
+  std::vector<Rigid> rigid;         // by region (empty is_dof for elastic regions)
+  std::vector<char> contact_roller; // by dof: held by a contact plane in the implicit stages
   Mat K, M, K0, Cabs;
   bool has_cabs = false;
   Vec u, rhs, res, f_internal, du, v, acc, u_n, v_n, a_n;
@@ -290,14 +292,46 @@ struct Model::Impl {
       double q_prev[3] = {0, 0, 0}; // prescribed components one step back
     };
     std::vector<Body> bodies;
+    // Coulomb contact nodes (Problem::contacts): one per (node, plane); n the soil's outward
+    // normal (into the plane), t = (−n_z, n_x); the last contact force on the soil (fx, fz) and
+    // its normal (N ≥ 0) and tangential parts
+    struct Contact {
+      types::global_dof_index ix = 0, iz = 0;
+      double nx = 0, nz = 0, x = 0, z = 0;
+      std::size_t plane = 0;
+      double fx = 0, fz = 0, N = 0, Ft = 0;
+      bool slide = false;
+      // held by another constraint (a fixed dof of a box side off the planes, e.g. the corner
+      // with a fixed base): no contact law; its reaction's normal component is reported
+      bool held = false;
+    };
+    std::vector<Contact> contacts;
+    std::vector<double> contact_work; // by plane: work of the contact forces on the soil [J/m]
+    // the step the contact forces look ahead over (Δt) and the time to the next velocity (τ: Δt,
+    // or Δt/2 at the initial acceleration)
+    double contact_dt = 0.0, contact_tau = 0.0;
     long steps = 0;
   } ex;
   bool is_explicit() const { return pb.integrator == "explicit"; }
   void explicit_setup();
   double explicit_stable_step();
   void explicit_accel(double dt); // a from u, v at time t (dt: the step, for prescribed motion)
-  void explicit_move(double dt);  // one velocity-Verlet step
-  void explicit_sync();           // u, v, acc, trial ← the explicit state (for observation)
+  void explicit_contact_setup();  // contact nodes of Problem::contacts (after the dof classes)
+  void explicit_contacts();       // contact forces into a (after the free accelerations)
+  // soil nodes on the boundary faces of a contact plane: (x dof, z dof, support point, outward
+  // normal of the face) by plane
+  struct ContactNode {
+    types::global_dof_index ix, iz;
+    dealii::Point<2> X;
+    double nx, nz;
+    double weight; // ∫φ_i ds over the node's faces on the plane
+  };
+  [[nodiscard]] std::vector<std::vector<ContactNode>> contact_nodes() const;
+  // contact forces at the nodes of a plane: the explicit run's, or before it the reactions of
+  // the implicit stages' constraints (the K0 state)
+  [[nodiscard]] std::vector<Explicit::Contact> contact_state(std::size_t plane) const;
+  void explicit_move(double dt); // one velocity-Verlet step
+  void explicit_sync();          // u, v, acc, trial ← the explicit state (for observation)
   StepStats explicit_advance(double dt);
 
   template <class F> double sum(F f) const { return Utilities::MPI::sum(f(), comm); }

@@ -315,7 +315,8 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
     std::vector<std::size_t> seat;
     for (std::size_t r = 0; r < m.pb.regions.size(); ++r) {
       const Region& reg = m.pb.regions[r];
-      if (reg.seat && reg.rigid && reg.dead_weight && reg.mode[1] == Region::Mode::Fixed)
+      if (reg.seat && reg.rigid && !reg.contact && reg.dead_weight &&
+          reg.mode[1] == Region::Mode::Fixed)
         seat.push_back(r);
     }
     if (total.converged && !seat.empty()) {
@@ -402,6 +403,9 @@ void Model::set_displacement(const std::function<Point(Point)>& f) {
 StepStats Model::dynamic_step(double dt) {
   Impl& m = *impl_;
   if (m.is_explicit()) return m.explicit_advance(dt);
+  if (!m.pb.contacts.empty())
+    throw std::runtime_error("Coulomb contact planes (continuum.interface = \"coulomb\") need the "
+                             "explicit integrator (continuum.integrator = \"explicit\")");
   if (!m.dyn_init) {
     // initial acceleration: M a0 = fext − f_internal(u0), condensed with the constraints (assemble
     // leaves −R condensed in rhs: a rigid body's rows carry the resultant over all its dofs; the

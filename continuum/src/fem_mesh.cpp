@@ -53,7 +53,9 @@ void Model::Impl::build_mesh() {
       types::material_id id = numbers::invalid_material_id;
       if (m.domain.empty() || inside(m.domain, xc, zc)) id = 0;
       for (std::size_t r = 0; r < pb.regions.size(); ++r)
-        if (inside(pb.regions[r].outline, xc, zc)) id = static_cast<types::material_id>(r + 1);
+        if (inside(pb.regions[r].outline, xc, zc))
+          id = pb.regions[r].contact ? numbers::invalid_material_id // not meshed: a contact body
+                                     : static_cast<types::material_id>(r + 1);
       ids[i][j] = id;
       z += m.dz[j];
     }
@@ -179,7 +181,7 @@ void Model::Impl::build_constraints() {
   rigid.assign(pb.regions.size(), Rigid{});
   for (std::size_t r = 0; r < pb.regions.size(); ++r) {
     const Region& reg = pb.regions[r];
-    if (!reg.rigid) continue;
+    if (!reg.rigid || reg.contact) continue;
     Rigid& R = rigid[r];
     R.is_dof.assign(dof.n_dofs(), 0);
     const auto& usp = fe.get_unit_support_points();
@@ -331,16 +333,41 @@ void Model::Impl::build_constraints() {
   auto constrain = [&](types::global_dof_index i) {
     if (relevant.is_element(i) && !hom.is_constrained(i) && !in_rigid(i)) hom.add_line(i);
   };
+  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  // faces on a Coulomb contact plane take no box boundary condition
+  auto on_contact = [&](const dealii::Point<2>& c) {
+    for (const ContactPlane& p : pb.contacts)
+      if (on_segment(p.a, p.b, c[0], c[1], tol)) return true;
+    return false;
+  };
   const Bc bcs[4] = {pb.left, pb.right, pb.bottom, pb.top};
   for (types::boundary_id b = 0; b < 4; ++b) {
     if (bcs[b] == Bc::Free) continue;
     if (pb.mesh.periodic_x && b < 2) continue;
     const unsigned normal = b < 2 ? 0u : 1u;
-    for (const auto& [i, cp] :
-         face_dofs([b](const dealii::Point<2>&, types::boundary_id id) { return id == b; }))
+    for (const auto& [i, cp] : face_dofs([&](const dealii::Point<2>&c, types::boundary_id id) {
+           return id == b && !on_contact(c);
+         }))
       if (bcs[b] == Bc::Fixed || cp.first == normal) constrain(i);
   }
-  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  // Coulomb contact nodes (Problem::contacts) in the implicit stages (K0 state, seating): stuck
+  // to their plane (μ_s > 0: both components held, the static Coulomb state while the shear
+  // stays below μ_s σ_n) or on a roller (μ_s = 0: the normal component held); the explicit run
+  // frees them and applies the contact forces
+  contact_roller.assign(dof.n_dofs(), 0);
+  const auto cnodes = contact_nodes();
+  for (std::size_t k = 0; k < cnodes.size(); ++k)
+    for (const ContactNode& c : cnodes[k]) {
+      const bool normal_x = std::abs(c.nx) > 0.5;
+      const bool stick = pb.contacts[k].mu_static > 0.0;
+      for (const auto i : {c.ix, c.iz}) {
+        if (!stick && (i == c.ix) != normal_x) continue;
+        if (relevant.is_element(i) && !hom.is_constrained(i) && !in_rigid(i)) {
+          hom.add_line(i);
+          contact_roller[i] = 1;
+        }
+      }
+    }
   patch_dofs.clear();
   patch_target.clear();
   for (const Patch& p : pb.patches) {
@@ -399,6 +426,51 @@ void Model::Impl::build_constraints() {
   for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n})
     w->reinit(owned, comm);
   u_ghost.reinit(owned, relevant, comm);
+}
+
+std::vector<std::vector<Model::Impl::ContactNode>> Model::Impl::contact_nodes() const {
+  std::vector<std::vector<ContactNode>> out(pb.contacts.size());
+  if (pb.contacts.empty()) return out;
+  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
+  const auto& usp = fe.get_unit_support_points();
+  const unsigned n = fe.n_dofs_per_cell();
+  std::vector<types::global_dof_index> ld(n);
+  std::vector<std::map<types::global_dof_index, std::size_t>> seen(pb.contacts.size());
+  FEFaceValues<2> ffv(mapping, fe, face_quad, update_values | update_JxW_values);
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (cell->is_artificial() || cell->material_id() != 0) continue;
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
+      if (!cell->face(f)->at_boundary()) continue;
+      const auto fc = cell->face(f)->center();
+      for (std::size_t k = 0; k < pb.contacts.size(); ++k) {
+        const ContactPlane& p = pb.contacts[k];
+        if (!on_segment(p.a, p.b, fc[0], fc[1], tol)) continue;
+        // outward normal of the (axis-aligned) face: faces 0..3 = −x, +x, −z, +z
+        const double nx = f == 0 ? -1 : f == 1 ? 1 : 0, nz = f == 2 ? -1 : f == 3 ? 1 : 0;
+        cell->get_dof_indices(ld);
+        ffv.reinit(cell, f);
+        for (unsigned i = 0; i < n; ++i) {
+          if (!fe.has_support_on_face(i, f) || fe.system_to_component_index(i).first != 0) continue;
+          double w = 0;
+          for (unsigned q = 0; q < ffv.n_quadrature_points; ++q)
+            w += ffv.shape_value(i, q) * ffv.JxW(q);
+          if (const auto it = seen[k].find(ld[i]); it != seen[k].end()) {
+            out[k][it->second].weight += w;
+            continue;
+          }
+          const unsigned node = fe.system_to_component_index(i).second;
+          for (unsigned j = 0; j < n; ++j)
+            if (fe.system_to_component_index(j).first == 1 &&
+                fe.system_to_component_index(j).second == node) {
+              seen[k][ld[i]] = out[k].size();
+              out[k].push_back(
+                  {ld[i], ld[j], mapping.transform_unit_to_real_cell(cell, usp[i]), nx, nz, w});
+            }
+        }
+      }
+    }
+  }
+  return out;
 }
 
 double Model::Impl::top_at(double x) const {

@@ -72,6 +72,17 @@ Reaction Model::reaction(std::size_t patch) const {
 Reaction Model::soil_reaction(std::size_t region) const {
   Impl& m = *impl_;
   const Region& reg = m.pb.regions.at(region);
+  if (reg.contact) { // a Coulomb contact body: the sum over its planes' contact forces
+    Reaction out;
+    for (std::size_t k = 0; k < m.pb.contacts.size(); ++k) {
+      if (m.pb.contacts[k].region != static_cast<int>(region)) continue;
+      const ContactForce c = contact_force(k);
+      out.fx += c.fx;
+      out.fz += c.fz;
+      out.moment += c.moment;
+    }
+    return out;
+  }
   const auto& R = m.rigid.at(region);
   m.update_ghost();
   Vec vg(m.owned, m.relevant, m.comm), ag(m.owned, m.relevant, m.comm);
@@ -164,6 +175,43 @@ std::vector<double> Model::soil_pressure(std::size_t region, double z0, double z
   const Region& reg = m.pb.regions.at(region);
   std::vector<double> p(static_cast<std::size_t>(std::max(bins, 1)), 0.0);
   const double h = (z1 - z0) / double(p.size());
+  if (reg.contact) {
+    // A Coulomb contact body: the normal contact forces N_i of each plane, as nodal pressures
+    // p_i = N_i / ∫φ_i ds (row-sum lumped boundary mass: exact for a uniform pressure),
+    // piecewise linear between the nodes along the plane, integrated over the z bins.
+    if (force) *force = soil_reaction(region);
+    const auto nodes = m.contact_nodes();
+    for (std::size_t k = 0; k < m.pb.contacts.size(); ++k) {
+      const ContactPlane& cp = m.pb.contacts[k];
+      if (cp.region != static_cast<int>(region)) continue;
+      const auto state = m.contact_state(k);
+      std::vector<double> weight_of(m.dof.n_dofs(), 0.0);
+      for (const auto& n : nodes[k]) weight_of[n.ix] = n.weight;
+      const double ex = cp.b.x - cp.a.x, ez = cp.b.z - cp.a.z;
+      std::vector<std::pair<double, std::pair<double, double>>> line; // (s, (z, p))
+      for (const auto& c : state) {
+        const double w = weight_of[c.ix];
+        if (w <= 0) continue;
+        line.push_back({(c.x - cp.a.x) * ex + (c.z - cp.a.z) * ez, {c.z, c.N / w}});
+      }
+      std::sort(line.begin(), line.end());
+      const double len = std::hypot(ex, ez);
+      for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+        const double ds = (line[i + 1].first - line[i].first) / len;
+        const int sub = 16;
+        for (int j = 0; j < sub; ++j) {
+          const double f = (j + 0.5) / sub;
+          const double z = (1 - f) * line[i].second.first + f * line[i + 1].second.first;
+          const double pn = (1 - f) * line[i].second.second + f * line[i + 1].second.second;
+          if (h > 0 && z >= z0 && z <= z1) {
+            const auto bin = std::min(p.size() - 1, static_cast<std::size_t>((z - z0) / h));
+            p[bin] += pn * ds / sub / h;
+          }
+        }
+      }
+    }
+    return p;
+  }
   Reaction F;
   FEValues<2> fv(m.mapping, m.fe, m.quad, update_quadrature_points);
   const unsigned n1 = static_cast<unsigned>(m.pb.degree) + 1; // Gauss points per direction

@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <optional>
 #include <set>
 
 #include "demfem/scene/load.hpp"
@@ -137,6 +138,35 @@ scene::Scene seated(const scene::Scene& scene_in) {
       for (auto& st : s.structures)
         if (st.name == name) st = scene::shifted(st, dz);
   return s;
+}
+
+// The friction a DEM particle meets on a wall or structure (dem/src/engine.cpp, new_boundary and
+// the particle–boundary contact): the boundary's own mu_static/mu_dynamic (μ_d defaulting to
+// min(μ_s, the soil's μ_d)), else the particle's: the last set-friction event at t ≤ 0 on a group
+// covering the whole domain, else [soil.dem]'s. Empty when the scene has no DEM soil to take it
+// from and the boundary states none.
+std::optional<std::pair<double, double>>
+dem_friction(const scene::Scene& scene, std::optional<double> mu_s, std::optional<double> mu_d) {
+  std::optional<std::pair<double, double>> soil;
+  if (scene.soil.dem) soil = std::pair{scene.soil.dem->mu_static, scene.soil.dem->mu_dynamic};
+  double t_event = -1e300;
+  for (const auto& ev : scene.events) {
+    if (ev.action != scene::EventAction::SetFriction || ev.time > 0.0 || ev.time < t_event)
+      continue;
+    const scene::Group* g = scene.group(ev.group);
+    if (!g) continue;
+    bool covers = true;
+    for (const auto& p : scene.domain) covers = covers && scene::contains(g->region, p);
+    if (!covers) continue;
+    soil = std::pair{ev.mu_static, ev.mu_dynamic};
+    t_event = ev.time;
+  }
+  if (mu_s || mu_d) {
+    if (!soil && !mu_s) return std::nullopt;
+    const double s = mu_s.value_or(soil ? soil->first : 0.0);
+    return std::pair{s, mu_d.value_or(std::min(s, soil ? soil->second : s))};
+  }
+  return soil;
 }
 
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
@@ -268,6 +298,37 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
                          top_of(domain, sx1 + 1e3 * tol, dz0) > sz0 + tol;
       r.seat = below && (co.seat_structures.has_value() || sides);
     }
+    // continuum.interface = "coulomb": a structure that never moves (every DoF fixed, e.g. the
+    // retaining wall) is a rigid body in zero-thickness Coulomb contact with the soil instead of
+    // sharing its nodes: not meshed, each axis-aligned outline edge a contact plane with the
+    // friction the DEM particles meet on it (dem_friction). Moving structures stay tied.
+    const bool at_rest = s.dof_x == scene::DofMode::Fixed && s.dof_z == scene::DofMode::Fixed &&
+                         s.dof_rotation == scene::DofMode::Fixed;
+    if (co.interface == "coulomb" && at_rest) {
+      const auto mu = dem_friction(scene, s.mu_static, s.mu_dynamic);
+      if (!mu) {
+        message = fmt::format("continuum.interface = \"coulomb\" takes the friction of structure "
+                              "'{}' from the DEM: give its mu_static/mu_dynamic or a [soil.dem] "
+                              "section",
+                              s.name);
+        return false;
+      }
+      r.contact = true;
+      r.seat = false;
+      const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
+      for (std::size_t k = 0; k < s.outline.size(); ++k) {
+        const auto &a = s.outline[k], &b = s.outline[(k + 1) % s.outline.size()];
+        if (std::abs(a.x - b.x) > tol && std::abs(a.z - b.z) > tol) continue; // inclined: none
+        fem::ContactPlane cp;
+        cp.name = s.name;
+        cp.a = {a.x, a.z};
+        cp.b = {b.x, b.z};
+        cp.mu_static = mu->first;
+        cp.mu_dynamic = mu->second;
+        cp.region = static_cast<int>(pb.regions.size());
+        pb.contacts.push_back(cp);
+      }
+    }
     pb.regions.push_back(r);
   }
   // ---- soil–structure interface
@@ -285,6 +346,34 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
     }
     pb.interface_friction = std::asin(mu);
     pb.interface_cohesion = 0.0;
+  }
+  // ---- Coulomb contact with the DEM's walls (continuum.interface = "coulomb"): every
+  // axis-aligned segment of a [[wall]] is a rigid plane at rest in the shaking frame; the soil's
+  // boundary faces on it slide and separate with the friction the DEM particles meet there
+  // (dem_friction). Boundaries without a wall keep their box condition (sides rollers, base fixed).
+  if (co.interface == "coulomb") {
+    for (const auto& w : scene.walls) {
+      const auto mu = dem_friction(scene, w.mu_static, w.mu_dynamic);
+      if (!mu) {
+        message = fmt::format("continuum.interface = \"coulomb\" takes the friction of wall '{}' "
+                              "from the DEM: give the wall mu_static/mu_dynamic or a [soil.dem] "
+                              "section",
+                              w.name);
+        return false;
+      }
+      for (std::size_t k = 0; k + 1 < w.points.size(); ++k) {
+        const auto &a = w.points[k], &b = w.points[k + 1];
+        const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
+        if (std::abs(a.x - b.x) > tol && std::abs(a.z - b.z) > tol) continue; // inclined: none
+        fem::ContactPlane cp;
+        cp.name = w.name;
+        cp.a = {a.x, a.z};
+        cp.b = {b.x, b.z};
+        cp.mu_static = mu->first;
+        cp.mu_dynamic = mu->second;
+        pb.contacts.push_back(cp);
+      }
+    }
   }
   // ---- loads and procedures
   pb.gravity = scene.load.gravity;

@@ -681,9 +681,9 @@ ContinuumOptions read_continuum_options(Reader& r) {
     r.error("linear_solver",
             fmt::format("unknown solver '{}'; valid: cg-amg, gmres-amg, direct", o.linear_solver));
   o.interface = r.string("interface", o.interface);
-  if (o.interface != "tied" && o.interface != "frictional")
+  if (o.interface != "tied" && o.interface != "frictional" && o.interface != "coulomb")
     r.error("interface",
-            fmt::format("unknown interface '{}'; valid: tied, frictional", o.interface));
+            fmt::format("unknown interface '{}'; valid: tied, frictional, coulomb", o.interface));
   o.interface_friction_angle =
       r.in_range("interface_friction_angle", o.interface_friction_angle / kDeg, 0.0, 89.0) * kDeg;
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
@@ -694,6 +694,12 @@ ContinuumOptions read_continuum_options(Reader& r) {
   if (o.integrator != "implicit" && o.integrator != "explicit")
     r.error("integrator",
             fmt::format("unknown integrator '{}'; valid: implicit, explicit", o.integrator));
+  if (o.interface == "coulomb" && o.integrator != "explicit")
+    r.error("interface", fmt::format("interface = \"coulomb\" (zero-thickness Coulomb contact "
+                                     "with the walls and fixed structures) needs integrator = "
+                                     "\"explicit\", got \"{}\"; valid with \"{}\": tied, "
+                                     "frictional",
+                                     o.integrator, o.integrator));
   o.explicit_safety = r.in_range("explicit_safety", o.explicit_safety, 0.01, 1.0);
   o.local_damping = r.in_range("local_damping", o.local_damping, 0.0, 1.0);
   if (r.has("seat_structures")) o.seat_structures = r.boolean("seat_structures", true);

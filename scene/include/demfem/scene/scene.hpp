@@ -184,9 +184,13 @@ struct ContinuumOptions {
   // rayleigh_alpha or rayleigh_beta stated in the file: a calibrated continuum keeps them
   // (otherwise `calibrate = "dem"` sets both from the DEM's small-strain damping ratio)
   bool rayleigh_stated = false;
-  bool absorbing = false;                   // Lysmer dashpots on the sides and base
-  std::string linear_solver = "cg-amg";     // cg-amg | gmres-amg | direct
-  std::string interface = "tied";           // tied | frictional
+  bool absorbing = false;               // Lysmer dashpots on the sides and base
+  std::string linear_solver = "cg-amg"; // cg-amg | gmres-amg | direct
+  // Soil–structure/boundary interface: tied (shared nodes; base fixed, sides on rollers),
+  // frictional (a one-cell Mohr–Coulomb layer at the structures), coulomb (explicit only:
+  // zero-thickness Coulomb contact with the DEM's walls and fixed structures, with their μ;
+  // continuum/README.md)
+  std::string interface = "tied";
   double interface_friction_angle = 0.3491; // [rad]
   int load_steps = 20;                      // static procedure
   double newton_tolerance = 1e-8;
