@@ -499,7 +499,17 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
           edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
       std::string why;
       bool matched = false;
-      if (!any && !edge) {
+      // continuum.interface = "coulomb" (continuum/src/run.cpp): the wall is a zero-thickness
+      // Coulomb contact plane with the DEM's μ (continuum/README.md)
+      const bool coulomb = co.interface == "coulomb" && any && !edge;
+      if (coulomb) {
+        cont = fmt::format("Coulomb contact plane (continuum.interface = \"coulomb\"): zero "
+                           "thickness, μ_s {} / μ_D {}, slides and separates",
+                           g3(mu), g3(mu_d));
+        why = "Matched: the same wall friction; the soil slides on the wall at μ_D once μ_s is "
+              "exceeded and leaves it when pulled, as the DEM particles do.";
+        matched = true;
+      } else if (!any && !edge) {
         why = "The DEM soil has no wall on this side; the continuum's is held there.";
       } else if (std::string(side.name) == "base") {
         why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
@@ -542,8 +552,32 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
                          boundary_friction(st.mu_static, st.mu_dynamic, d));
     dem = "rigid bodies with frictional contacts that slide and open: " + dem;
     std::string cont, why;
+    bool matched = false;
     const double h = f.continuum.h_min > 0.0 ? f.continuum.h_min : 0.0;
-    if (co.interface == "frictional") {
+    if (co.interface == "coulomb") {
+      // continuum/src/run.cpp: structures with every DoF fixed are unmeshed Coulomb contact
+      // bodies; moving structures stay tied
+      std::string at_rest, moving;
+      for (const auto& st : s.structures) {
+        const bool fixed = st.dof_x == scene::DofMode::Fixed && st.dof_z == scene::DofMode::Fixed &&
+                           st.dof_rotation == scene::DofMode::Fixed;
+        std::string& list = fixed ? at_rest : moving;
+        list += fmt::format("{}'{}'", list.empty() ? "" : ", ", st.name);
+      }
+      if (!at_rest.empty())
+        cont = fmt::format("{}: zero-thickness Coulomb contact with the DEM's μ (not meshed; "
+                           "continuum.interface = \"coulomb\"), slides and separates",
+                           at_rest);
+      if (!moving.empty())
+        cont += fmt::format("{}{}: rigid bodies tied to the soil (Coulomb contact with moving "
+                            "bodies is not implemented)",
+                            cont.empty() ? "" : "; ", moving);
+      matched = moving.empty();
+      why = matched ? "Matched: zero-thickness contact with the same μ_s/μ_D, sliding and "
+                      "separation."
+                    : "The moving structures' faces are still bonded to the soil; the DEM's "
+                      "slide and open at μ.";
+    } else if (co.interface == "frictional") {
       const double mu = std::tan(co.interface_friction_angle);
       cont = fmt::format(
           "rigid bodies; the soil cells touching them form a Mohr–Coulomb layer one cell thick{} "
@@ -560,7 +594,7 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
       why = "The continuum's soil cannot slide along or separate from a structure; the DEM's "
             "does at μ. Wall friction and active wedges differ accordingly.";
     }
-    rows.push_back({"boundary: structure faces", dem, cont, why, false});
+    rows.push_back({"boundary: structure faces", dem, cont, why, matched});
   }
 
   // 6. damping (dem/src/engine.cpp: C, D global damping; contact law; continuum/src/run.cpp)

@@ -135,6 +135,7 @@ struct ContactForce {
   double fx = 0.0, fz = 0.0, moment = 0.0; // moment about the region's pivot (region planes)
   double normal = 0.0, tangential = 0.0;
   double dissipated = 0.0;
+  double max_slip = 0.0; // largest tangential displacement of a node along the plane [m]
   int nodes = 0, sliding = 0, open = 0;
 };
 

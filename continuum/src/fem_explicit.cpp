@@ -606,6 +606,10 @@ ContactForce Model::contact_force(std::size_t plane) const {
   Point pivot;
   if (p.region >= 0) pivot = m.pb.regions.at(static_cast<std::size_t>(p.region)).pivot;
   for (const auto& c : m.contact_state(plane)) {
+    if (m.ex.ready) {
+      const double ut = -c.nz * m.ex.u[c.ix] + c.nx * m.ex.u[c.iz];
+      out.max_slip = std::max(out.max_slip, std::abs(ut));
+    }
     if (c.N <= 0.0) {
       ++out.open;
       continue;

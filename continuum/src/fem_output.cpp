@@ -15,7 +15,8 @@ template <class M> bool eval_at(const M& m, const Vec& field_ghost, Point p, dou
   try {
     const auto hit =
         GridTools::find_active_cell_around_point(m.mapping, m.dof, dealii::Point<2>(p.x, p.z));
-    if (hit.first->is_locally_owned()) {
+    // a point off the mesh (e.g. inside an unmeshed contact body) gives an invalid iterator
+    if (hit.first.state() == IteratorState::valid && hit.first->is_locally_owned()) {
       const Quadrature<2> q(GeometryInfo<2>::project_to_unit_cell(hit.second));
       FEValues<2> fv(m.mapping, m.fe, q, update_values);
       fv.reinit(hit.first);

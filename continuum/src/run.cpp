@@ -782,6 +782,16 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                                               : failure);
     if (root) {
       log << m.log();
+      // Coulomb contact planes (continuum.interface = "coulomb"): state at the end
+      for (std::size_t k = 0; k < pb.contacts.size(); ++k) {
+        const fem::ContactForce c = m.contact_force(k);
+        const fem::ContactPlane& p = pb.contacts[k];
+        log << fmt::format("contact '{}' ({:.4g}, {:.4g})–({:.4g}, {:.4g}), μ_s = {}, μ_d = {}: {} "
+                           "nodes in contact ({} sliding), {} separated, soil force ({:.6g}, "
+                           "{:.6g}) N, largest slip {:.4g} m, frictional work {:.6g} J\n",
+                           p.name, p.a.x, p.a.z, p.b.x, p.b.z, p.mu_static, p.mu_dynamic, c.nodes,
+                           c.sliding, c.open, c.fx, c.fz, c.max_slip, c.dissipated);
+      }
       const double wall_dyn =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
       log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations, {} linear "

@@ -101,6 +101,35 @@ TEST(ReportModels, BoundariesAreWhatEachSolverDoes) {
   EXPECT_TRUE(ex->matched);
 }
 
+// continuum.interface = "coulomb": the walls are Coulomb contact planes with the DEM's μ and the
+// fixed wall an unmeshed contact body, so the boundary rows say matched; a moving structure stays
+// tied and its row says so.
+TEST(ReportModels, CoulombInterfaceMatchesTheBoundaries) {
+  auto s = wall_scene();
+  s.continuum.integrator = "explicit";
+  s.continuum.interface = "coulomb";
+  const auto rows = compare::model_differences(s, {});
+  for (const char* aspect : {"boundary: base", "boundary: left side"}) {
+    const auto* r = row(rows, aspect);
+    ASSERT_NE(r, nullptr) << aspect;
+    EXPECT_TRUE(r->matched) << aspect;
+    EXPECT_NE(r->continuum.find("Coulomb contact plane"), std::string::npos) << r->continuum;
+    EXPECT_NE(r->continuum.find("μ_s 0.5 / μ_D 0.2"), std::string::npos) << r->continuum;
+  }
+  const auto* faces = row(rows, "boundary: structure faces");
+  ASSERT_NE(faces, nullptr);
+  EXPECT_TRUE(faces->matched);
+  EXPECT_NE(faces->continuum.find("zero-thickness Coulomb contact"), std::string::npos)
+      << faces->continuum;
+
+  s.structures[0].dof_rotation = scene::DofMode::Free;
+  const auto moving = compare::model_differences(s, {});
+  const auto* m = row(moving, "boundary: structure faces");
+  ASSERT_NE(m, nullptr);
+  EXPECT_FALSE(m->matched);
+  EXPECT_NE(m->continuum.find("tied"), std::string::npos) << m->continuum;
+}
+
 TEST(ReportModels, SoilModelAndInitialStressRowsFollowTheScene) {
   auto s = wall_scene();
   compare::ModelFacts f;

@@ -322,3 +322,17 @@ TEST(SceneLoad, MissingFileIsAClearError) {
     EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
   }
 }
+
+// continuum.interface = "coulomb" (zero-thickness Coulomb contact) is an explicit-integrator
+// feature: with the implicit integrator it is refused at the key, saying what is valid.
+TEST(SceneLoad, CoulombInterfaceNeedsTheExplicitIntegrator) {
+  const std::string implicit_coulomb =
+      kValid + "\n[continuum]\nintegrator = \"implicit\"\ninterface = \"coulomb\"\n";
+  const int line = int(std::count(kValid.begin(), kValid.end(), '\n')) + 4;
+  expect_error(implicit_coulomb, line, "needs integrator = \"explicit\"");
+  expect_error(kValid + "\n[continuum]\ninterface = \"sticky\"\n", 0,
+               "valid: tied, frictional, coulomb");
+  const auto ok = parse_scene(
+      kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = \"coulomb\"\n", "test.toml");
+  EXPECT_EQ(ok.base.continuum.interface, "coulomb");
+}
