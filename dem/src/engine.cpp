@@ -320,9 +320,9 @@ void Engine::check_rebuild() {
   const double* z = p_.z.data();
   const double* xr = x_ref_.data();
   const double* zr = z_ref_.data();
-  const int T = threads_in_use();
-  if (T > 1) {
-#pragma omp parallel for num_threads(T) schedule(static) reduction(max : m2)
+  const int A = team_size();
+  if (A > 1) { // a max is exact in any order
+#pragma omp parallel for num_threads(A) schedule(static) reduction(max : m2)
     for (std::size_t i = 0; i < n; ++i) {
       const double dx = x[i] - xr[i], dz = z[i] - zr[i];
       m2 = std::max(m2, dx * dx + dz * dz);
@@ -519,14 +519,10 @@ void Engine::rebuild() {
       search(0, n, new_j);
     } else { // contiguous owner chunks, concatenated in order: the same list for any thread count
       std::vector<std::vector<std::uint32_t>> tj(tcount);
-#pragma omp parallel num_threads(T)
+#pragma omp parallel num_threads(team_size())
       {
-#ifdef _OPENMP
-        const auto t = static_cast<std::size_t>(omp_get_thread_num());
-#else
-        const std::size_t t = 0;
-#endif
-        search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
+        const auto [t0, ts] = team_member();
+        for (std::size_t t = t0; t < tcount; t += ts) search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
       }
       std::size_t total = 0;
       for (const auto& v : tj) total += v.size();
@@ -544,7 +540,7 @@ void Engine::rebuild() {
   // Carry the history over: both lists are sorted by (owner, partner).
   std::vector<ContactHistory> new_hist(new_j.size());
   if (nbr_start_.size() == n + 1) {
-#pragma omp parallel for num_threads(T) schedule(static) if (T > 1)
+#pragma omp parallel for num_threads(team_size()) schedule(static) if (T > 1)
     for (std::size_t i = 0; i < n; ++i) {
       std::uint32_t a = nbr_start_[i];
       const std::uint32_t ae = nbr_start_[i + 1];
@@ -698,6 +694,20 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
   energies[4] += e_s;
 }
 
+int Engine::team_size() const {
+  const int T = threads_in_use();
+  return team_ > 0 ? std::min(team_, T) : T;
+}
+
+std::pair<std::size_t, std::size_t> Engine::team_member() {
+#ifdef _OPENMP
+  return {static_cast<std::size_t>(omp_get_thread_num()),
+          static_cast<std::size_t>(omp_get_num_threads())};
+#else
+  return {0, 1};
+#endif
+}
+
 int Engine::threads_in_use() const {
   if (p_.size() < config_.parallel_min_particles) return 1;
   int t = config_.threads;
@@ -733,30 +743,32 @@ template <class Law> void Engine::pair_forces(const Law& law) {
           nbr_start_.begin());
       split_[t] = std::max(split_[t], split_[t - 1]);
     }
-    if (tbuf_.size() < 3 * n * tcount) tbuf_.resize(3 * n * tcount);
+    // Part 0 accumulates straight into the (zeroed) particle force arrays, parts 1 … T−1 into
+    // their own buffers, which are then added per particle in part order: f = f₀ + (f₁ + …).
+    if (tbuf_.size() < 3 * n * (tcount - 1)) tbuf_.resize(3 * n * (tcount - 1));
     std::vector<double> ten(5 * tcount, 0.0);
     std::vector<std::uint32_t> tfail(2 * tcount, ~0u);
     double* buf = tbuf_.data();
     double* fxo = p_.fx.data();
     double* fzo = p_.fz.data();
     double* tqo = p_.torque.data();
-#pragma omp parallel num_threads(T)
+#pragma omp parallel num_threads(team_size())
     {
-#ifdef _OPENMP
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
-#else
-      const std::size_t t = 0;
-#endif
-      double* bx = buf + 3 * n * t;
-      double* bz = bx + n;
-      double* bt = bz + n;
-      std::fill(bx, bx + 3 * n, 0.0);
-      pair_range(law, split_[t], split_[t + 1], bx, bz, bt, &ten[5 * t], &tfail[2 * t]);
+      // Part t of the T parts always accumulates into buffer t, whichever thread runs it: the
+      // result depends on T only, not on how many threads the adaptive team has right now.
+      const auto [t0, ts] = team_member();
+      for (std::size_t t = t0; t < tcount; t += ts) {
+        double* bx = t == 0 ? fxo : buf + 3 * n * (t - 1);
+        double* bz = t == 0 ? fzo : bx + n;
+        double* bt = t == 0 ? tqo : bz + n;
+        if (t > 0) std::fill(bx, bx + 3 * n, 0.0);
+        pair_range(law, split_[t], split_[t + 1], bx, bz, bt, &ten[5 * t], &tfail[2 * t]);
+      }
 #pragma omp barrier
 #pragma omp for schedule(static)
       for (std::size_t i = 0; i < n; ++i) {
         double sx = 0.0, sz = 0.0, st = 0.0;
-        for (std::size_t u = 0; u < tcount; ++u) {
+        for (std::size_t u = 0; u + 1 < tcount; ++u) {
           sx += buf[3 * n * u + i];
           sz += buf[3 * n * u + n + i];
           st += buf[3 * n * u + 2 * n + i];
@@ -1019,15 +1031,11 @@ void Engine::integrate() {
     const auto tcount = static_cast<std::size_t>(T);
     std::vector<double> ts(2 * tcount, 0.0);
     std::vector<std::size_t> tb(tcount, none);
-#pragma omp parallel num_threads(T)
+#pragma omp parallel num_threads(team_size())
     {
-#ifdef _OPENMP
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
-#else
-      const std::size_t t = 0;
-#endif
-      const std::size_t i0 = n * t / tcount, i1 = n * (t + 1) / tcount;
-      integrate_range(i0, i1, ax_body, az_body, &ts[2 * t], &tb[t]);
+      const auto [t0, tstride] = team_member();
+      for (std::size_t t = t0; t < tcount; t += tstride)
+        integrate_range(n * t / tcount, n * (t + 1) / tcount, ax_body, az_body, &ts[2 * t], &tb[t]);
     }
     for (std::size_t t = 0; t < tcount; ++t) {
       sums[0] += ts[2 * t];
@@ -1127,6 +1135,62 @@ void Engine::step() {
   update_structures();
   time_ += dt_;
   ++stats_.steps;
+  tune_team();
+}
+
+void Engine::tune_team() {
+  const int T = threads_in_use();
+  if (T <= 1) return;
+  const bool one = team_size() == 1;
+  ++(one ? stats_.team_one_steps : stats_.team_full_steps);
+  auto& tu = tuner_;
+  if (tu.fixed || !config_.adaptive_threads) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (!tu.started) { // start with one thread and probe the full team at once: a stalled full
+    tu.started = true; // team is what costs, so it is only ever tried for short probes
+    tu.t0 = now;
+    tu.steps = 0;
+    tu.current = 1;
+    team_ = 1;
+    tu.until_probe = 1;
+    tu.probe_every = 1;
+    return;
+  }
+  ++tu.steps;
+  const double elapsed = std::chrono::duration<double>(now - tu.t0).count();
+  // A probe behind the current choice's pace (after at least a quarter window's worth of time)
+  // has lost: stop it now. A stalled team can be 10–50× slower; a whole window of it would cost
+  // more than the adaptation gains.
+  const bool lost =
+      tu.probing && elapsed > tu.current_per_step *
+                                  static_cast<double>(std::max(tu.steps, tu.window / 4)) / 0.95;
+  if (tu.steps < tu.window && !lost) return;
+  const double per = elapsed / static_cast<double>(tu.steps);
+  // Windows of ≈ 0.1 s of the current choice: long enough to average over rebuilds and
+  // scheduler slices, short enough to follow a core that becomes busy or free.
+  if (!tu.probing && elapsed < 0.05 && tu.window < (1L << 16)) tu.window *= 2;
+  if (!tu.probing && elapsed > 0.2 && tu.window > 1) tu.window /= 2;
+  if (tu.probing) {
+    tu.probing = false;
+    if (!lost && per < 0.95 * tu.current_per_step) { // the other choice is faster: keep it
+      tu.current = team_;
+      tu.current_per_step = per;
+      tu.probe_every = 1;
+      ++stats_.team_switches;
+    } else { // back, and probe less often while the current choice keeps winning
+      team_ = tu.current;
+      tu.probe_every = std::min(2 * tu.probe_every, 64);
+    }
+    tu.until_probe = tu.probe_every;
+  } else {
+    tu.current_per_step = per;
+    if (--tu.until_probe <= 0) {
+      tu.probing = true;
+      team_ = tu.current == 1 ? 0 : 1;
+    }
+  }
+  tu.t0 = now;
+  tu.steps = 0;
 }
 
 void Engine::run_steps(long long n) {

@@ -13,11 +13,13 @@
 // Everything here is plain computation: no I/O.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "demfem/dem/contact_laws.hpp"
@@ -60,6 +62,11 @@ struct EngineConfig {
   // bit-identical between runs at the same count, and equal to round-off across counts.
   int threads = 1;
   std::size_t parallel_min_particles = 2048; // fewer particles: one thread (no fork overhead)
+  // threads > 1: the work is always cut into `threads` parts (so results depend on that count
+  // only), but how many threads run the parts is chosen by measurement while the run goes: a
+  // team of 1 takes over when the full team is slower (a core shared with another process makes
+  // every barrier wait for a descheduled thread). false: always the full team.
+  bool adaptive_threads = true;
 };
 
 // Engine configuration from a scene's [soil.dem] and [load] sections.
@@ -111,6 +118,8 @@ struct EngineStats {
   // Wall-clock seconds spent in the neighbour rebuild (incl. reorder) and the force loops
   // (profiling; not part of the state).
   double rebuild_seconds = 0.0, force_seconds = 0.0;
+  // threads > 1: steps run by the full team / by one thread (adaptive team), team switches.
+  long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
 };
 
 // Boundary = a wall polyline or a structure outline, made of segment and vertex features.
@@ -165,7 +174,16 @@ public:
 
   // ---- threads ----------------------------------------------------------------------------
   void set_threads(int threads) { config_.threads = threads; }
-  [[nodiscard]] int threads_in_use() const; // for the current particle count
+  [[nodiscard]] int threads_in_use() const; // parts the work is cut into (current count)
+  // Threads that run those parts now (≤ threads_in_use(); the adaptive team's current choice).
+  [[nodiscard]] int team_size() const;
+  // Fixes the team size (1 … threads; results do not change with it) and stops adapting it;
+  // 0: the full team, adaptive again when the configuration says so. For tests and benchmarks.
+  void set_team(int k) {
+    team_ = k;
+    tuner_ = {};
+    tuner_.fixed = k > 0;
+  }
 
   // ---- checkpoint / resume ----------------------------------------------------------------
   // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
@@ -230,6 +248,21 @@ private:
                   double* tq, double* energies, std::uint32_t* fail_pair);
   void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
                        std::size_t* bad);
+  // Inside a parallel region: (this thread's number, team size).
+  static std::pair<std::size_t, std::size_t> team_member();
+  void tune_team(); // after each step: measures, and switches the adaptive team
+
+  // Adaptive team: windows of whole steps are timed with the current team; now and then one
+  // window runs with the other choice (1 thread or all), and the faster one is kept.
+  int team_ = 0; // 0: the full team
+  struct TeamTuner {
+    bool fixed = false, started = false, probing = false;
+    std::chrono::steady_clock::time_point t0{};
+    long steps = 0, window = 8;
+    int current = 0;              // team size outside probes (0: full)
+    double current_per_step = 0; // seconds per step of the last window with `current`
+    int until_probe = 4, probe_every = 4;
+  } tuner_;
 
   EngineConfig config_;
   Particles p_;
