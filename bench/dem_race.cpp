@@ -42,7 +42,9 @@ double coordination(const demfem::dem::Engine& e, std::vector<demfem::dem::Conta
 int main(int argc, char** argv) {
   using namespace demfem;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1]\n");
+    std::fprintf(
+        stderr,
+        "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1]\n");
     return 2;
   }
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;

@@ -34,6 +34,7 @@
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
+#include "demfem/dem/stable_step.hpp"
 #if __has_include("demfem/dem/pack.hpp")
 #include "demfem/dem/pack.hpp"
 #define DEMFEM_DEM_HAS_PACK 1
@@ -255,7 +256,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   if (!history.empty()) e.load_contact_history(history);
   const double dt_scene = scene.soil.dem->dt;
   try {
-    e.set_dt(dt_scene > 0.0 ? dt_scene : e.auto_dt());
+    set_scene_dt(e, dt_scene > 0.0 ? dt_scene : e.auto_dt());
   } catch (scene::SceneError& err) {
     auto diags = err.diagnostics();
     for (auto& d : diags) d.file = scene.source_file;

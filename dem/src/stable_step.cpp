@@ -60,6 +60,7 @@
 #include <fmt/format.h>
 
 #include "demfem/dem/engine.hpp"
+#include "demfem/scene/load.hpp"
 
 namespace demfem::dem {
 
@@ -177,6 +178,17 @@ std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene) {
   const auto b = scene_critical_step(scene);
   if (!b) return std::nullopt;
   return scene::DemStepLimit{b->dt, b->formula()};
+}
+
+void set_scene_dt(Engine& e, double dt) {
+  try {
+    e.set_dt(dt);
+  } catch (const StepRefused& r) {
+    scene::Diagnostic d;
+    d.key = "soil.dem.dt";
+    d.message = scene::dem_step_refusal(r.dt, {r.limit, r.formula}, r.auto_dt);
+    throw scene::SceneError({d});
+  }
 }
 
 } // namespace demfem::dem

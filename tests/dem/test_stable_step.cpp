@@ -157,7 +157,16 @@ particles = [[-0.06, 0.0, 0.05, 0.0, 0.0, 0.0], [0.06, 0.0, 0.05, 0.0, 0.0, 0.0]
   for (const auto& q : file.base.soil.dem->particles) e.add_particle(q[0], q[1], q[2]);
   EXPECT_DOUBLE_EQ(e.stable_dt(), sb->dt);
   const double m = 2650.0 * std::numbers::pi * 0.05 * 0.05;
-  EXPECT_NEAR(sb->dt, std::sqrt(m / 6.0e6), 1e-15); // shear–rotation mode, k_s = k_n
-  EXPECT_THROW(e.set_dt(1.01 * sb->dt), scene::SceneError);
+  EXPECT_NEAR(sb->dt, std::sqrt(m / 6.0e6), 1e-15);   // shear–rotation mode, k_s = k_n
+  EXPECT_THROW(e.set_dt(1.01 * sb->dt), StepRefused); // the engine knows no scene
   EXPECT_NO_THROW(e.set_dt(0.99 * sb->dt));
+  try { // a Δt from a scene: a located scene error at soil.dem.dt, with the limit
+    set_scene_dt(e, 1.01 * sb->dt);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const scene::SceneError& err) {
+    ASSERT_EQ(err.diagnostics().size(), 1u);
+    EXPECT_EQ(err.diagnostics()[0].key, "soil.dem.dt");
+    EXPECT_NE(err.diagnostics()[0].message.find("stable"), std::string::npos)
+        << err.diagnostics()[0].message;
+  }
 }

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -49,7 +50,7 @@ struct EngineConfig {
   bool sphere_mass = false;
   double gravity = 9.81;    // along −z [m/s²]
   double max_overlap = 0.5; // blow-up: δ > max_overlap · r
-  double dt_safety = 0.14; // automatic Δt = dt_safety · stable_dt() (scene.hpp)
+  double dt_safety = 0.14;  // automatic Δt = dt_safety · stable_dt() (scene.hpp)
   std::vector<Material> materials{Material{}}; // index 0: the soil
   // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
   bool shaking = false;
@@ -67,6 +68,13 @@ struct EngineConfig {
   // team of 1 takes over when the full team is slower (a core shared with another process makes
   // every barrier wait for a descheduled thread). false: always the full team.
   bool adaptive_threads = true;
+};
+
+// Δt refused by Engine::set_dt: not positive, or above the stable limit.
+struct StepRefused : std::runtime_error {
+  StepRefused(double dt_, double limit_, std::string formula_, double auto_dt_);
+  double dt, limit, auto_dt;
+  std::string formula; // how the limit was computed (stable_step.hpp)
 };
 
 // Engine configuration from a scene's [soil.dem] and [load] sections.
@@ -153,7 +161,8 @@ public:
   // The critical step of the smallest particle in a dense packing (stable_step.hpp).
   [[nodiscard]] double stable_dt() const;
   [[nodiscard]] double auto_dt() const { return config_.dt_safety * stable_dt(); }
-  // Throws scene::SceneError (key soil.dem.dt) when dt exceeds stable_dt().
+  // Throws StepRefused (the limit, its formula and the automatic step) when dt ≤ 0 or above
+  // stable_dt(); callers with a scene turn it into a located scene error (set_scene_dt, run.hpp).
   void set_dt(double dt);
   [[nodiscard]] double dt() const { return dt_; }
 
@@ -259,7 +268,7 @@ private:
     bool fixed = false, started = false, probing = false;
     std::chrono::steady_clock::time_point t0{};
     long steps = 0, window = 8;
-    int current = 0;              // team size outside probes (0: full)
+    int current = 0;             // team size outside probes (0: full)
     double current_per_step = 0; // seconds per step of the last window with `current`
     int until_probe = 4, probe_every = 4;
   } tuner_;

@@ -15,6 +15,7 @@
 namespace demfem::dem {
 
 struct EngineConfig;
+class Engine;
 
 // What the bound needs: the contact law's stiffnesses and damping, and the smallest particle.
 struct StepParams {
@@ -55,5 +56,9 @@ struct StepBound {
 // scene_critical_step in the form scene::set_dem_step_limit() takes: the application installs
 // it so that loading a scene checks soil.dem.dt against this bound (scene/validate.hpp).
 [[nodiscard]] std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene);
+
+// e.set_dt(dt) for a Δt that comes from a scene: a refusal becomes a scene::SceneError at the
+// key soil.dem.dt (located by the app), with the limit, its formula and the automatic step.
+void set_scene_dt(Engine& e, double dt);
 
 } // namespace demfem::dem
