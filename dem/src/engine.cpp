@@ -54,7 +54,24 @@ EngineConfig make_config(const scene::Scene& scene) {
   return c;
 }
 
-Engine::Engine(EngineConfig config) : config_(std::move(config)) {
+AnyContactLaw make_contact_law(const EngineConfig& c) {
+  switch (c.law) {
+  case scene::ContactLaw::CundallDashpot:
+    return CundallDashpot{{c.kn, c.ks, c.eta_n, c.eta_s}};
+  case scene::ContactLaw::LinearRestitution:
+    return LinearRestitution{{c.kn, c.ks, LinearRestitution::damping_ratio(c.restitution)}};
+  case scene::ContactLaw::HertzMindlin: {
+    const double E = c.young, nu = c.poisson;
+    return HertzMindlin{{E / (2.0 * (1.0 - nu * nu)),           // E* for equal materials
+                         E / (4.0 * (2.0 - nu) * (1.0 + nu))}}; // G/(2(2−ν)), G = E/(2(1+ν))
+  }
+  case scene::ContactLaw::CundallRebound:
+    break;
+  }
+  return CundallRebound{{c.kn, c.ks, c.rebound, c.rebound_speed, c.tension, c.tensile_strength}};
+}
+
+Engine::Engine(EngineConfig config) : config_(std::move(config)), law_(make_contact_law(config_)) {
   if (config_.materials.empty()) config_.materials.push_back(Material{});
 }
 

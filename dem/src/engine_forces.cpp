@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <variant>
 
 #include <fmt/format.h>
 #ifdef _OPENMP
@@ -329,45 +330,15 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
 }
 
 void Engine::compute_forces() {
-  const std::size_t n = p_.size();
   std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
   std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
   std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
-  switch (config_.law) {
-  case scene::ContactLaw::CundallRebound: {
-    CundallRebound law;
-    law.p = {config_.kn,      config_.ks,
-             config_.rebound, config_.rebound_speed,
-             config_.tension, config_.tensile_strength};
-    pair_forces(law);
-    boundary_forces(law);
-    break;
-  }
-  case scene::ContactLaw::CundallDashpot: {
-    CundallDashpot law;
-    law.p = {config_.kn, config_.ks, config_.eta_n, config_.eta_s};
-    pair_forces(law);
-    boundary_forces(law);
-    break;
-  }
-  case scene::ContactLaw::LinearRestitution: {
-    LinearRestitution law;
-    law.p = {config_.kn, config_.ks, LinearRestitution::damping_ratio(config_.restitution)};
-    pair_forces(law);
-    boundary_forces(law);
-    break;
-  }
-  case scene::ContactLaw::HertzMindlin: {
-    HertzMindlin law;
-    const double E = config_.young, nu = config_.poisson;
-    law.p.e_star = E / (2.0 * (1.0 - nu * nu));         // equal materials
-    law.p.g_star = E / (4.0 * (2.0 - nu) * (1.0 + nu)); // G/(2(2−ν)) with G = E/(2(1+ν))
-    pair_forces(law);
-    boundary_forces(law);
-    break;
-  }
-  }
-  (void)n;
+  std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
+      [this](const auto& law) {
+        pair_forces(law);
+        boundary_forces(law);
+      },
+      law_);
 }
 
 } // namespace demfem::dem

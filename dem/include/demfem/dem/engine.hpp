@@ -77,6 +77,9 @@ struct StepRefused : std::runtime_error {
   std::string formula; // how the limit was computed (stable_step.hpp)
 };
 
+// The contact law of a configuration, with its parameters (contact_laws.hpp).
+[[nodiscard]] AnyContactLaw make_contact_law(const EngineConfig& config);
+
 // Engine configuration from a scene's [soil.dem] and [load] sections.
 [[nodiscard]] EngineConfig make_config(const scene::Scene& scene);
 
@@ -274,6 +277,7 @@ private:
   } tuner_;
 
   EngineConfig config_;
+  AnyContactLaw law_; // built once from config_
   Particles p_;
   double dt_ = 0.0, time_ = 0.0;
   std::string failure_;
