@@ -921,7 +921,22 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
       return kBadInput;
     }
   for (const scene::Scene* s : scenes) {
-    const bool closed = compare::head_on_closed_form(*s).has_value();
+    std::string why;
+    const bool closed = compare::head_on_closed_form(*s, &why).has_value();
+    const bool surface = std::any_of(s->probes.begin(), s->probes.end(), [](const scene::Probe& p) {
+      return p.kind == scene::ProbeKind::SurfaceProfile;
+    });
+    if (!closed && s->structures.empty() && !surface) {
+      fmt::print(stderr,
+                 "{}: error: the error-vs-time study measures a scene without a closed form with "
+                 "the comparison's metric table (a structure's thrust, settlement, rotation; the "
+                 "surface) and this scene has no [[structure]] and no surface-profile probe; it "
+                 "has no closed form either ({}); valid: a scene with a structure or a "
+                 "surface-profile probe, a head-on collision of two listed disks (e.g. "
+                 "cases/verification/head_on_collision.toml) or `flamant`\n",
+                 path, why);
+      return kBadInput;
+    }
     fs::path out =
         a.out.empty() ? fs::path("runs") / s->info.name / "study-error-vs-time" : fs::path(a.out);
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
