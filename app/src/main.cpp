@@ -853,7 +853,8 @@ struct ErrorStudyArgs {
   std::string solver = "both";          // scenes without a closed form: dem | continuum | both
   std::vector<std::string> integrators; // continuum: explicit, implicit
   double max_run_seconds = 300.0;
-  double duration = 0.0; // --duration (0: the scene's)
+  double duration = 0.0;           // --duration (0: the scene's)
+  std::string kn_packing = "same"; // same | deposit
 };
 int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyArgs& ea) {
   compare::ErrorStudyOptions o;
@@ -873,6 +874,7 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   o.solvers = ea.solver;
   o.integrators = ea.integrators;
   o.max_run_seconds = ea.max_run_seconds;
+  o.kn_same_packing = ea.kn_packing != "deposit";
   if (ea.duration > 0.0) o.duration = ea.duration;
   if (path == "flamant") {
 #ifndef DEMFEM_WITH_CONTINUUM
@@ -1054,7 +1056,7 @@ int cmd_study_point(const PointArgs& pa) {
 
 // `demfem study stability SCENE` (issue 11): the DEM rows of the stability matrix.
 int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a, double duration,
-              ErrorStudyArgs ea) {
+              ErrorStudyArgs ea, bool repack) {
   ea.duration = duration;
   if (kind == "error-vs-time") return cmd_error_study(path, a, ea);
   if (kind != "stability") {
@@ -1092,6 +1094,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
     compare::StudyOptions o;
     o.out_dir = out;
     o.threads = a.threads;
+    o.repack = repack;
     if (duration > 0.0) o.duration = duration;
 #ifdef DEMFEM_WITH_CONTINUUM
     if (cont)
@@ -1206,6 +1209,7 @@ int main(int argc, char** argv) {
   compare->footer(kExitCodes);
   std::string study_kind;
   double study_duration = 0.0;
+  bool study_repack = false;
   ErrorStudyArgs ea;
   auto* study = app.add_subcommand(
       "study", "stability: stiff and extreme variants (DEM rows; continuum rows for scenes with "
@@ -1239,11 +1243,21 @@ int main(int argc, char** argv) {
                    "other)")
       ->delimiter(',');
   study
+      ->add_option("--kn-packing", ea.kn_packing,
+                   "error-vs-time on a packed scene: the K_n settings start from the scene's "
+                   "packing (same) or each deposit their own (deposit)")
+      ->default_val("same")
+      ->check(CLI::IsMember({"same", "deposit"}));
+  study
       ->add_option("--max-run-seconds", ea.max_run_seconds,
                    "error-vs-time on a scene: a run past this is stopped and the finer settings "
                    "of its knob skipped (listed in the study) [s]; 0 = no limit")
       ->default_val(300.0)
       ->check(CLI::NonNegativeNumber);
+  study->add_flag("--repack", study_repack,
+                  "stability, packed scenes: deposit the packing of every row whose soil "
+                  "parameters change (default: such rows are skipped unless their packing is "
+                  "cached)");
   study->add_option("--threads", ra.threads, "stability: DEM OpenMP threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   study->add_option("--jobs", ea.jobs, "error-vs-time: runs at once (separate processes)")
@@ -1327,7 +1341,7 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);
     if (*compare) return cmd_compare(ra);
-    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration, ea);
+    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration, ea, study_repack);
     if (*study_point) return cmd_study_point(pa);
     if (*calibrate) return cmd_calibrate(ra, ca);
     if (*pack) return cmd_pack(ra);

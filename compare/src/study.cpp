@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
@@ -142,6 +143,23 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
       continue;
     }
     row.dt_limit = limit_of(s);
+    if (!o.repack && s.soil.dem->particles.empty() &&
+        dem::packing_key(s) != dem::packing_key(base) &&
+        !std::filesystem::exists(dem::packing_path(s, o.out_dir / "rows" / var.name))) {
+      const auto& d = *s.soil.dem;
+      const auto b = dem::scene_critical_step(s);
+      const double dt = d.dt > 0.0 ? d.dt : b ? d.dt_safety * b->dt : 0.0;
+      row.outcome = "skipped";
+      row.cause = fmt::format(
+          "needs its own packing (K_n, K_s, μ and the radii are in the packing key), not in the "
+          "cache: a deposition of up to {:g} s simulated{}; run with --repack to deposit it",
+          d.packing.max_time,
+          dt > 0.0
+              ? fmt::format(" ≈ {:.3g} steps of {} particles", d.packing.max_time / dt, d.count)
+              : std::string());
+      rows.push_back(row);
+      continue;
+    }
     dem::RunOptions ro;
     ro.out_dir = o.out_dir / "rows" / var.name;
     ro.threads = o.threads;
@@ -257,10 +275,12 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
       };
   std::vector<std::pair<std::string, std::vector<std::string>>> dem_body, cont_body;
   for (const auto& r : rows) {
-    const std::string cls = r.outcome == "not applicable" ? "na" : r.outcome;
+    const std::string cls =
+        r.outcome == "not applicable" || r.outcome == "skipped" ? "na" : r.outcome;
     const bool ran = r.outcome == "completed" || r.outcome == "stopped";
-    const std::string wall =
-        r.outcome == "not applicable" ? "–" : fmt::format("{:.2f}", r.wall_seconds);
+    const std::string wall = r.outcome == "not applicable" || r.outcome == "skipped"
+                                 ? "–"
+                                 : fmt::format("{:.2f}", r.wall_seconds);
     if (r.solver == "continuum") {
       std::string res = "–";
       if (!r.residuals.empty())

@@ -63,13 +63,14 @@ std::map<std::string, double> measure(const fs::path& run, const scene::Scene& s
       out[name] = v;
       if (desc)
         (*desc)[name] = fmt::format(
-            "|x − x_ref| / |x_ref| of the {} {} [{}] ({}), x_ref from the same solver's most "
+            "|x − x_ref| / |x_ref| of the {} {} [{}]{}, x_ref from the same solver's most "
             "resolved run",
             m.def.quantity,
             std::string(part) == "static"      ? "static value (at rest, before the load)"
             : std::string(part) == "increment" ? "mean increment over the late window"
                                                : "oscillation amplitude over the late window",
-            m.def.unit, surface && std::string(part) == "increment" ? "minus the subsidence" : "");
+            m.def.unit,
+            surface && std::string(part) == "increment" ? " (minus the subsidence)" : "");
     }
   }
   return out;
@@ -170,6 +171,18 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
           "each point's cache key (the key includes Δt), so only the step differs",
           base_pk, pr.measure.porosity, pk_dir.string()));
     }
+    // A copy of the scene's packing under the cache key of `s` in the study's own cache, so that
+    // the run of `s` starts from the same particles (the key includes Δt and K_n: without the copy
+    // each setting would deposit its own bed).
+    const auto same_packing = [&](scene::Scene& s) {
+      if (base_pk.empty()) return;
+      s.soil.dem->packing.cache = fs::absolute(pk_dir).string();
+      const fs::path to = dem::packing_path(s, o.out_dir);
+      auto ck = dem::io::read_checkpoint(base_pk);
+      // the label pack_or_load checks (dem/src/pack.cpp): this setting's key
+      ck.meta.label = "packing " + dem::packing_key(s) + " " + s.info.name;
+      dem::io::write_checkpoint(to, ck.particles, ck.meta, ck.extra);
+    };
     std::vector<Job> dt_jobs;
     std::vector<double> fr = o.scene_dt_fractions;
     std::sort(fr.rbegin(), fr.rend()); // coarse first
@@ -177,14 +190,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       scene::Scene s = base;
       s.output.vtk = false;
       s.soil.dem->dt = f * bound->dt;
-      if (!base_pk.empty()) {
-        s.soil.dem->packing.cache = fs::absolute(pk_dir).string();
-        const fs::path to = dem::packing_path(s, o.out_dir);
-        auto ck = dem::io::read_checkpoint(base_pk);
-        // the label pack_or_load checks (dem/src/pack.cpp): this point's key
-        ck.meta.label = "packing " + dem::packing_key(s) + " " + s.info.name;
-        dem::io::write_checkpoint(to, ck.particles, ck.meta, ck.extra);
-      }
+      same_packing(s);
       auto j = job_for("dem", "dt", "dem-dt-" + frac_label(f), f, s);
       j.point.dt = j.point.x = s.soil.dem->dt;
       dt_jobs.push_back(std::move(j));
@@ -202,7 +208,9 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       d.young *= f;
       d.dt = 0.0; // automatic
       double porosity = NAN;
-      if (d.particles.empty()) {
+      if (d.particles.empty() && o.kn_same_packing) {
+        same_packing(s);
+      } else if (d.particles.empty()) {
         // deposited with this K_n (the packing key includes K_n), before the timed run
         const auto pr = dem::pack_or_load(s, o.out_dir);
         porosity = pr.measure.porosity;
@@ -215,12 +223,19 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     }
     if (!kn_jobs.empty()) {
       groups.push_back(std::move(kn_jobs));
-      if (base.soil.dem->particles.empty())
+      if (base.soil.dem->particles.empty() && o.kn_same_packing)
+        st.notes.push_back(
+            "DEM K_n points: K_n and K_s scaled, automatic Δt, on the scene's packing (deposited "
+            "with the scene's K_n): its overlaps carry the weight at the scene's K_n, so at t = 0 "
+            "a point's contact forces are f × those that balance the weight — the bed rises "
+            "(f > 1) or sinks (f < 1) until its overlaps are 1/f of the packing's, and that "
+            "transient is part of the point's error (--kn-packing deposit gives each K_n its own "
+            "deposition instead)");
+      else if (base.soil.dem->particles.empty())
         st.notes.push_back(
             "DEM K_n points: K_n and K_s scaled, automatic Δt; each K_n deposits its own packing "
-            "(the packing cache key includes K_n: a softer bed settles denser under its weight), "
-            "so a K_n point changes the bed as well as the contact stiffness; each point's "
-            "porosity is in its results");
+            "(the packing cache key includes K_n), so a K_n point changes the bed as well as the "
+            "contact stiffness; each point's porosity is in its results");
     }
   }
 

@@ -33,15 +33,15 @@ TEST(ContinuumStability, NearIncompressibleLockingWithoutBbar) {
   EXPECT_EQ(with.residuals.size(), 1u);
 }
 
-// A structure 10⁶× stiffer than the soil: the direct solver carries the contrast (the embedded
-// block rocks like a rigid footing: within [1, 1.25] × the rigid surface footing's stiffness) and
-// the explicit stable step shrinks by about √10⁶ (reported in the measure).
+// A structure 10⁶× stiffer than the soil: the direct solver carries the contrast (the block's
+// rocking stiffness equals that of the same block 10³× stiffer, already rigid in effect, within
+// 0.5 %; its own compliance is 10⁻³ of the soil's) and the explicit stable step shrinks by about
+// √10⁶ (reported in the measure).
 TEST(ContinuumStability, StructureMillionTimesStifferSolves) {
   const auto c = stiff_structure_case(1.0e6, 2);
   print(c);
   ASSERT_EQ(c.outcome, "completed") << c.cause;
-  EXPECT_GE(c.value / c.bound, 1.0);
-  EXPECT_LE(c.value / c.bound, 1.25);
+  EXPECT_NEAR(c.value / c.bound, 1.0, 0.005);
   EXPECT_NE(c.measure.find("explicit stable step"), std::string::npos);
 }
 

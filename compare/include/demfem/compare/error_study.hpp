@@ -39,6 +39,9 @@ struct ErrorStudyOptions {
   // DEM: Δt as fractions of the critical step; K_n (and K_s) multipliers, automatic Δt
   std::vector<double> scene_dt_fractions = {0.5, 0.25, 0.125};
   std::vector<double> scene_kn_factors = {0.3, 1.0, 3.0};
+  // K_n points on the scene's packing (true) or each on its own, deposited with its K_n (false:
+  // the packing key includes K_n; costs a deposition per factor)
+  bool kn_same_packing = true;
   // continuum: refinements (empty: the scene's refinement − 2 … the scene's), degrees, and
   // integrators (empty: the scene's, then the other)
   std::vector<int> scene_refinements;

@@ -23,6 +23,11 @@ struct StudyOptions {
   std::filesystem::path out_dir;  // rows go to out_dir/rows/<name>, tables to out_dir
   std::optional<double> duration; // override the scene's duration for every row [s]
   int threads = 1;
+  // Packed scenes: a row whose packing differs from the scene's (K_n, μ, radii are in the packing
+  // key) and is not in the cache is deposited only with `repack`; otherwise it is listed as
+  // skipped, with the cost it would take (a paper scene's deposition takes minutes to hours at
+  // K_n × 1000).
+  bool repack = false;
   // The continuum rows of a scene with [soil.continuum] (compare/ does not link the continuum:
   // the application supplies them, continuum/stability.hpp); unset: none.
   std::function<std::vector<StabilityRow>(const scene::Scene&)> continuum_rows;
@@ -32,7 +37,8 @@ struct StabilityRow {
   std::string solver = "dem"; // "dem" or "continuum"
   std::string name;           // e.g. "kn-x100"
   std::string description;    // what was changed
-  // "completed", "refused" (at setup), "stopped" (during the run), "not applicable"
+  // "completed", "refused" (at setup), "stopped" (during the run), "not applicable", "skipped"
+  // (a packing that would have to be deposited first: StudyOptions::repack)
   std::string outcome;
   std::string cause;              // refusal or stop message; why not applicable
   double dt = 0.0;                // step used [s]

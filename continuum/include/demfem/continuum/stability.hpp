@@ -32,8 +32,9 @@ struct StabilityCase {
 [[nodiscard]] StabilityCase rocking_locking_case(double nu, bool bbar, int degree);
 
 // The same footing on an elastic block E_block = ratio × E_soil (0.25 m thick, tied to the soil):
-// the direct solver must carry the stiffness contrast (K_r within its bound of the rigid
-// footing's) and the explicit stable step shrinks with √ratio (reported).
+// the direct solver must carry the stiffness contrast (K_r equal to that of the same block 10³×
+// stiffer, already rigid in effect: the bound) and the explicit stable step shrinks with √ratio
+// (reported).
 [[nodiscard]] StabilityCase stiff_structure_case(double ratio, int degree);
 
 // Uniform pressure q = factor × (2 + π)c on a strip (half-width 0.5 m) over weightless undrained
