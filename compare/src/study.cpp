@@ -1,6 +1,7 @@
 // `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
 #include "demfem/compare/study.hpp"
 #include "html.hpp"
+#include "study_runs.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -25,6 +26,9 @@ struct Variant {
   std::string name, description;
   // Edits the scene copy; returns "" or why the variant does not apply to this scene.
   std::function<std::string(scene::Scene&)> apply;
+  // Runs on the scene's own packing (only the run changes: Δt, shaking); otherwise a packed
+  // scene's row deposits its own (K_n, μ, radii are deposition parameters).
+  bool same_packing = false;
 };
 
 double limit_of(const scene::Scene& s) {
@@ -34,7 +38,7 @@ double limit_of(const scene::Scene& s) {
 
 std::vector<Variant> dem_variants(const scene::Scene& base) {
   std::vector<Variant> v;
-  v.push_back({"base", "the scene as given", [](scene::Scene&) { return std::string(); }});
+  v.push_back({"base", "the scene as given", [](scene::Scene&) { return std::string(); }, true});
   for (const double f : {10.0, 100.0, 1000.0})
     v.push_back({fmt::format("kn-x{:g}", f),
                  fmt::format("K_n and K_s (hertz-mindlin: E) × {:g}, automatic Δt", f),
@@ -53,7 +57,8 @@ std::vector<Variant> dem_variants(const scene::Scene& base) {
                    if (!(lim > 0.0)) return std::string("no stable limit (no particle radius)");
                    s.soil.dem->dt = f * lim;
                    return std::string();
-                 }});
+                 },
+                 true});
   for (const double mu : {0.0, 2.0})
     v.push_back(
         {fmt::format("mu-{:g}", mu), fmt::format("μ_s = μ_D = {:g}", mu), [mu](scene::Scene& s) {
@@ -81,7 +86,8 @@ std::vector<Variant> dem_variants(const scene::Scene& base) {
                  sh.acceleration = scene::TimeFunction::sine(20.0, 20.0);
                  s.load.shaking = sh;
                  return std::string();
-               }});
+               },
+               true});
   v.push_back({"overlap-20pct", "listed radii × 1.1: touching neighbours overlap by 0.2 r",
                [](scene::Scene& s) {
                  auto& d = *s.soil.dem;
@@ -143,6 +149,13 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
       continue;
     }
     row.dt_limit = limit_of(s);
+    if (var.same_packing && s.soil.dem->particles.empty() &&
+        dem::packing_key(s) != dem::packing_key(base)) {
+      // the scene's packing (deposited or read from the cache once), under this row's key
+      const std::filesystem::path base_pk = dem::packing_path(base, o.out_dir);
+      if (!std::filesystem::exists(base_pk)) (void)dem::pack_or_load(base, o.out_dir);
+      study_detail::use_packing(base_pk, s, o.out_dir / "packings");
+    }
     if (!o.repack && s.soil.dem->particles.empty() &&
         dem::packing_key(s) != dem::packing_key(base) &&
         !std::filesystem::exists(dem::packing_path(s, o.out_dir / "rows" / var.name))) {

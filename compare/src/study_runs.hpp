@@ -38,4 +38,10 @@ void add_fit(ErrorStudy& st, const std::string& knob, const std::string& metric,
              const std::string& against, double x_max);
 std::string frac_label(double f);
 
+// Makes `s` start from the packing checkpoint `from` (another scene's: e.g. the same scene with
+// another Δt, which the packing key includes): writes it into `cache_dir` under s's cache key and
+// label and points s's packing cache there (study_scene.cpp).
+void use_packing(const std::filesystem::path& from, scene::Scene& s,
+                 const std::filesystem::path& cache_dir);
+
 } // namespace demfem::compare::study_detail

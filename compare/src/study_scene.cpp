@@ -88,6 +88,16 @@ double load_period(const scene::Scene& s) {
 
 } // namespace
 
+void study_detail::use_packing(const fs::path& from, scene::Scene& s, const fs::path& cache_dir) {
+  fs::create_directories(cache_dir);
+  s.soil.dem->packing.cache = fs::absolute(cache_dir).string();
+  const fs::path to = dem::packing_path(s, cache_dir);
+  auto ck = dem::io::read_checkpoint(from);
+  // the label pack_or_load checks (dem/src/pack.cpp): this scene's key
+  ck.meta.label = "packing " + dem::packing_key(s) + " " + s.info.name;
+  dem::io::write_checkpoint(to, ck.particles, ck.meta, ck.extra);
+}
+
 ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions& o) {
   scene::Scene base = base0;
   if (o.duration) base.info.duration = *o.duration;
@@ -175,13 +185,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     // the run of `s` starts from the same particles (the key includes Δt and K_n: without the copy
     // each setting would deposit its own bed).
     const auto same_packing = [&](scene::Scene& s) {
-      if (base_pk.empty()) return;
-      s.soil.dem->packing.cache = fs::absolute(pk_dir).string();
-      const fs::path to = dem::packing_path(s, o.out_dir);
-      auto ck = dem::io::read_checkpoint(base_pk);
-      // the label pack_or_load checks (dem/src/pack.cpp): this setting's key
-      ck.meta.label = "packing " + dem::packing_key(s) + " " + s.info.name;
-      dem::io::write_checkpoint(to, ck.particles, ck.meta, ck.extra);
+      if (!base_pk.empty()) use_packing(base_pk, s, pk_dir);
     };
     std::vector<Job> dt_jobs;
     std::vector<double> fr = o.scene_dt_fractions;
@@ -256,7 +260,11 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
         std::vector<Job> js;
         for (const int r : refs) {
           scene::Scene s = base;
-          s.output.vtk = true; // the surface comes from the .vtu snapshots
+          // the surface comes from the .vtu snapshots: at least 8 per loading period (the
+          // metric split's amplitude needs 4), else 20 over the run
+          s.output.vtk = true;
+          s.output.interval =
+              std::min(s.output.interval, period > 0.0 ? period / 8.0 : s.info.duration / 20.0);
           s.continuum.refinement = r;
           s.continuum.degree = p;
           s.continuum.integrator = in;
