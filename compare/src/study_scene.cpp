@@ -144,7 +144,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     }
     const scene::Solver sv = solver == "dem" ? scene::Solver::Dem : scene::Solver::Continuum;
     j.evaluate = [s, sv](ErrorPoint& p, const fs::path& rd) {
-      p.results = measure(rd, s, sv, nullptr);
+      for (const auto& [k, v] : measure(rd, s, sv, nullptr)) p.results[k] = v;
       std::ifstream in(rd.string() + ".json");
       if (in) {
         const auto js = nlohmann::json::parse(in);
@@ -157,7 +157,8 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
           p.x = js.value("h_min", 0.0);
         }
       }
-      if (p.results.empty()) throw std::runtime_error("no metric of the table in the run's output");
+      if (p.results.empty() || (p.results.size() == 1 && p.results.count("porosity")))
+        throw std::runtime_error("no metric of the table in the run's output");
     };
     return j;
   };
