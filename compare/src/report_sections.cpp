@@ -48,6 +48,25 @@ std::string study_summary(const nlohmann::json& j) {
     for (const auto& [k, v] : n) parts += fmt::format("{}{} {}", parts.empty() ? "" : ", ", v, k);
     return s + (parts.empty() ? "" : ": " + parts);
   }
+  if (kind == "error-vs-time" && j.contains("reference_runs") && j["reference_runs"].is_object() &&
+      j.contains("points") && j["points"].is_array()) {
+    // a scene without a closed form: each solver against its most resolved run
+    std::string refs, front;
+    for (const auto& [solver, name] : j["reference_runs"].items())
+      refs += fmt::format("{}{}: {}", refs.empty() ? "" : ", ", solver,
+                          name.is_string() ? name.get<std::string>() : std::string("?"));
+    for (const auto& p : j["points"])
+      if (p.value("pareto", false))
+        front += (front.empty() ? "" : ", ") + p.value("name", std::string("?"));
+    return fmt::format("{} ({}), {} runs against the most resolved run of each solver ({}); "
+                       "primary metric {}; Pareto front {}",
+                       j.value("solver", std::string("?")),
+                       j.value("duration", 0.0) > 0.0
+                           ? fmt::format("{:g} s simulated", j.value("duration", 0.0))
+                           : std::string("scene duration"),
+                       j["points"].size(), refs, j.value("primary_metric", std::string("?")),
+                       front.empty() ? std::string("–") : front);
+  }
   if (kind == "error-vs-time" && j.contains("fits") && j["fits"].is_array()) {
     std::string s;
     for (const auto& f : j["fits"]) {

@@ -698,6 +698,8 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   j["primary_metric"] = st.primary_metric;
   j["metrics"] = st.metric_descriptions;
   j["closed_form"] = st.closed_form;
+  if (const auto d = st.closed_form.find("duration"); d != st.closed_form.end())
+    j["duration"] = d->second;
   j["expected_order"] = st.expected_order;
   j["expected_order_note"] = st.expected_order_note;
   j["repeats"] = st.repeats;

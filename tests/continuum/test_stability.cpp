@@ -58,14 +58,19 @@ TEST(ContinuumStability, ExplicitStepAboveCriticalIsRefused) {
   EXPECT_GT(c.value, c.bound);
 }
 
-// Loads near and beyond the Prandtl limit (2 + π)c: at 0.9 × the run completes every load step;
-// at 1.1 × Newton finds no equilibrium and the run stops, saying at which load, after reaching at
-// least 0.9 × (the FE collapse load of this mesh is within 5 % of (2 + π)c).
-TEST(ContinuumStability, LoadsNearAndBeyondPrandtlLimit) {
+// A load near the Prandtl limit (2 + π)c: at 0.9 × the run completes every load step.
+TEST(ContinuumStability, LoadNearPrandtlLimitCompletes) {
   const auto near = bearing_capacity_case(0.9, 2);
   print(near);
   EXPECT_EQ(near.outcome, "completed") << near.cause;
   EXPECT_NEAR(near.value, 0.9, 1e-12);
+  EXPECT_EQ(near.residuals.size(), 10u);
+}
+
+// Beyond the limit, at 1.1 × (2 + π)c, Newton finds no equilibrium and the run stops, saying at
+// which load, after completing the load steps up to at least 0.9 × (the FE collapse load of this
+// mesh is within 5 % of (2 + π)c).
+TEST(ContinuumStability, LoadBeyondPrandtlLimitStopsWithNoEquilibrium) {
   const auto beyond = bearing_capacity_case(1.1, 2);
   print(beyond);
   EXPECT_EQ(beyond.outcome, "stopped");
