@@ -6,7 +6,9 @@
 // contacts_per_particle: mean coordination number Z = 2 × (particle–particle contacts with
 // distance ≤ r_i + r_j) / N, wall contacts excluded, averaged over `zn` samples taken every
 // steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
-// Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor]
+// Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
+// adaptive=0: the full team of `threads` always (no adaptive team, EngineConfig::adaptive_threads);
+// adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
 #include <chrono>
 #include <cmath>
@@ -40,7 +42,9 @@ double coordination(const demfem::dem::Engine& e, std::vector<demfem::dem::Conta
 int main(int argc, char** argv) {
   using namespace demfem;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin]\n");
+    std::fprintf(
+        stderr,
+        "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1]\n");
     return 2;
   }
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
@@ -55,11 +59,14 @@ int main(int argc, char** argv) {
   }
   auto cfg = dem::make_config(sc);
   cfg.threads = threads;
-  if (argc > 5) cfg.skin_factor = std::atof(argv[5]);
+  if (argc > 5 && std::atof(argv[5]) > 0.0) cfg.skin_factor = std::atof(argv[5]);
+  const int adaptive = argc > 6 ? std::atoi(argv[6]) : 1;
+  cfg.adaptive_threads = adaptive > 0;
   dem::Engine e(cfg);
   for (const auto& q : sc.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
   for (const auto& w : sc.walls) e.add_wall(w);
   e.set_dt(sc.soil.dem->dt > 0.0 ? sc.soil.dem->dt : e.auto_dt());
+  if (adaptive < 0) e.set_team(-adaptive); // a fixed team of −adaptive threads
   std::vector<dem::ContactView> buf;
   const double z0 = coordination(e, buf); // no contacts listed before the first step
   (void)z0;
@@ -85,7 +92,7 @@ int main(int argc, char** argv) {
   std::fprintf(stderr,
                "# rebuilds %lld, reorders %lld, pair entries/particle %.2f, rebuild+check %.3f s, "
                "forces %.3f s, bytes/particle %.1f (particles %.1f, history %.1f, lists %.1f, "
-               "grid %.1f, other %.1f)%s%s\n",
+               "grid %.1f, other %.1f), team steps full/one %lld/%lld, switches %lld%s%s\n",
                st.neighbour_rebuilds, st.reorders,
                static_cast<double>(st.pair_entries) / static_cast<double>(n), st.rebuild_seconds,
                st.force_seconds, static_cast<double>(m.total()) / static_cast<double>(n),
@@ -93,7 +100,8 @@ int main(int argc, char** argv) {
                static_cast<double>(m.contact_history) / static_cast<double>(n),
                static_cast<double>(m.neighbour_lists) / static_cast<double>(n),
                static_cast<double>(m.grid) / static_cast<double>(n),
-               static_cast<double>(m.other) / static_cast<double>(n), e.failed() ? " FAILED: " : "",
+               static_cast<double>(m.other) / static_cast<double>(n), st.team_full_steps,
+               st.team_one_steps, st.team_switches, e.failed() ? " FAILED: " : "",
                e.failed() ? e.failure().c_str() : "");
   return e.failed() ? 1 : 0;
 }

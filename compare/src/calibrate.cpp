@@ -16,6 +16,7 @@
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/pack.hpp"
+#include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
@@ -498,7 +499,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       exclude.push_back(b);
     }
     if (!bed.contact_history.empty()) e.load_contact_history(bed.contact_history);
-    e.set_dt(d.dt > 0.0 ? d.dt : e.auto_dt());
+    dem::set_scene_dt(e, d.dt > 0.0 ? d.dt : e.auto_dt());
     e.run_steps(200);
     const double W = x1 - x0, H = c.bed_height;
     const calib::StressWindow win{x0 + 0.1 * W, x1 - 0.1 * W, zb + 4.0 * rmax,

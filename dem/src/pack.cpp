@@ -18,6 +18,7 @@
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/key_hash.hpp"
+#include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
@@ -692,7 +693,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   for (std::size_t i = 0; i < pl.x.size(); ++i) ep->add_particle(pl.x[i], pl.z[i], pl.r[i]);
   std::vector<double> seat_dz(scene.structures.size(), 0.0), seat_rot = seat_dz;
   add_boundaries(*ep, false, seat_dz, seat_rot);
-  ep->set_dt(d.dt > 0.0 ? d.dt : ep->auto_dt());
+  set_scene_dt(*ep, d.dt > 0.0 ? d.dt : ep->auto_dt());
 
   Trial res;
   res.scale = scale;

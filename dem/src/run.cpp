@@ -34,6 +34,7 @@
 
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
+#include "demfem/dem/stable_step.hpp"
 #if __has_include("demfem/dem/pack.hpp")
 #include "demfem/dem/pack.hpp"
 #define DEMFEM_DEM_HAS_PACK 1
@@ -255,7 +256,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   if (!history.empty()) e.load_contact_history(history);
   const double dt_scene = scene.soil.dem->dt;
   try {
-    e.set_dt(dt_scene > 0.0 ? dt_scene : e.auto_dt());
+    set_scene_dt(e, dt_scene > 0.0 ? dt_scene : e.auto_dt());
   } catch (scene::SceneError& err) {
     auto diags = err.diagnostics();
     for (auto& d : diags) d.file = scene.source_file;
@@ -718,6 +719,14 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (*w) (*w)->flush();
   for (auto& pw : pressure_csv) pw.second.flush();
   report("dem");
+  if (const auto& st = e.stats(); st.team_full_steps + st.team_one_steps > 0) {
+    const double all = static_cast<double>(st.team_full_steps + st.team_one_steps);
+    spdlog::info("threads: work cut into {} parts; {:.0f} % of the steps ran on {} threads, "
+                 "{:.0f} % on one (adaptive team: one thread where the full team measured slower, "
+                 "e.g. a core shared with another process); results depend on the part count only",
+                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_full_steps) / all,
+                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all);
+  }
   summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a particle checkpoint (readable without the engine); a failed write throws.
   {

@@ -48,7 +48,7 @@
 // mass/inertia): ξ = max(C, D)/(2ω_max). The largest ξ is used.
 //
 // Hertz–Mindlin: the tangent stiffnesses at 5 % overlap of r_min, R* = r_min/2 (as
-// HertzMindlin::max_stiffness): k_n = 2E*√(R*δ), k_s = 8G*√(R*δ) (Johnson, Contact Mechanics,
+// HertzMindlin::step_stiffness): k_n = 2E*√(R*δ), k_s = 8G*√(R*δ) (Johnson, Contact Mechanics,
 // 1985, §4.2; Mindlin 1949), E* = E/(2(1 − ν²)), G* = E/(4(2 − ν)(1 + ν)).
 #include "demfem/dem/stable_step.hpp"
 
@@ -56,10 +56,12 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <variant>
 
 #include <fmt/format.h>
 
 #include "demfem/dem/engine.hpp"
+#include "demfem/scene/load.hpp"
 
 namespace demfem::dem {
 
@@ -72,14 +74,7 @@ StepBound critical_step(const StepParams& p) {
   StepBound b;
   b.dt = std::numeric_limits<double>::infinity();
   if (!(p.m_min > 0.0) || !(p.r_min > 0.0)) return b;
-  double kn = p.kn, ks = p.ks;
-  if (p.law == scene::ContactLaw::HertzMindlin) {
-    const double e_star = p.young / (2.0 * (1.0 - p.poisson * p.poisson));         // Johnson 4.22
-    const double g_star = p.young / (4.0 * (2.0 - p.poisson) * (1.0 + p.poisson)); // Mindlin
-    const double root = std::sqrt(0.5 * p.r_min * 0.05 * p.r_min); // √(R* δ), δ = 5 % r_min
-    kn = 2.0 * e_star * root; // dF/dδ of (4/3)E*√R* δ^{3/2}
-    ks = 8.0 * g_star * root;
-  }
+  const double kn = p.kn, ks = p.ks;
   b.kn = kn;
   b.ks = ks;
   const double g = 1.0 / p.inertia_factor;
@@ -90,25 +85,8 @@ StepBound critical_step(const StepParams& p) {
   b.shear_mode = ws2 > wn2;
   b.omega_pair = std::sqrt(wp2);
   b.omega_max = std::sqrt(coordination_margin(p.inertia_factor) * wp2);
-  // Damping ratios (see the derivation above).
-  const double m_star = 0.5 * p.m_min;
-  double xi = 0.0;
-  switch (p.law) {
-  case scene::ContactLaw::CundallDashpot:
-    if (kn > 0.0) xi = std::max(xi, p.eta_n / (2.0 * std::sqrt(m_star * kn)));
-    if (ks > 0.0) xi = std::max(xi, p.eta_s / (2.0 * std::sqrt(m_star * ks)));
-    break;
-  case scene::ContactLaw::LinearRestitution:
-    if (p.restitution > 0.0 && p.restitution < 1.0) {
-      const double le = std::log(p.restitution);
-      xi = std::max(xi, -le / std::sqrt(std::numbers::pi * std::numbers::pi + le * le));
-    } else if (!(p.restitution > 0.0)) {
-      xi = std::max(xi, 1.0); // e = 0: critically damped and beyond
-    }
-    break;
-  default:
-    break;
-  }
+  // Damping ratios (see the derivation above): the contact's (from the law) and global damping's.
+  double xi = p.xi;
   xi = std::max(xi, std::max(p.damping_c, p.damping_d) / (2.0 * b.omega_max));
   b.damping_factor = std::sqrt(1.0 + xi * xi) - xi;
   b.dt = 2.0 / b.omega_max * b.damping_factor;
@@ -126,14 +104,11 @@ std::string StepBound::formula() const {
 
 StepParams step_params(const EngineConfig& c, double m_min, double r_min) {
   StepParams p;
-  p.law = c.law;
-  p.kn = c.kn;
-  p.ks = c.ks;
-  p.young = c.young;
-  p.poisson = c.poisson;
-  p.eta_n = c.eta_n;
-  p.eta_s = c.eta_s;
-  p.restitution = c.restitution;
+  const auto k = std::visit([&](const auto& law) { return law.step_stiffness(r_min, 0.5 * m_min); },
+                            make_contact_law(c));
+  p.kn = k.kn;
+  p.ks = k.ks;
+  p.xi = k.xi;
   p.damping_c = c.damping_c;
   p.damping_d = c.damping_d;
   p.m_min = m_min;
@@ -177,6 +152,17 @@ std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene) {
   const auto b = scene_critical_step(scene);
   if (!b) return std::nullopt;
   return scene::DemStepLimit{b->dt, b->formula()};
+}
+
+void set_scene_dt(Engine& e, double dt) {
+  try {
+    e.set_dt(dt);
+  } catch (const StepRefused& r) {
+    scene::Diagnostic d;
+    d.key = "soil.dem.dt";
+    d.message = scene::dem_step_refusal(r.dt, {r.limit, r.formula}, r.auto_dt);
+    throw scene::SceneError({d});
+  }
 }
 
 } // namespace demfem::dem

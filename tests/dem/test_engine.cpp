@@ -475,11 +475,12 @@ TEST(DemTimeStep, UnstableStepIsRefusedWithLimit) {
   EXPECT_NEAR(lim, std::sqrt(disk_mass(base_config(), 0.05) / 2.0e6), 1e-12); // k_s = 0.3 k_n
   try {
     e.set_dt(1.5 * lim);
-    FAIL() << "expected SceneError";
-  } catch (const scene::SceneError& err) {
-    EXPECT_NE(std::string(err.diagnostics().at(0).message).find(fmt::format("{:.4g}", lim)),
-              std::string::npos)
-        << err.diagnostics().at(0).message;
+    FAIL() << "expected StepRefused";
+  } catch (const StepRefused& err) {
+    EXPECT_EQ(err.limit, lim);
+    EXPECT_EQ(err.dt, 1.5 * lim);
+    EXPECT_NE(std::string(err.what()).find(fmt::format("{:.6g}", lim)), std::string::npos)
+        << err.what();
   }
   EXPECT_NO_THROW(e.set_dt(0.9 * lim));
 }

@@ -280,6 +280,56 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
   EXPECT_NEAR(f1, f2a, 1e-9 * std::max(1.0, std::abs(f1)));
 }
 
+// The adaptive team: the work is cut into `threads` parts whatever the number of threads that run
+// them, so a team that changes size during the run (1 … threads, as the tuner does on a busy
+// machine) gives results bit-identical to the full team.
+namespace {
+// (out of line: GCC 12 warns falsely about EngineConfig's materials list when inlined here)
+[[gnu::noinline]] dem::EngineConfig team_test_config(int threads) {
+  dem::EngineConfig c;
+  c.kn = 1e7;
+  c.ks = 3e6;
+  c.damping_c = 2.0;
+  c.threads = threads;
+  c.parallel_min_particles = 0;
+  return c;
+}
+} // namespace
+
+TEST(DemThreads, TeamSizeDoesNotChangeResults) {
+  auto run = [](int threads, bool vary) {
+    dem::Engine e(team_test_config(threads));
+    const int n = 1000, cols = 40;
+    e.add_wall({{0, 10}, {0, 0}, {cols * 0.151 + 0.01, 0}, {cols * 0.151 + 0.01, 10}}, "box");
+    std::mt19937_64 g(7);
+    auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
+    for (int k = 0; k < n; ++k) {
+      const double r = 0.04 + 0.035 * u();
+      e.add_particle(0.08 + 0.151 * (k % cols), 0.08 + 0.151 * (k / cols), r, 2 * u() - 1,
+                     2 * u() - 1);
+    }
+    e.set_dt(e.auto_dt());
+    if (!vary) e.set_team(0);
+    for (int s = 0; s < 300; ++s) {
+      if (vary) e.set_team(1 + (s / 7) % threads); // 1, 2, …, threads, 1, … every 7 steps
+      e.step();
+    }
+    EXPECT_FALSE(e.failed()) << e.failure();
+    EXPECT_GT(e.stats().neighbour_rebuilds, 3); // the rebuild ran with several team sizes too
+    if (vary) {
+      EXPECT_GT(e.stats().team_one_steps, 0);
+      EXPECT_GT(e.stats().team_full_steps, 0);
+    }
+    return std::pair{e.particles(), e.energy().friction};
+  };
+  for (const int threads : {2, 3}) {
+    const auto [pf, ff] = run(threads, false);
+    const auto [pv, fv] = run(threads, true);
+    expect_same_particles(pf, pv);
+    EXPECT_EQ(ff, fv);
+  }
+}
+
 // A packing stores its particle–particle contact history; the cache returns the same blob and a
 // run that starts from the packing starts with its shear springs.
 TEST(DemResume, PackingKeepsContactHistory) {

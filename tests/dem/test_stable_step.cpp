@@ -122,16 +122,20 @@ TEST(StableStep, CoordinationMarginCoversTheTriangularLattice) {
 
 // Dashpots lower the limit by √(1 + ξ²) − ξ (Belytschko et al. 2000, eq. 6.3.36).
 TEST(StableStep, DampingLowersTheLimit) {
-  auto p = params(1.0e6, 3.0e5, 0.5);
-  const double undamped = critical_step(p).dt;
-  p.law = scene::ContactLaw::LinearRestitution;
-  p.restitution = 0.5;
+  EngineConfig c; // the laws' own step data (contact_laws.hpp), through step_params
+  c.kn = 1.0e6;
+  c.ks = 3.0e5;
+  const double undamped = critical_step(step_params(c, 1.0, 1.0)).dt;
+  c.law = scene::ContactLaw::LinearRestitution;
+  c.restitution = 0.5;
   const double le = std::log(0.5),
                xi = -le / std::sqrt(std::numbers::pi * std::numbers::pi + le * le);
-  EXPECT_NEAR(critical_step(p).dt, undamped * (std::sqrt(1 + xi * xi) - xi), 1e-15);
-  p.law = scene::ContactLaw::CundallDashpot;
-  p.eta_n = 2.0 * 0.3 * std::sqrt(0.5 * 1.0e6); // ξ_n = 0.3 at m* = m/2
-  EXPECT_NEAR(critical_step(p).dt, undamped * (std::sqrt(1.09) - 0.3), 1e-15);
+  EXPECT_NEAR(critical_step(step_params(c, 1.0, 1.0)).dt, undamped * (std::sqrt(1 + xi * xi) - xi),
+              1e-15);
+  c.law = scene::ContactLaw::CundallDashpot;
+  c.eta_n = 2.0 * 0.3 * std::sqrt(0.5 * 1.0e6); // ξ_n = 0.3 at m* = m/2
+  EXPECT_NEAR(critical_step(step_params(c, 1.0, 1.0)).dt, undamped * (std::sqrt(1.09) - 0.3),
+              1e-15);
 }
 
 // The engine refuses a step above the bound and names it; the scene-level bound (what `check`
@@ -157,7 +161,16 @@ particles = [[-0.06, 0.0, 0.05, 0.0, 0.0, 0.0], [0.06, 0.0, 0.05, 0.0, 0.0, 0.0]
   for (const auto& q : file.base.soil.dem->particles) e.add_particle(q[0], q[1], q[2]);
   EXPECT_DOUBLE_EQ(e.stable_dt(), sb->dt);
   const double m = 2650.0 * std::numbers::pi * 0.05 * 0.05;
-  EXPECT_NEAR(sb->dt, std::sqrt(m / 6.0e6), 1e-15); // shear–rotation mode, k_s = k_n
-  EXPECT_THROW(e.set_dt(1.01 * sb->dt), scene::SceneError);
+  EXPECT_NEAR(sb->dt, std::sqrt(m / 6.0e6), 1e-15);   // shear–rotation mode, k_s = k_n
+  EXPECT_THROW(e.set_dt(1.01 * sb->dt), StepRefused); // the engine knows no scene
   EXPECT_NO_THROW(e.set_dt(0.99 * sb->dt));
+  try { // a Δt from a scene: a located scene error at soil.dem.dt, with the limit
+    set_scene_dt(e, 1.01 * sb->dt);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const scene::SceneError& err) {
+    ASSERT_EQ(err.diagnostics().size(), 1u);
+    EXPECT_EQ(err.diagnostics()[0].key, "soil.dem.dt");
+    EXPECT_NE(err.diagnostics()[0].message.find("stable"), std::string::npos)
+        << err.diagnostics()[0].message;
+  }
 }

@@ -1,6 +1,9 @@
-// Contact laws of the DEM engine: small evaluator structs with a POD parameter block and an
-// evaluate() member. The contact loop is a template instantiated once per law, so there is no
-// virtual call per contact. No I/O, no allocation.
+// Contact laws of the DEM engine: small evaluator structs, each in one place with its parameter
+// block, its stable-step data (step_stiffness) and its evaluate() member. The engine builds one
+// AnyContactLaw from its configuration (make_contact_law, engine.hpp) and visits it once per
+// step; the contact loop is a template instantiated once per law, so there is no virtual call or
+// switch per contact. A new law is one more struct here, one more alternative of AnyContactLaw
+// and one more case in make_contact_law. No I/O, no allocation.
 //
 // ---- Sign convention (the one used everywhere in dem/) ------------------------------------------
 // Coordinates x right, z up. Rotations and moments counter-clockwise positive.
@@ -24,6 +27,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <variant>
 
 namespace demfem::dem {
 
@@ -144,6 +148,13 @@ inline void end_contact(ContactHistory& h, double k_t, ContactResult& r) {
 
 } // namespace detail
 
+// What the stable time step needs from a law (stable_step.cpp): the stiffnesses of one contact
+// between two of the smallest particles (radius r_min, pair mass m* = m_min/2) and the damping
+// ratio ξ of that contact's dashpots.
+struct StepStiffness {
+  double kn = 0.0, ks = 0.0, xi = 0.0;
+};
+
 // ---- cundall-rebound: the paper's law ----------------------------------------------------------
 // Linear normal spring e_n = K_n δ (eq. 2.6 integrated from first touch, where δ = 0), no tension
 // (eq. 2.8) unless `tension` (then the contact bonds at first touch and carries tension up to
@@ -173,7 +184,11 @@ struct CundallRebound {
     double tensile_strength = 0.0; // [N]
   } p;
 
-  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+  static constexpr const char* name = "cundall-rebound";
+  // The rebound impulse acts once per collision, not as a dashpot: ξ = 0.
+  [[nodiscard]] StepStiffness step_stiffness(double /*r_min*/, double /*m_star*/) const {
+    return {p.kn, p.ks, 0.0};
+  }
 
   ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
     ContactResult r;
@@ -220,7 +235,14 @@ struct CundallDashpot {
     double kn = 1.0e6, ks = 3.0e5, eta_n = 0.0, eta_s = 0.0;
   } p;
 
-  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+  static constexpr const char* name = "cundall-dashpot";
+  // ξ = η / (2√(m* k)), the critical-damping fraction of each dashpot (the larger one)
+  [[nodiscard]] StepStiffness step_stiffness(double /*r_min*/, double m_star) const {
+    double xi = 0.0;
+    if (p.kn > 0.0) xi = std::max(xi, p.eta_n / (2.0 * std::sqrt(m_star * p.kn)));
+    if (p.ks > 0.0) xi = std::max(xi, p.eta_s / (2.0 * std::sqrt(m_star * p.ks)));
+    return {p.kn, p.ks, xi};
+  }
 
   ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
     ContactResult r;
@@ -259,7 +281,11 @@ struct LinearRestitution {
     const double le = std::log(e);
     return -le / std::sqrt(M_PI * M_PI + le * le);
   }
-  [[nodiscard]] double max_stiffness(double /*r_min*/) const { return p.kn; }
+  static constexpr const char* name = "linear-restitution";
+  // ξ = ζ(e); e ≥ 1: none; e = 0 (ζ not finite): critically damped
+  [[nodiscard]] StepStiffness step_stiffness(double /*r_min*/, double /*m_star*/) const {
+    return {p.kn, p.ks, std::isfinite(p.zeta) ? std::max(p.zeta, 0.0) : 1.0};
+  }
 
   ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
     ContactResult r;
@@ -297,9 +323,12 @@ struct HertzMindlin {
     double e_star = 1.0, g_star = 1.0;
   } p;
 
-  // dF/dδ = 2 E* √(R* δ) at δ = 5 % of the smallest radius, R* = r_min/2 (for the time step).
-  [[nodiscard]] double max_stiffness(double r_min) const {
-    return 2.0 * p.e_star * std::sqrt(0.5 * r_min * 0.05 * r_min);
+  static constexpr const char* name = "hertz-mindlin";
+  // Tangent stiffnesses at δ = 5 % of the smallest radius, R* = r_min/2: k_n = dF/dδ =
+  // 2E*√(R*δ) (Johnson, Contact Mechanics, eq. 4.22), k_s = 8G*√(R*δ) (Mindlin 1949)
+  [[nodiscard]] StepStiffness step_stiffness(double r_min, double /*m_star*/) const {
+    const double root = std::sqrt(0.5 * r_min * 0.05 * r_min);
+    return {2.0 * p.e_star * root, 8.0 * p.g_star * root, 0.0};
   }
 
   ContactResult evaluate(const ContactInput& in, ContactHistory& h) const {
@@ -323,5 +352,8 @@ struct HertzMindlin {
     return r;
   }
 };
+
+// The laws the engine knows; one is chosen per engine (make_contact_law) and visited per step.
+using AnyContactLaw = std::variant<CundallRebound, CundallDashpot, LinearRestitution, HertzMindlin>;
 
 } // namespace demfem::dem

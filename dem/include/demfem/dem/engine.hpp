@@ -13,11 +13,14 @@
 // Everything here is plain computation: no I/O.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "demfem/dem/contact_laws.hpp"
@@ -47,7 +50,7 @@ struct EngineConfig {
   bool sphere_mass = false;
   double gravity = 9.81;    // along −z [m/s²]
   double max_overlap = 0.5; // blow-up: δ > max_overlap · r
-  double dt_safety = 0.14; // automatic Δt = dt_safety · stable_dt() (scene.hpp)
+  double dt_safety = 0.14;  // automatic Δt = dt_safety · stable_dt() (scene.hpp)
   std::vector<Material> materials{Material{}}; // index 0: the soil
   // Base shaking as body force m·a(t) (paper §6); direction 'x' or 'z'; inactive when !shaking.
   bool shaking = false;
@@ -60,7 +63,22 @@ struct EngineConfig {
   // bit-identical between runs at the same count, and equal to round-off across counts.
   int threads = 1;
   std::size_t parallel_min_particles = 2048; // fewer particles: one thread (no fork overhead)
+  // threads > 1: the work is always cut into `threads` parts (so results depend on that count
+  // only), but how many threads run the parts is chosen by measurement while the run goes: a
+  // team of 1 takes over when the full team is slower (a core shared with another process makes
+  // every barrier wait for a descheduled thread). false: always the full team.
+  bool adaptive_threads = true;
 };
+
+// Δt refused by Engine::set_dt: not positive, or above the stable limit.
+struct StepRefused : std::runtime_error {
+  StepRefused(double dt_, double limit_, std::string formula_, double auto_dt_);
+  double dt, limit, auto_dt;
+  std::string formula; // how the limit was computed (stable_step.hpp)
+};
+
+// The contact law of a configuration, with its parameters (contact_laws.hpp).
+[[nodiscard]] AnyContactLaw make_contact_law(const EngineConfig& config);
 
 // Engine configuration from a scene's [soil.dem] and [load] sections.
 [[nodiscard]] EngineConfig make_config(const scene::Scene& scene);
@@ -111,6 +129,8 @@ struct EngineStats {
   // Wall-clock seconds spent in the neighbour rebuild (incl. reorder) and the force loops
   // (profiling; not part of the state).
   double rebuild_seconds = 0.0, force_seconds = 0.0;
+  // threads > 1: steps run by the full team / by one thread (adaptive team), team switches.
+  long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
 };
 
 // Boundary = a wall polyline or a structure outline, made of segment and vertex features.
@@ -144,7 +164,8 @@ public:
   // The critical step of the smallest particle in a dense packing (stable_step.hpp).
   [[nodiscard]] double stable_dt() const;
   [[nodiscard]] double auto_dt() const { return config_.dt_safety * stable_dt(); }
-  // Throws scene::SceneError (key soil.dem.dt) when dt exceeds stable_dt().
+  // Throws StepRefused (the limit, its formula and the automatic step) when dt ≤ 0 or above
+  // stable_dt(); callers with a scene turn it into a located scene error (set_scene_dt, run.hpp).
   void set_dt(double dt);
   [[nodiscard]] double dt() const { return dt_; }
 
@@ -165,7 +186,16 @@ public:
 
   // ---- threads ----------------------------------------------------------------------------
   void set_threads(int threads) { config_.threads = threads; }
-  [[nodiscard]] int threads_in_use() const; // for the current particle count
+  [[nodiscard]] int threads_in_use() const; // parts the work is cut into (current count)
+  // Threads that run those parts now (≤ threads_in_use(); the adaptive team's current choice).
+  [[nodiscard]] int team_size() const;
+  // Fixes the team size (1 … threads; results do not change with it) and stops adapting it;
+  // 0: the full team, adaptive again when the configuration says so. For tests and benchmarks.
+  void set_team(int k) {
+    team_ = k;
+    tuner_ = {};
+    tuner_.fixed = k > 0;
+  }
 
   // ---- checkpoint / resume ----------------------------------------------------------------
   // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
@@ -230,8 +260,24 @@ private:
                   double* tq, double* energies, std::uint32_t* fail_pair);
   void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
                        std::size_t* bad);
+  // Inside a parallel region: (this thread's number, team size).
+  static std::pair<std::size_t, std::size_t> team_member();
+  void tune_team(); // after each step: measures, and switches the adaptive team
+
+  // Adaptive team: windows of whole steps are timed with the current team; now and then one
+  // window runs with the other choice (1 thread or all), and the faster one is kept.
+  int team_ = 0; // 0: the full team
+  struct TeamTuner {
+    bool fixed = false, started = false, probing = false;
+    std::chrono::steady_clock::time_point t0{};
+    long steps = 0, window = 8;
+    int current = 0;             // team size outside probes (0: full)
+    double current_per_step = 0; // seconds per step of the last window with `current`
+    int until_probe = 4, probe_every = 4;
+  } tuner_;
 
   EngineConfig config_;
+  AnyContactLaw law_; // built once from config_
   Particles p_;
   double dt_ = 0.0, time_ = 0.0;
   std::string failure_;

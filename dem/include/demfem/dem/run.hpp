@@ -23,7 +23,7 @@ struct RunOptions {
 struct RunSummary {
   bool ok = false;
   bool interrupted = false; // stopped by options.interrupt after writing checkpoint.ckpt
-  std::string message; // failure cause (blow-up: step, time, particle, cause)
+  std::string message;      // failure cause (blow-up: step, time, particle, cause)
   long long steps = 0;
   double simulated_time = 0.0;
   double wall_seconds = 0.0;

@@ -15,14 +15,14 @@
 namespace demfem::dem {
 
 struct EngineConfig;
+class Engine;
 
-// What the bound needs: the contact law's stiffnesses and damping, and the smallest particle.
+// What the bound needs: the contact law's stiffnesses and damping ratio for a pair of the
+// smallest particles (StepStiffness, from the law itself: contact_laws.hpp), global damping and
+// the smallest particle.
 struct StepParams {
-  scene::ContactLaw law = scene::ContactLaw::CundallRebound;
-  double kn = 0.0, ks = 0.0;               // linear laws [N/m]
-  double young = 0.0, poisson = 0.0;       // hertz-mindlin
-  double eta_n = 0.0, eta_s = 0.0;         // cundall-dashpot [N·s/m]
-  double restitution = 1.0;                // linear-restitution
+  double kn = 0.0, ks = 0.0;               // contact stiffnesses [N/m]
+  double xi = 0.0;                         // the contact's damping ratio
   double damping_c = 0.0, damping_d = 0.0; // global damping [1/s]
   double m_min = 0.0;                      // mass of the smallest particle [kg]
   double r_min = 0.0;                      // its radius [m]
@@ -55,5 +55,9 @@ struct StepBound {
 // scene_critical_step in the form scene::set_dem_step_limit() takes: the application installs
 // it so that loading a scene checks soil.dem.dt against this bound (scene/validate.hpp).
 [[nodiscard]] std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene);
+
+// e.set_dt(dt) for a Δt that comes from a scene: a refusal becomes a scene::SceneError at the
+// key soil.dem.dt (located by the app), with the limit, its formula and the automatic step.
+void set_scene_dt(Engine& e, double dt);
 
 } // namespace demfem::dem

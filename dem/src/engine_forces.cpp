@@ -1,0 +1,344 @@
+// Engine: contact forces — the pair loop (parts and the adaptive team), boundary contacts, the law
+// chosen once per step.
+#include "demfem/dem/engine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <variant>
+
+#include <fmt/format.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "engine_internal.hpp"
+
+namespace demfem::dem {
+
+using namespace detail;
+
+// ---- forces -------------------------------------------------------------------------------------
+
+// Particle–particle forces of the owners i0 ≤ i < i1 (pairs i < j), accumulated into fx, fz, tq
+// (the particle arrays, or one thread's buffers). energies[0..4]: friction, damping, rebound,
+// normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
+// (i, j), left unchanged when none.
+template <class Law>
+void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* __restrict fx,
+                        double* __restrict fz, double* __restrict tq, double* energies,
+                        std::uint32_t* fail_pair) {
+  const double dt = dt_;
+  const double* __restrict x = p_.x.data();
+  const double* __restrict z = p_.z.data();
+  const double* __restrict vx = p_.vx.data();
+  const double* __restrict vz = p_.vz.data();
+  const double* __restrict om = p_.omega.data();
+  const double* __restrict rad = p_.radius.data();
+  const double* __restrict mass = p_.mass.data();
+  const auto& mats = config_.materials;
+  const bool one_material = mats.size() == 1;
+  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  const double max_ov = config_.max_overlap;
+  bool failed = fail_pair[0] != ~0u;
+  for (std::size_t i = i0; i < i1; ++i) {
+    const std::uint32_t kb = nbr_start_[i], ke = nbr_start_[i + 1];
+    if (kb == ke) continue;
+    const double xi = x[i], zi = z[i], ri = rad[i];
+    double fxi = 0.0, fzi = 0.0, ti = 0.0;
+    for (std::uint32_t k = kb; k < ke; ++k) {
+      const std::uint32_t j = nbr_j_[k];
+      ContactHistory& h = nbr_hist_[k];
+      const double dx = xi - x[j], dz = zi - z[j];
+      const double rsum = ri + rad[j];
+      const double d2 = dx * dx + dz * dz;
+      const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
+      if (d2 >= rsum * rsum && h.flags == 0) continue; // not touching, no history
+      const double dist = std::sqrt(d2);
+      const double delta = rsum - dist; // eq. 2.3
+      const double inv = dist > 0.0 ? 1.0 / dist : 0.0;
+      const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4: cos α, sin α)
+      const double tx = -nz, tz = nx;
+      const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta; // l_i + l_j = |x_i − x_j|
+      ContactInput in;
+      in.delta = delta;
+      in.vn = -(dvx * nx + dvz * nz);                          // eq. 2.5, approach positive
+      in.vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5, slip
+      in.m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+      in.r_eff = ri * rad[j] / rsum;
+      if (one_material) {
+        in.mu_s = mats[0].mu_s;
+        in.mu_d = mats[0].mu_d;
+      } else { // the weaker of the two materials
+        const auto& a = mats[p_.material[i]];
+        const auto& b = mats[p_.material[j]];
+        in.mu_s = std::min(a.mu_s, b.mu_s);
+        in.mu_d = std::min(a.mu_d, b.mu_d);
+      }
+      in.dt = dt;
+      const ContactResult r = law.evaluate(in, h);
+      e_fric += r.e_friction;
+      if (!r.touching) continue;
+      e_damp += r.e_damping;
+      e_reb += r.e_rebound;
+      e_n += r.e_normal;
+      e_s += r.e_shear;
+      if (delta > max_ov * std::min(ri, rad[j]) && !failed) {
+        failed = true;
+        fail_pair[0] = static_cast<std::uint32_t>(i);
+        fail_pair[1] = j;
+      }
+      const double fnt = r.fn + r.impulse;
+      const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz; // eq. 2.15
+      fxi += Fx;
+      fzi += Fz;
+      ti -= li * r.ft;
+      fx[j] -= Fx;
+      fz[j] -= Fz;
+      tq[j] -= lj * r.ft;
+    }
+    fx[i] += fxi;
+    fz[i] += fzi;
+    tq[i] += ti;
+  }
+  energies[0] += e_fric;
+  energies[1] += e_damp;
+  energies[2] += e_reb;
+  energies[3] += e_n;
+  energies[4] += e_s;
+}
+
+int Engine::team_size() const {
+  const int T = threads_in_use();
+  return team_ > 0 ? std::min(team_, T) : T;
+}
+
+std::pair<std::size_t, std::size_t> Engine::team_member() {
+#ifdef _OPENMP
+  return {static_cast<std::size_t>(omp_get_thread_num()),
+          static_cast<std::size_t>(omp_get_num_threads())};
+#else
+  return {0, 1};
+#endif
+}
+
+int Engine::threads_in_use() const {
+  if (p_.size() < config_.parallel_min_particles) return 1;
+  int t = config_.threads;
+#ifdef _OPENMP
+  if (t <= 0) t = omp_get_max_threads();
+#else
+  t = 1;
+#endif
+  return std::max(t, 1);
+}
+
+template <class Law> void Engine::pair_forces(const Law& law) {
+  const std::size_t n = p_.size();
+  const int T = threads_in_use();
+  double en[5] = {0, 0, 0, 0, 0};
+  std::uint32_t fail[2] = {~0u, ~0u};
+  if (T <= 1) {
+    pair_range(law, 0, n, p_.fx.data(), p_.fz.data(), p_.torque.data(), en, fail);
+  } else {
+    // Deterministic for a fixed thread count: thread t takes the owners in split_[t]…split_[t+1]
+    // (equal shares of pair entries) and accumulates into its own buffers; the buffers are then
+    // summed per particle in thread order.
+    const auto tcount = static_cast<std::size_t>(T);
+    split_.assign(tcount + 1, n);
+    split_[0] = 0;
+    const std::uint32_t total = nbr_start_[n];
+    for (std::size_t t = 1; t < tcount; ++t) {
+      const auto target = static_cast<std::uint32_t>(
+          static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
+      split_[t] = static_cast<std::size_t>(
+          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n),
+                           target) -
+          nbr_start_.begin());
+      split_[t] = std::max(split_[t], split_[t - 1]);
+    }
+    // Part 0 accumulates straight into the (zeroed) particle force arrays, parts 1 … T−1 into
+    // their own buffers, which are then added per particle in part order: f = f₀ + (f₁ + …).
+    if (tbuf_.size() < 3 * n * (tcount - 1)) tbuf_.resize(3 * n * (tcount - 1));
+    std::vector<double> ten(5 * tcount, 0.0);
+    std::vector<std::uint32_t> tfail(2 * tcount, ~0u);
+    double* buf = tbuf_.data();
+    double* fxo = p_.fx.data();
+    double* fzo = p_.fz.data();
+    double* tqo = p_.torque.data();
+#pragma omp parallel num_threads(team_size())
+    {
+      // Part t of the T parts always accumulates into buffer t, whichever thread runs it: the
+      // result depends on T only, not on how many threads the adaptive team has right now.
+      const auto [t0, ts] = team_member();
+      for (std::size_t t = t0; t < tcount; t += ts) {
+        double* bx = t == 0 ? fxo : buf + 3 * n * (t - 1);
+        double* bz = t == 0 ? fzo : bx + n;
+        double* bt = t == 0 ? tqo : bz + n;
+        if (t > 0) std::fill(bx, bx + 3 * n, 0.0);
+        pair_range(law, split_[t], split_[t + 1], bx, bz, bt, &ten[5 * t], &tfail[2 * t]);
+      }
+#pragma omp barrier
+#pragma omp for schedule(static)
+      for (std::size_t i = 0; i < n; ++i) {
+        double sx = 0.0, sz = 0.0, st = 0.0;
+        for (std::size_t u = 0; u + 1 < tcount; ++u) {
+          sx += buf[3 * n * u + i];
+          sz += buf[3 * n * u + n + i];
+          st += buf[3 * n * u + 2 * n + i];
+        }
+        fxo[i] += sx;
+        fzo[i] += sz;
+        tqo[i] += st;
+      }
+    }
+    for (std::size_t t = 0; t < tcount; ++t) {
+      for (int q = 0; q < 5; ++q) en[q] += ten[5 * t + static_cast<std::size_t>(q)];
+      if (fail[0] == ~0u && tfail[2 * t] != ~0u) {
+        fail[0] = tfail[2 * t];
+        fail[1] = tfail[2 * t + 1];
+      }
+    }
+  }
+  if (fail[0] != ~0u && failure_.empty()) {
+    const std::uint32_t i = fail[0], j = fail[1];
+    const double delta =
+        p_.radius[i] + p_.radius[j] - std::hypot(p_.x[i] - p_.x[j], p_.z[i] - p_.z[j]);
+    failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
+                           delta, p_.id[i], p_.id[j]);
+  }
+  e_friction_ += en[0];
+  e_damping_ += en[1];
+  e_rebound_ += en[2];
+  e_normal_ = en[3];
+  e_shear_ = en[4];
+}
+
+template <class Law> void Engine::boundary_forces(const Law& law) {
+  const double dt = dt_;
+  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
+  for (auto& s : structures_) s.soil_fx = s.soil_fz = s.soil_moment = 0.0;
+  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  const std::size_t m = bnd_i_.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::uint32_t i = bnd_i_[k];
+    const Feature& F = features_[bnd_f_[k]];
+    Boundary& B = boundaries_[F.boundary];
+    ContactHistory& h = bnd_hist_[k];
+    if (!B.active) {
+      h = ContactHistory{};
+      continue;
+    }
+    const double px = p_.x[i], pz = p_.z[i], ri = p_.radius[i];
+    // Closest point q on the feature and the normal from q towards the centre.
+    double qx, qz, nx, nz, dist;
+    bool valid = true;
+    if (F.v0 == F.v1) { // vertex: only in its own Voronoi region (no adjacent edge contact)
+      qx = bvx_[F.v0];
+      qz = bvz_[F.v0];
+      for (std::int32_t adj : {F.adj0, F.adj1}) {
+        if (adj < 0) continue;
+        const Feature& S = features_[static_cast<std::size_t>(adj)];
+        const double ax = bvx_[S.v0], az = bvz_[S.v0];
+        const double ex = bvx_[S.v1] - ax, ez = bvz_[S.v1] - az;
+        const double t = ((px - ax) * ex + (pz - az) * ez) / (ex * ex + ez * ez);
+        if (t > 0.0 && t < 1.0) valid = false;
+      }
+      const double dx = px - qx, dz = pz - qz;
+      dist = std::sqrt(dx * dx + dz * dz);
+      nx = dist > 0.0 ? dx / dist : 0.0;
+      nz = dist > 0.0 ? dz / dist : 1.0;
+    } else {
+      const double ax = bvx_[F.v0], az = bvz_[F.v0];
+      const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+      const double len2 = ex * ex + ez * ez;
+      const double t = ((px - ax) * ex + (pz - az) * ez) / len2;
+      if (!(t > 0.0 && t < 1.0)) valid = false;
+      qx = ax + t * ex;
+      qz = az + t * ez;
+      if (B.closed) { // structure edge: one-sided, outward normal of a counter-clockwise outline
+        const double len = std::sqrt(len2);
+        nx = ez / len;
+        nz = -ex / len;
+        dist = (px - ax) * nx + (pz - az) * nz;
+        if (dist < -ri) valid = false;
+      } else {
+        const double dx = px - qx, dz = pz - qz;
+        dist = std::sqrt(dx * dx + dz * dz);
+        nx = dist > 0.0 ? dx / dist : 0.0;
+        nz = dist > 0.0 ? dz / dist : 1.0;
+      }
+    }
+    double delta = ri - dist;
+    if (!valid) delta = -1.0e300; // not this feature's contact: ends any history
+    const double tx = -nz, tz = nx;
+    const double li = ri - std::max(delta, 0.0);
+    // Velocity of the boundary at q (rigid structure: v_P + ω × (q − P)).
+    double bvx = 0.0, bvz = 0.0;
+    StructureState* st = nullptr;
+    if (B.structure >= 0) {
+      st = &structures_[static_cast<std::size_t>(B.structure)];
+      const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
+      bvx = st->vx - st->omega * rz;
+      bvz = st->vz + st->omega * rx;
+    }
+    const double dvx = p_.vx[i] - bvx, dvz = p_.vz[i] - bvz;
+    ContactInput in;
+    in.delta = delta;
+    in.vn = -(dvx * nx + dvz * nz);
+    in.vs = dvx * tx + dvz * tz - li * p_.omega[i];
+    in.m_eff = p_.mass[i];
+    in.r_eff = ri;
+    if (B.own_friction) {
+      in.mu_s = B.mu_s;
+      in.mu_d = B.mu_d;
+    } else {
+      in.mu_s = config_.materials[p_.material[i]].mu_s;
+      in.mu_d = config_.materials[p_.material[i]].mu_d;
+    }
+    in.dt = dt;
+    if (!valid && h.flags == 0) continue;
+    const ContactResult r = law.evaluate(in, h);
+    e_fric += r.e_friction;
+    if (!r.touching) continue;
+    e_damp += r.e_damping;
+    e_reb += r.e_rebound;
+    e_n += r.e_normal;
+    e_s += r.e_shear;
+    if (delta > config_.max_overlap * ri && failure_.empty())
+      failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
+                             "boundary '{}'",
+                             delta, p_.id[i], B.name);
+    const double fnt = r.fn + r.impulse;
+    const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
+    p_.fx[i] += Fx;
+    p_.fz[i] += Fz;
+    p_.torque[i] -= li * r.ft;
+    B.reaction_x -= Fx;
+    B.reaction_z -= Fz;
+    if (st) {
+      st->soil_fx -= Fx;
+      st->soil_fz -= Fz;
+      const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
+      st->soil_moment += rx * (-Fz) - rz * (-Fx); // (q − P) × (−F)
+    }
+  }
+  e_friction_ += e_fric;
+  e_damping_ += e_damp;
+  e_rebound_ += e_reb;
+  e_normal_ += e_n;
+  e_shear_ += e_s;
+}
+
+void Engine::compute_forces() {
+  std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
+  std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
+  std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
+  std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
+      [this](const auto& law) {
+        pair_forces(law);
+        boundary_forces(law);
+      },
+      law_);
+}
+
+} // namespace demfem::dem

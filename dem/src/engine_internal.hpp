@@ -1,0 +1,60 @@
+// Internal to the DEM engine's translation units (engine*.cpp): small helpers they share.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <numeric>
+#include <vector>
+
+#include "demfem/dem/contact_laws.hpp"
+
+namespace demfem::dem::detail {
+
+// Active pairs (owner i < partner j) with their contact history, stored as the CSR neighbour list
+// (sorted by owner, then partner) that rebuild() merges with the new candidates.
+inline void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
+                            const std::vector<std::uint32_t>& pj,
+                            const std::vector<ContactHistory>& ph,
+                            std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& partner,
+                            std::vector<ContactHistory>& hist) {
+  std::vector<std::uint32_t> ord(pi.size());
+  std::iota(ord.begin(), ord.end(), 0u);
+  std::sort(ord.begin(), ord.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return pi[x] != pi[y] ? pi[x] < pi[y] : pj[x] < pj[y];
+  });
+  start.assign(n + 1, 0);
+  partner.resize(ord.size());
+  hist.resize(ord.size());
+  for (std::size_t k = 0; k < ord.size(); ++k) {
+    ++start[pi[ord[k]] + 1];
+    partner[k] = pj[ord[k]];
+    hist[k] = ph[ord[k]];
+  }
+  for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
+}
+
+inline constexpr double kPi = 3.14159265358979323846;
+inline constexpr std::size_t kReorderFirstMin = 4096; // particles: reorder at the first rebuild
+
+template <class T> void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
+  std::vector<T> out(v.size());
+  for (std::size_t k = 0; k < order.size(); ++k) out[k] = v[order[k]];
+  v.swap(out);
+}
+
+// Interleaves the bits of x and z (Morton / Z-order key).
+inline std::uint64_t morton(std::uint32_t x, std::uint32_t z) {
+  auto spread = [](std::uint64_t v) {
+    v &= 0xffffffffull;
+    v = (v | (v << 16)) & 0x0000ffff0000ffffull;
+    v = (v | (v << 8)) & 0x00ff00ff00ff00ffull;
+    v = (v | (v << 4)) & 0x0f0f0f0f0f0f0f0full;
+    v = (v | (v << 2)) & 0x3333333333333333ull;
+    v = (v | (v << 1)) & 0x5555555555555555ull;
+    return v;
+  };
+  return spread(x) | (spread(z) << 1);
+}
+
+} // namespace demfem::dem::detail

@@ -1,0 +1,334 @@
+// Engine: Verlet neighbour list — displacement check, space-filling-curve reorder, cell-grid
+// rebuild with the contact history carried over.
+#include "demfem/dem/engine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "engine_internal.hpp"
+
+namespace demfem::dem {
+
+using namespace detail;
+
+// ---- neighbour search ---------------------------------------------------------------------------
+
+void Engine::update_boundary_vertices() {
+  for (auto& st : structures_) {
+    if (!(st.ux != 0.0 || st.uz != 0.0 || st.rot != 0.0 || st.vx != 0.0 || st.vz != 0.0 ||
+          st.omega != 0.0))
+      continue;
+    const double c = std::cos(st.rot), s = std::sin(st.rot);
+    const double px = st.px0 + st.ux, pz = st.pz0 + st.uz;
+    for (std::uint32_t k = st.first_vertex; k < st.first_vertex + st.vertex_count; ++k) {
+      const double lx = bvx0_[k] - st.px0, lz = bvz0_[k] - st.pz0;
+      bvx_[k] = px + c * lx - s * lz; // rigid rotation about the pivot
+      bvz_[k] = pz + s * lx + c * lz;
+    }
+  }
+}
+
+void Engine::check_rebuild() {
+  if (need_rebuild_ || x_ref_.size() != p_.size()) {
+    rebuild();
+    return;
+  }
+  const double lim2 = 0.25 * skin_ * skin_;
+  double m2 = 0.0;
+  const std::size_t n = p_.size();
+  const double* x = p_.x.data();
+  const double* z = p_.z.data();
+  const double* xr = x_ref_.data();
+  const double* zr = z_ref_.data();
+  const int A = team_size();
+  if (A > 1) { // a max is exact in any order
+#pragma omp parallel for num_threads(A) schedule(static) reduction(max : m2)
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+      m2 = std::max(m2, dx * dx + dz * dz);
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+      m2 = std::max(m2, dx * dx + dz * dz);
+    }
+  }
+  double b2 = 0.0;
+  for (std::size_t k = 0; k < bvx_.size(); ++k) {
+    const double dx = bvx_[k] - bvx_ref_[k], dz = bvz_[k] - bvz_ref_[k];
+    b2 = std::max(b2, dx * dx + dz * dz);
+  }
+  // A pair's gap changes by at most the sum of both displacements; both are < skin/2.
+  if (m2 > lim2 || b2 > lim2) rebuild();
+}
+
+void Engine::reorder() {
+  const std::size_t n = p_.size();
+  if (n < 2) return;
+  double xmin = p_.x[0], zmin = p_.z[0];
+  for (std::size_t i = 0; i < n; ++i) {
+    xmin = std::min(xmin, p_.x[i]);
+    zmin = std::min(zmin, p_.z[i]);
+  }
+  const double h = 2.0 * r_max_;
+  std::vector<std::uint64_t> key(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(p_.x[i]) || !std::isfinite(p_.z[i])) {
+      key[i] = ~0ull;
+      continue;
+    }
+    const auto cx = static_cast<std::uint32_t>(std::min((p_.x[i] - xmin) / h, 1.0e9));
+    const auto cz = static_cast<std::uint32_t>(std::min((p_.z[i] - zmin) / h, 1.0e9));
+    key[i] = morton(cx, cz);
+  }
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+  // Old index → new index, to carry the contact history over.
+  std::vector<std::uint32_t> new_of(n);
+  for (std::size_t k = 0; k < n; ++k) new_of[order[k]] = static_cast<std::uint32_t>(k);
+  // Re-key the pair history: (owner, partner) → new indices, owner < partner.
+  std::vector<std::uint32_t> pi, pj;
+  std::vector<ContactHistory> ph;
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
+      if (nbr_hist_[k].flags != 0) {
+        // Swapping the owner flips both n and t, so f_t (force on the owner along t) is unchanged.
+        std::uint32_t a = new_of[i], b = new_of[nbr_j_[k]];
+        if (a > b) std::swap(a, b);
+        pi.push_back(a);
+        pj.push_back(b);
+        ph.push_back(nbr_hist_[k]);
+      }
+  // Store as a CSR list holding only the active pairs; rebuild() merges it.
+  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  for (auto& bi : bnd_i_) bi = new_of[bi];
+  {
+    std::vector<std::uint32_t> o(bnd_i_.size());
+    std::iota(o.begin(), o.end(), 0u);
+    std::sort(o.begin(), o.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return bnd_i_[a] != bnd_i_[b] ? bnd_i_[a] < bnd_i_[b] : bnd_f_[a] < bnd_f_[b];
+    });
+    permute(bnd_i_, o);
+    permute(bnd_f_, o);
+    permute(bnd_hist_, o);
+  }
+  permute(p_.x, order);
+  permute(p_.z, order);
+  permute(p_.phi, order);
+  permute(p_.vx, order);
+  permute(p_.vz, order);
+  permute(p_.omega, order);
+  permute(p_.fx, order);
+  permute(p_.fz, order);
+  permute(p_.torque, order);
+  permute(p_.radius, order);
+  permute(p_.mass, order);
+  permute(p_.inv_mass, order);
+  permute(p_.inv_inertia, order);
+  permute(p_.id, order);
+  permute(p_.material, order);
+  permute(p_.flags, order);
+  ++stats_.reorders;
+}
+
+void Engine::rebuild() {
+  const std::size_t n = p_.size();
+  const int T = threads_in_use();
+  const auto tcount = static_cast<std::size_t>(T);
+  skin_ = config_.skin_factor * r_min_;
+  // Space-filling-curve order every reorder_every rebuilds, and at the first rebuild of a large
+  // set (its input order may be anything; small sets keep theirs, which tests index by).
+  const bool first_large = stats_.neighbour_rebuilds == 0 && n >= kReorderFirstMin;
+  if (config_.reorder_every > 0 &&
+      (first_large || rebuilds_since_reorder_ >= config_.reorder_every)) {
+    reorder();
+    rebuilds_since_reorder_ = 0;
+  }
+  ++rebuilds_since_reorder_;
+  ++stats_.neighbour_rebuilds;
+
+  // Remove particles that left the scene (e.g. fell through an opened wall, the paper's §3 "3D
+  // loss"): under gravity, a centre more than 2 r_max below the lowest boundary point can never be
+  // caught again; sideways (or without gravity) only far outside the boundaries' bounding box.
+  if (!boundaries_.empty()) {
+    double bx0 = bvx_[0], bx1 = bvx_[0], bz0 = bvz_[0], bz1 = bvz_[0];
+    for (std::size_t k = 0; k < bvx_.size(); ++k) {
+      bx0 = std::min(bx0, bvx_[k]);
+      bx1 = std::max(bx1, bvx_[k]);
+      bz0 = std::min(bz0, bvz_[k]);
+      bz1 = std::max(bz1, bvz_[k]);
+    }
+    const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!(p_.flags[i] & kFlagRemoved) &&
+          (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
+           p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
+        p_.flags[i] |= kFlagRemoved;
+        p_.vx[i] = p_.vz[i] = p_.omega[i] = 0.0;
+      }
+  }
+
+  // Cell grid: cell size = largest diameter + skin, so every pair within reach sits in
+  // neighbouring cells; counting sort of particles into cells.
+  std::vector<std::uint32_t> new_start(n + 1, 0), new_j;
+  if (n > 0) {
+    double xmin = std::numeric_limits<double>::infinity(), zmin = xmin, xmax = -xmin, zmax = -xmin;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p_.flags[i] & kFlagRemoved) continue;
+      xmin = std::min(xmin, p_.x[i]);
+      xmax = std::max(xmax, p_.x[i]);
+      zmin = std::min(zmin, p_.z[i]);
+      zmax = std::max(zmax, p_.z[i]);
+    }
+    if (!(xmax >= xmin)) xmin = xmax = zmin = zmax = 0.0;
+    double h = 2.0 * r_max_ + skin_;
+    auto ncell = [&](double ext) { return static_cast<std::size_t>(ext / h) + 1; };
+    while (ncell(xmax - xmin) * ncell(zmax - zmin) > 4 * n + 64) h *= 2.0; // sparse clouds
+    const std::size_t nx = ncell(xmax - xmin), nz = ncell(zmax - zmin);
+    auto& cell_of = cell_of_;
+    auto& cell_start = cell_start_;
+    auto& cell_items = cell_items_;
+    cell_of.assign(n, 0u);
+    cell_start.assign(nx * nz + 1, 0u);
+    cell_items.assign(n, 0u);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p_.flags[i] & kFlagRemoved) {
+        cell_of[i] = ~0u;
+        continue;
+      }
+      const auto cx = std::min(static_cast<std::size_t>((p_.x[i] - xmin) / h), nx - 1);
+      const auto cz = std::min(static_cast<std::size_t>((p_.z[i] - zmin) / h), nz - 1);
+      cell_of[i] = static_cast<std::uint32_t>(cz * nx + cx);
+      ++cell_start[cell_of[i] + 1];
+    }
+    for (std::size_t c = 0; c < nx * nz; ++c) cell_start[c + 1] += cell_start[c];
+    {
+      std::vector<std::uint32_t> fill(cell_start.begin(), cell_start.end() - 1);
+      for (std::size_t i = 0; i < n; ++i)
+        if (cell_of[i] != ~0u) cell_items[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+    }
+    // Candidate pairs (i < j within cut-off + skin) of the owners i0 ≤ i < i1, appended to `out`
+    // in (owner, partner) order; new_start[i] is set relative to out's start.
+    auto search = [&](std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& out) {
+      out.clear();
+      out.reserve((i1 - i0) * 4);
+      std::vector<std::uint32_t> local;
+      for (std::size_t i = i0; i < i1; ++i) {
+        new_start[i] = static_cast<std::uint32_t>(out.size());
+        if (cell_of[i] == ~0u) continue;
+        const std::size_t cx = cell_of[i] % nx, cz = cell_of[i] / nx;
+        local.clear();
+        for (std::size_t zz = cz > 0 ? cz - 1 : 0; zz <= std::min(cz + 1, nz - 1); ++zz)
+          for (std::size_t xx = cx > 0 ? cx - 1 : 0; xx <= std::min(cx + 1, nx - 1); ++xx) {
+            const std::size_t c = zz * nx + xx;
+            for (std::uint32_t k = cell_start[c]; k < cell_start[c + 1]; ++k) {
+              const std::uint32_t j = cell_items[k];
+              if (j <= i) continue;
+              const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
+              const double cut = p_.radius[i] + p_.radius[j] + skin_;
+              if (dx * dx + dz * dz < cut * cut) local.push_back(j);
+            }
+          }
+        std::sort(local.begin(), local.end());
+        out.insert(out.end(), local.begin(), local.end());
+      }
+    };
+    if (T <= 1) {
+      search(0, n, new_j);
+    } else { // contiguous owner chunks, concatenated in order: the same list for any thread count
+      std::vector<std::vector<std::uint32_t>> tj(tcount);
+#pragma omp parallel num_threads(team_size())
+      {
+        const auto [t0, ts] = team_member();
+        for (std::size_t t = t0; t < tcount; t += ts)
+          search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
+      }
+      std::size_t total = 0;
+      for (const auto& v : tj) total += v.size();
+      new_j.resize(total);
+      std::size_t base = 0;
+      for (std::size_t t = 0; t < tcount; ++t) {
+        for (std::size_t i = n * t / tcount; i < n * (t + 1) / tcount; ++i)
+          new_start[i] += static_cast<std::uint32_t>(base);
+        std::copy(tj[t].begin(), tj[t].end(), new_j.begin() + static_cast<std::ptrdiff_t>(base));
+        base += tj[t].size();
+      }
+    }
+    new_start[n] = static_cast<std::uint32_t>(new_j.size());
+  }
+  // Carry the history over: both lists are sorted by (owner, partner).
+  std::vector<ContactHistory> new_hist(new_j.size());
+  if (nbr_start_.size() == n + 1) {
+#pragma omp parallel for num_threads(team_size()) schedule(static) if (T > 1)
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint32_t a = nbr_start_[i];
+      const std::uint32_t ae = nbr_start_[i + 1];
+      for (std::uint32_t k = new_start[i]; k < new_start[i + 1] && a < ae; ++k) {
+        while (a < ae && nbr_j_[a] < new_j[k]) ++a;
+        if (a < ae && nbr_j_[a] == new_j[k]) new_hist[k] = nbr_hist_[a];
+      }
+    }
+  }
+  nbr_start_.swap(new_start);
+  nbr_j_.swap(new_j);
+  nbr_hist_.swap(new_hist);
+
+  // Boundary candidates: every (particle, active feature) pair within reach.
+  std::vector<std::uint32_t> ni, nf;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (p_.flags[i] & kFlagRemoved) continue;
+    const double reach = p_.radius[i] + skin_;
+    for (std::size_t f = 0; f < features_.size(); ++f) {
+      const Feature& F = features_[f];
+      if (!boundaries_[F.boundary].active) continue;
+      double d2;
+      const double px = p_.x[i], pz = p_.z[i];
+      if (F.v0 == F.v1) {
+        const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
+        d2 = dx * dx + dz * dz;
+      } else {
+        const double ax = bvx_[F.v0], az = bvz_[F.v0];
+        const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+        const double len2 = ex * ex + ez * ez;
+        double t = len2 > 0.0 ? ((px - ax) * ex + (pz - az) * ez) / len2 : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        const double dx = px - ax - t * ex, dz = pz - az - t * ez;
+        d2 = dx * dx + dz * dz;
+      }
+      if (d2 < reach * reach) {
+        ni.push_back(static_cast<std::uint32_t>(i));
+        nf.push_back(static_cast<std::uint32_t>(f));
+      }
+    }
+  }
+  std::vector<ContactHistory> nh(ni.size());
+  {
+    std::size_t a = 0;
+    for (std::size_t k = 0; k < ni.size(); ++k) {
+      while (a < bnd_i_.size() && (bnd_i_[a] < ni[k] || (bnd_i_[a] == ni[k] && bnd_f_[a] < nf[k])))
+        ++a;
+      if (a < bnd_i_.size() && bnd_i_[a] == ni[k] && bnd_f_[a] == nf[k]) nh[k] = bnd_hist_[a];
+    }
+  }
+  bnd_i_.swap(ni);
+  bnd_f_.swap(nf);
+  bnd_hist_.swap(nh);
+
+  x_ref_ = p_.x;
+  z_ref_ = p_.z;
+  bvx_ref_ = bvx_;
+  bvz_ref_ = bvz_;
+  stats_.pair_entries = nbr_j_.size();
+  stats_.boundary_entries = bnd_i_.size();
+  need_rebuild_ = false;
+}
+
+} // namespace demfem::dem

@@ -1,0 +1,242 @@
+// Engine: checkpoint / resume — the versioned state blob and the contact-history blob.
+#include "demfem/dem/engine.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "state_bytes.hpp"
+
+#include "engine_internal.hpp"
+
+namespace demfem::dem {
+
+using namespace detail;
+
+// ---- checkpoint / resume -----------------------------------------------------------------------
+
+namespace {
+constexpr std::uint32_t kStateMagic = 0x44454d53; // "DEMS"
+constexpr std::uint32_t kStateVersion = 1;
+constexpr std::uint32_t kHistoryMagic = 0x44454d48; // "DEMH"
+
+void write_hist(detail::ByteWriter& w, const std::vector<ContactHistory>& h) {
+  w.value(static_cast<std::uint64_t>(h.size()));
+  for (const auto& c : h) { // field by field: no padding bytes in the file
+    w.value(c.ft);
+    w.value(c.fn);
+    w.value(c.flags);
+  }
+}
+void read_hist(detail::ByteReader& r, std::vector<ContactHistory>& h) {
+  const auto n = r.value<std::uint64_t>();
+  h.clear();
+  for (std::uint64_t k = 0; k < n; ++k) {
+    ContactHistory c;
+    r.value(c.ft);
+    r.value(c.fn);
+    r.value(c.flags);
+    h.push_back(c);
+  }
+}
+} // namespace
+
+std::vector<std::byte> Engine::save_state() const {
+  detail::ByteWriter w;
+  w.value(kStateMagic);
+  w.value(kStateVersion);
+  w.value(static_cast<std::uint64_t>(p_.size()));
+  w.value(static_cast<std::uint64_t>(boundaries_.size()));
+  w.value(static_cast<std::uint64_t>(structures_.size()));
+  w.value(static_cast<std::uint64_t>(features_.size()));
+  w.value(dt_);
+  w.value(time_);
+  w.value(stats_.steps);
+  w.value(stats_.neighbour_rebuilds);
+  w.value(stats_.reorders);
+  w.value(stats_.structure_updates);
+  w.value(static_cast<std::uint64_t>(stats_.pair_entries));
+  w.value(static_cast<std::uint64_t>(stats_.boundary_entries));
+  w.value(static_cast<std::uint64_t>(config_.materials.size()));
+  for (const auto& m : config_.materials) {
+    w.value(m.mu_s);
+    w.value(m.mu_d);
+  }
+  for (const auto& b : boundaries_) {
+    w.value(static_cast<std::uint8_t>(b.active ? 1 : 0));
+    w.value(b.reaction_x);
+    w.value(b.reaction_z);
+  }
+  w.vec(bvx_);
+  w.vec(bvz_);
+  w.vec(bvx_ref_);
+  w.vec(bvz_ref_);
+  for (const auto& st : structures_)
+    for (double v : {st.ux, st.uz, st.rot, st.vx, st.vz, st.omega, st.soil_fx, st.soil_fz,
+                     st.soil_moment, st.applied_fx, st.applied_fz, st.applied_moment})
+      w.value(v);
+  w.vec(nbr_start_);
+  w.vec(nbr_j_);
+  write_hist(w, nbr_hist_);
+  w.vec(bnd_i_);
+  w.vec(bnd_f_);
+  write_hist(w, bnd_hist_);
+  w.vec(x_ref_);
+  w.vec(z_ref_);
+  for (double v : {skin_, r_min_, r_max_, m_min_}) w.value(v);
+  w.value(static_cast<std::uint8_t>(need_rebuild_ ? 1 : 0));
+  w.value(rebuilds_since_reorder_);
+  w.value(next_id_);
+  for (double v : {e_friction_, e_damping_, e_rebound_, e_external_, e_normal_, e_shear_, pe_ref_})
+    w.value(v);
+  w.value(static_cast<std::uint8_t>(pe_ref_set_ ? 1 : 0));
+  return std::move(w.buffer());
+}
+
+void Engine::restore_state(Particles particles, std::span<const std::byte> state) {
+  detail::ByteReader r(state);
+  if (r.value<std::uint32_t>() != kStateMagic) detail::ByteReader::fail("not an engine state");
+  if (const auto v = r.value<std::uint32_t>(); v != kStateVersion)
+    detail::ByteReader::fail(fmt::format("unsupported version {}", v));
+  const auto n = r.value<std::uint64_t>();
+  if (n != particles.size())
+    detail::ByteReader::fail(
+        fmt::format("{} particles in the state, {} in the arrays", n, particles.size()));
+  if (r.value<std::uint64_t>() != boundaries_.size() ||
+      r.value<std::uint64_t>() != structures_.size() ||
+      r.value<std::uint64_t>() != features_.size())
+    detail::ByteReader::fail("walls or structures differ from the scene's");
+  p_ = std::move(particles);
+  r.value(dt_);
+  r.value(time_);
+  r.value(stats_.steps);
+  r.value(stats_.neighbour_rebuilds);
+  r.value(stats_.reorders);
+  r.value(stats_.structure_updates);
+  stats_.pair_entries = r.value<std::uint64_t>();
+  stats_.boundary_entries = r.value<std::uint64_t>();
+  config_.materials.resize(r.value<std::uint64_t>());
+  for (auto& m : config_.materials) {
+    r.value(m.mu_s);
+    r.value(m.mu_d);
+  }
+  for (auto& b : boundaries_) {
+    b.active = r.value<std::uint8_t>() != 0;
+    r.value(b.reaction_x);
+    r.value(b.reaction_z);
+  }
+  r.vec(bvx_);
+  r.vec(bvz_);
+  r.vec(bvx_ref_);
+  r.vec(bvz_ref_);
+  if (bvx_.size() != bvx0_.size()) detail::ByteReader::fail("boundary vertex count differs");
+  for (auto& st : structures_)
+    for (double* v : {&st.ux, &st.uz, &st.rot, &st.vx, &st.vz, &st.omega, &st.soil_fx, &st.soil_fz,
+                      &st.soil_moment, &st.applied_fx, &st.applied_fz, &st.applied_moment})
+      r.value(*v);
+  r.vec(nbr_start_);
+  r.vec(nbr_j_);
+  read_hist(r, nbr_hist_);
+  r.vec(bnd_i_);
+  r.vec(bnd_f_);
+  read_hist(r, bnd_hist_);
+  r.vec(x_ref_);
+  r.vec(z_ref_);
+  for (double* v : {&skin_, &r_min_, &r_max_, &m_min_}) r.value(*v);
+  need_rebuild_ = r.value<std::uint8_t>() != 0;
+  r.value(rebuilds_since_reorder_);
+  r.value(next_id_);
+  for (double* v :
+       {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_, &pe_ref_})
+    r.value(*v);
+  pe_ref_set_ = r.value<std::uint8_t>() != 0;
+  if (!r.at_end()) detail::ByteReader::fail("trailing bytes");
+  if (nbr_j_.size() != nbr_hist_.size() || bnd_i_.size() != bnd_f_.size() ||
+      bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1))
+    detail::ByteReader::fail("inconsistent neighbour lists");
+  failure_.clear();
+}
+
+std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const {
+  // Active entries only, keyed by stable particle ids: (id_i, id_j, history), then
+  // (id_i, feature, history).
+  detail::ByteWriter w;
+  w.value(kHistoryMagic);
+  std::vector<std::uint32_t> a, b;
+  std::vector<ContactHistory> h;
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
+      if (nbr_hist_[k].flags != 0) {
+        a.push_back(p_.id[i]);
+        b.push_back(p_.id[nbr_j_[k]]);
+        h.push_back(nbr_hist_[k]);
+      }
+  w.vec(a);
+  w.vec(b);
+  write_hist(w, h);
+  a.clear();
+  b.clear();
+  h.clear();
+  for (std::size_t k = 0; with_boundaries && k < bnd_i_.size(); ++k)
+    if (bnd_hist_[k].flags != 0) {
+      a.push_back(p_.id[bnd_i_[k]]);
+      b.push_back(bnd_f_[k]);
+      h.push_back(bnd_hist_[k]);
+    }
+  w.vec(a);
+  w.vec(b);
+  write_hist(w, h);
+  return std::move(w.buffer());
+}
+
+void Engine::load_contact_history(std::span<const std::byte> blob) {
+  detail::ByteReader r(blob);
+  if (r.value<std::uint32_t>() != kHistoryMagic) detail::ByteReader::fail("not a contact history");
+  std::vector<std::uint32_t> a, b, c, d;
+  std::vector<ContactHistory> h, hb;
+  r.vec(a);
+  r.vec(b);
+  read_hist(r, h);
+  r.vec(c);
+  r.vec(d);
+  read_hist(r, hb);
+  if (a.size() != b.size() || a.size() != h.size() || c.size() != d.size() || c.size() != hb.size())
+    detail::ByteReader::fail("inconsistent contact history");
+  const std::size_t n = p_.size();
+  std::uint32_t max_id = 0;
+  for (std::size_t i = 0; i < n; ++i) max_id = std::max(max_id, p_.id[i]);
+  std::vector<std::uint32_t> index(static_cast<std::size_t>(max_id) + 1, ~0u);
+  for (std::size_t i = 0; i < n; ++i) index[p_.id[i]] = static_cast<std::uint32_t>(i);
+  auto idx = [&](std::uint32_t id) { return id <= max_id ? index[id] : ~0u; };
+  // Same layout reorder() leaves: a CSR list of the history entries, merged by rebuild().
+  std::vector<std::uint32_t> pi, pj;
+  std::vector<ContactHistory> ph;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    std::uint32_t u = idx(a[k]), v = idx(b[k]);
+    if (u == ~0u || v == ~0u || u == v) continue;
+    if (u > v) std::swap(u, v); // swapping the owner flips n and t: f_t is unchanged
+    pi.push_back(u);
+    pj.push_back(v);
+    ph.push_back(h[k]);
+  }
+  // Store as a CSR list holding only the active pairs; rebuild() merges it.
+  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  bnd_i_.clear();
+  bnd_f_.clear();
+  bnd_hist_.clear();
+  std::vector<std::uint32_t> o;
+  for (std::size_t k = 0; k < c.size(); ++k)
+    if (idx(c[k]) != ~0u && d[k] < features_.size()) o.push_back(static_cast<std::uint32_t>(k));
+  std::sort(o.begin(), o.end(), [&](std::uint32_t x, std::uint32_t y) {
+    return idx(c[x]) != idx(c[y]) ? idx(c[x]) < idx(c[y]) : d[x] < d[y];
+  });
+  for (auto k : o) {
+    bnd_i_.push_back(idx(c[k]));
+    bnd_f_.push_back(d[k]);
+    bnd_hist_.push_back(hb[k]);
+  }
+  need_rebuild_ = true;
+}
+
+} // namespace demfem::dem
