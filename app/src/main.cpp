@@ -35,6 +35,7 @@
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "demfem/continuum/run.hpp"
+#include "demfem/continuum/stability.hpp"
 #include "demfem/continuum/verification.hpp"
 #endif
 
@@ -849,6 +850,11 @@ struct ErrorStudyArgs {
   int repeats = 3;
   std::vector<double> dt_fractions, kn_factors;
   std::vector<int> refinements, degrees;
+  std::string solver = "both";          // scenes without a closed form: dem | continuum | both
+  std::vector<std::string> integrators; // continuum: explicit, implicit
+  double max_run_seconds = 300.0;
+  double duration = 0.0;           // --duration (0: the scene's)
+  std::string kn_packing = "same"; // same | deposit
 };
 int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyArgs& ea) {
   compare::ErrorStudyOptions o;
@@ -861,10 +867,15 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   }
   o.jobs = ea.jobs;
   o.repeats = ea.repeats;
-  if (!ea.dt_fractions.empty()) o.dt_fractions = ea.dt_fractions;
-  if (!ea.kn_factors.empty()) o.kn_factors = ea.kn_factors;
-  if (!ea.refinements.empty()) o.refinements = ea.refinements;
-  if (!ea.degrees.empty()) o.degrees = ea.degrees;
+  if (!ea.dt_fractions.empty()) o.dt_fractions = o.scene_dt_fractions = ea.dt_fractions;
+  if (!ea.kn_factors.empty()) o.kn_factors = o.scene_kn_factors = ea.kn_factors;
+  if (!ea.refinements.empty()) o.refinements = o.scene_refinements = ea.refinements;
+  if (!ea.degrees.empty()) o.degrees = o.scene_degrees = ea.degrees;
+  o.solvers = ea.solver;
+  o.integrators = ea.integrators;
+  o.max_run_seconds = ea.max_run_seconds;
+  o.kn_same_packing = ea.kn_packing != "deposit";
+  if (ea.duration > 0.0) o.duration = ea.duration;
   if (path == "flamant") {
 #ifndef DEMFEM_WITH_CONTINUUM
     fmt::print(stderr, "demfem study error-vs-time flamant: the continuum solver is not in this "
@@ -896,12 +907,34 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
+  if (ea.solver != "dem" && ea.solver != "continuum" && ea.solver != "both") {
+    fmt::print(stderr,
+               "demfem study error-vs-time: unknown --solver '{}'; valid: dem, continuum, "
+               "both\n",
+               ea.solver);
+    return kBadInput;
+  }
+  for (const auto& in : ea.integrators)
+    if (in != "explicit" && in != "implicit") {
+      fmt::print(stderr,
+                 "demfem study error-vs-time: unknown --integrators entry '{}'; valid: "
+                 "explicit, implicit\n",
+                 in);
+      return kBadInput;
+    }
   for (const scene::Scene* s : scenes) {
     std::string why;
-    if (!compare::head_on_closed_form(*s, &why)) {
+    const bool closed = compare::head_on_closed_form(*s, &why).has_value();
+    const bool surface = std::any_of(s->probes.begin(), s->probes.end(), [](const scene::Probe& p) {
+      return p.kind == scene::ProbeKind::SurfaceProfile;
+    });
+    if (!closed && s->structures.empty() && !surface) {
       fmt::print(stderr,
-                 "{}: error: the error-vs-time study needs a closed form and this scene "
-                 "has none ({}); valid: a head-on collision of two listed disks (e.g. "
+                 "{}: error: the error-vs-time study measures a scene without a closed form with "
+                 "the comparison's metric table (a structure's thrust, settlement, rotation; the "
+                 "surface) and this scene has no [[structure]] and no surface-profile probe; it "
+                 "has no closed form either ({}); valid: a scene with a structure or a "
+                 "surface-profile probe, a head-on collision of two listed disks (e.g. "
                  "cases/verification/head_on_collision.toml) or `flamant`\n",
                  path, why);
       return kBadInput;
@@ -912,7 +945,34 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
       out /= s->variant.empty() ? "base" : s->variant;
     o.out_dir = fs::absolute(out);
     setup_run_log(o.out_dir, false);
-    const auto st = compare::dem_error_study(*s, o);
+    compare::ErrorStudy st;
+    if (closed) {
+      st = compare::dem_error_study(*s, o);
+    } else {
+      // No closed form (issue 11): every solver against its most resolved run. The calibration
+      // (calibrate = "dem") is computed or read here once, so that the runs read it from the
+      // cache instead of each computing it.
+      if (ea.solver != "dem" && s->soil.continuum && s->uses(scene::Solver::Continuum)) {
+#ifndef DEMFEM_WITH_CONTINUUM
+        if (ea.solver == "continuum") {
+          fmt::print(stderr, "demfem study error-vs-time: the continuum solver is not in this "
+                             "build (-DDEMFEM_WITH_CONTINUUM=OFF)\n");
+          return kBadInput;
+        }
+        o.solvers = "dem";
+#else
+        scene::Scene sc = *s;
+        if (ea.duration > 0.0) sc.info.duration = ea.duration;
+        (void)with_calibration(sc, o.out_dir);
+#endif
+      }
+      try {
+        st = compare::scene_error_study(*s, o);
+      } catch (const scene::SceneError& e) {
+        fmt::print(stderr, "{}\n", e.what());
+        return kBadInput;
+      }
+    }
     compare::write_error_study(st, o.out_dir);
     for (const auto& f : st.fits)
       spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
@@ -944,13 +1004,39 @@ int cmd_study_point(const PointArgs& pa) {
     const auto x = dem::run(file.base, o);
     scene::write_file_atomic(
         pa.json, fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "
-                             "\"steps\": {}, \"ok\": {}}}\n",
-                             x.wall_seconds, seconds(), x.steps, x.ok));
+                             "\"steps\": {}, \"dt\": {:.17g}, \"ok\": {}}}\n",
+                             x.wall_seconds, seconds(), x.steps, x.dt, x.ok));
     if (!x.ok) fmt::print(stderr, "{}\n", x.message);
     return x.ok ? kOk : kRunFailed;
   }
+  if (pa.problem == "continuum") {
+#ifdef DEMFEM_WITH_CONTINUUM
+    int rc = kOk;
+    const auto file = load_or_report(pa.scene, rc);
+    if (rc != kOk) return rc;
+    setup_run_log(pa.out, false);
+    // calibrate = "dem": read from the cache (the study computed it before starting the runs)
+    const scene::Scene sc = with_calibration(file.base, pa.out);
+    continuum::RunOptions o;
+    o.out_dir = pa.out;
+    const auto x = continuum::run(sc, o);
+    scene::write_file_atomic(
+        pa.json,
+        fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "
+                    "\"steps\": {}, \"dt\": {:.17g}, \"dofs\": {}, \"h_min\": "
+                    "{:.17g}, \"integrator\": \"{}\", \"ok\": {}}}\n",
+                    x.wall_seconds, seconds(), x.steps, x.dt, x.dofs, x.h_min, x.integrator, x.ok));
+    if (!x.ok) fmt::print(stderr, "{}\n", x.message);
+    return x.ok ? kOk : kRunFailed;
+#else
+    fmt::print(stderr, "demfem study-point: the continuum solver is not in this build\n");
+    return kBadInput;
+#endif
+  }
   if (pa.problem != "flamant") {
-    fmt::print(stderr, "demfem study-point: unknown problem '{}'; valid: dem, flamant\n",
+    fmt::print(stderr,
+               "demfem study-point: unknown problem '{}'; valid: dem, continuum, "
+               "flamant\n",
                pa.problem);
     return kBadInput;
   }
@@ -970,7 +1056,8 @@ int cmd_study_point(const PointArgs& pa) {
 
 // `demfem study stability SCENE` (issue 11): the DEM rows of the stability matrix.
 int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a, double duration,
-              const ErrorStudyArgs& ea) {
+              ErrorStudyArgs ea, bool repack) {
+  ea.duration = duration;
   if (kind == "error-vs-time") return cmd_error_study(path, a, ea);
   if (kind != "stability") {
     fmt::print(stderr, "demfem study: unknown study '{}'; valid: stability, error-vs-time\n", kind);
@@ -986,10 +1073,16 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
   for (const scene::Scene* s : scenes) {
-    if (!s->soil.dem) {
+#ifdef DEMFEM_WITH_CONTINUUM
+    const bool cont = s->soil.continuum.has_value();
+#else
+    const bool cont = false;
+#endif
+    if (!s->soil.dem && !cont) {
       fmt::print(stderr,
-                 "{}: error: soil.dem: the stability study runs the DEM model; the scene "
-                 "has no [soil.dem] (continuum rows are not built yet)\n",
+                 "{}: error: soil.dem: the stability study runs the DEM or the continuum model; "
+                 "the scene has no [soil.dem] and no [soil.continuum] (or the continuum is not "
+                 "in this build)\n",
                  path);
       return kBadInput;
     }
@@ -1001,7 +1094,44 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
     compare::StudyOptions o;
     o.out_dir = out;
     o.threads = a.threads;
+    o.repack = repack;
     if (duration > 0.0) o.duration = duration;
+#ifdef DEMFEM_WITH_CONTINUUM
+    if (cont)
+      o.continuum_rows = [&out](const scene::Scene& sc0) {
+        std::vector<compare::StabilityRow> rows;
+        const auto add = [&rows](const continuum::StabilityCase& c) {
+          compare::StabilityRow r;
+          r.solver = "continuum";
+          r.name = c.name;
+          r.description = c.description;
+          r.outcome = c.outcome;
+          r.cause = c.cause;
+          r.measure = c.measure;
+          r.iterations = c.newton_iterations;
+          r.residuals = c.residuals;
+          r.steps = c.load_steps;
+          r.wall_seconds = c.wall_seconds;
+          spdlog::info("continuum {:<22} {:<10} {} {}", c.name, c.outcome, c.measure, c.cause);
+          rows.push_back(r);
+          return c.value;
+        };
+        const int degree = std::max(1, sc0.continuum.degree);
+        // ν → 0.5: locking shown by the rocking stiffness without B-bar against the B-bar run
+        for (const double nu : {0.49, 0.499}) {
+          const double kb = add(continuum::rocking_locking_case(nu, true, degree));
+          const double kn = add(continuum::rocking_locking_case(nu, false, degree));
+          if (std::isfinite(kb) && std::isfinite(kn) && kb > 0.0)
+            rows.back().measure += fmt::format("; {:.4f} × the B-bar run (locking)", kn / kb);
+        }
+        add(continuum::stiff_structure_case(1.0e6, degree));
+        // the scene's own continuum (calibrated moduli) for the explicit step guard
+        const scene::Scene sc = with_calibration(sc0, out);
+        add(continuum::explicit_step_case(sc, 1.5));
+        for (const double f : {0.9, 1.1}) add(continuum::bearing_capacity_case(f, degree));
+        return rows;
+      };
+#endif
     const auto rows = compare::stability_study(*s, o);
     compare::write_stability_study(rows, *s, out);
     for (const auto& r : rows) spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
@@ -1079,10 +1209,12 @@ int main(int argc, char** argv) {
   compare->footer(kExitCodes);
   std::string study_kind;
   double study_duration = 0.0;
+  bool study_repack = false;
   ErrorStudyArgs ea;
   auto* study = app.add_subcommand(
-      "study", "stability: stiff and extreme variants (DEM rows) → study.json, study.md, "
-               "study.html. error-vs-time: resolution sweeps against a closed form, each run a "
+      "study", "stability: stiff and extreme variants (DEM rows; continuum rows for scenes with "
+               "a continuum) → study.json, study.md, study.html. error-vs-time: resolution "
+               "sweeps against a closed form or the most resolved run, each run a "
                "separate process (repeated), fitted orders, error against wall time with the "
                "Pareto front → study.json, study.md, study.html, figures/.");
   study->add_option("kind", study_kind, "stability | error-vs-time")->required();
@@ -1097,9 +1229,35 @@ int main(int argc, char** argv) {
                     "runs/<scene>/study-error-vs-time)");
   study
       ->add_option("--duration", study_duration,
-                   "stability: simulated time of every row [s] "
-                   "(default: the scene's)")
+                   "stability, and error-vs-time on a scene without a closed form: simulated "
+                   "time of every run [s] (default: the scene's)")
       ->check(CLI::PositiveNumber);
+  study
+      ->add_option("--solver", ea.solver,
+                   "error-vs-time on a scene without a closed form: dem | continuum | both "
+                   "(default both: those the scene lists)")
+      ->default_val("both");
+  study
+      ->add_option("--integrators", ea.integrators,
+                   "error-vs-time, continuum: explicit,implicit (default: the scene's, then the "
+                   "other)")
+      ->delimiter(',');
+  study
+      ->add_option("--kn-packing", ea.kn_packing,
+                   "error-vs-time on a packed scene: the K_n settings start from the scene's "
+                   "packing (same) or each deposit their own (deposit)")
+      ->default_val("same")
+      ->check(CLI::IsMember({"same", "deposit"}));
+  study
+      ->add_option("--max-run-seconds", ea.max_run_seconds,
+                   "error-vs-time on a scene: a run past this is stopped and the finer settings "
+                   "of its knob skipped (listed in the study) [s]; 0 = no limit")
+      ->default_val(300.0)
+      ->check(CLI::NonNegativeNumber);
+  study->add_flag("--repack", study_repack,
+                  "stability, packed scenes: deposit the packing of every row whose soil "
+                  "parameters change (default: such rows are skipped unless their packing is "
+                  "cached)");
   study->add_option("--threads", ra.threads, "stability: DEM OpenMP threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   study->add_option("--jobs", ea.jobs, "error-vs-time: runs at once (separate processes)")
@@ -1111,31 +1269,33 @@ int main(int argc, char** argv) {
   study
       ->add_option("--dt-fractions", ea.dt_fractions,
                    "error-vs-time, DEM: Δt as fractions of the critical step (default 1/4 … "
-                   "1/1024, halving)")
+                   "1/1024, halving; scenes without a closed form 0.5,0.25,0.125)")
       ->delimiter(',')
       ->check(CLI::Range(1e-9, 1.0));
   study
       ->add_option("--kn-factors", ea.kn_factors,
-                   "error-vs-time, DEM: K_n multipliers, automatic Δt (default 0.1,0.3,1,3,10)")
+                   "error-vs-time, DEM: K_n multipliers, automatic Δt (default 0.1,0.3,1,3,10; "
+                   "scenes without a closed form 0.3,1,3)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
   study
       ->add_option("--refinements", ea.refinements,
-                   "error-vs-time, flamant: refinement levels (default 1,2,3,4)")
+                   "error-vs-time, continuum: refinement levels (flamant default 1,2,3,4; a "
+                   "scene: its refinement − 2 … its refinement)")
       ->delimiter(',')
       ->check(CLI::Range(0, 8));
   study
       ->add_option("--degrees", ea.degrees,
-                   "error-vs-time, flamant: polynomial degrees (default 1,2)")
+                   "error-vs-time, continuum: polynomial degrees (default 1,2)")
       ->delimiter(',')
       ->check(CLI::Range(1, 4));
   study->footer(kExitCodes);
   PointArgs pa;
   auto* study_point = app.add_subcommand("study-point", "One run of an error-vs-time study");
   study_point->group(""); // hidden: the study starts it as its own process
-  study_point->add_option("problem", pa.problem, "dem | flamant")->required();
-  study_point->add_option("--scene", pa.scene, "dem: resolved scene file");
-  study_point->add_option("--out", pa.out, "dem: run directory");
+  study_point->add_option("problem", pa.problem, "dem | continuum | flamant")->required();
+  study_point->add_option("--scene", pa.scene, "dem, continuum: resolved scene file");
+  study_point->add_option("--out", pa.out, "dem, continuum: run directory");
   study_point->add_option("--refinement", pa.refinement, "flamant: refinement");
   study_point->add_option("--degree", pa.degree, "flamant: degree");
   study_point->add_option("--json", pa.json, "Result file")->required();
@@ -1181,7 +1341,7 @@ int main(int argc, char** argv) {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);
     if (*compare) return cmd_compare(ra);
-    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration, ea);
+    if (*study) return cmd_study(study_kind, other_scene, ra, study_duration, ea, study_repack);
     if (*study_point) return cmd_study_point(pa);
     if (*calibrate) return cmd_calibrate(ra, ca);
     if (*pack) return cmd_pack(ra);

@@ -265,16 +265,20 @@ MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o, double th
   return r;
 }
 
-MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
+namespace {
+enum class Sides { Both, Dem, Continuum };
+
+MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides sides) {
   MetricSet set;
+  const bool want_dem = sides != Sides::Continuum, want_cont = sides != Sides::Dem;
   Csv dem, cont;
   for (const char* f : {"structures.csv", "walls.csv"}) {
-    read_into(run_dir / "dem" / f, dem);
-    read_into(run_dir / "continuum" / f, cont);
+    if (want_dem) read_into(run_dir / "dem" / f, dem);
+    if (want_cont) read_into(run_dir / "continuum" / f, cont);
   }
   // Owners that have a thrust (walls): from the scene, else from the walls.csv columns.
   std::vector<std::string> walls, bodies;
-  for (const auto& [k, s] : dem.cols) {
+  for (const auto& [k, s] : (want_dem ? dem : cont).cols) {
     std::string owner, q, unit;
     split_column(k + " []", owner, q, unit);
     auto& list = q == "thrust" ? walls : bodies;
@@ -292,7 +296,7 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
   auto add = [&](const std::string& owner, const StructQ& sq, const std::string& dem_file,
                  const std::string& cont_file) {
     const std::string key = owner + "." + sq.q;
-    if (!dem.cols.count(key) || !cont.cols.count(key)) return;
+    if ((want_dem && !dem.cols.count(key)) || (want_cont && !cont.cols.count(key))) return;
     MetricSeries m;
     m.def.key = key;
     m.def.quantity = owner + " " + sq.quantity;
@@ -300,9 +304,9 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
     m.def.dem_source = "dem/" + dem_file + ": " + key;
     m.def.continuum_source = "continuum/" + cont_file + ": " + key;
     m.def.meaning = sq.meaning;
-    m.dem = dem.cols.at(key);
-    m.continuum = cont.cols.at(key);
-    if (all_zero(m.dem) && all_zero(m.continuum)) {
+    if (want_dem) m.dem = dem.cols.at(key);
+    if (want_cont) m.continuum = cont.cols.at(key);
+    if ((!want_dem || all_zero(m.dem)) && (!want_cont || all_zero(m.continuum))) {
       const auto* s = structure(owner);
       const std::string q = sq.q;
       if (s && ((q == "settlement" && s->dof_z == scene::DofMode::Fixed) ||
@@ -338,7 +342,7 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
     // particles never touch it (e.g. a packing that leaves a gap under it).
     bool dem_zero = true, cont_zero = true, any = false;
     for (const char* q : {".force_x", ".force_z", ".moment"})
-      if (dem.cols.count(b + q) && cont.cols.count(b + q)) {
+      if (sides == Sides::Both && dem.cols.count(b + q) && cont.cols.count(b + q)) {
         any = true;
         dem_zero = dem_zero && all_zero(dem.cols.at(b + q));
         cont_zero = cont_zero && all_zero(cont.cols.at(b + q));
@@ -350,7 +354,7 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
           "the continuum (where the soil is tied to it) is not a comparison of two soil models.",
           b));
     for (const auto& sq : kBodyQ) add(b, sq, "structures.csv", "structures.csv");
-    if (dem.cols.count(b + ".applied_moment"))
+    if ((want_dem ? dem : cont).cols.count(b + ".applied_moment"))
       set.aliases.push_back(
           {b + ".applied_moment [N·m]", "(input)",
            "the applied load's moment: the same history in both by construction"});
@@ -359,10 +363,18 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
   // the continuum's top boundary moved by its displacement (from the .vtu snapshots).
   {
     const fs::path sf = run_dir / "dem" / "surface.csv";
-    if (fs::exists(sf)) {
-      const CsvTable t = read_csv(sf);
-      const auto time = t.column("time");
-      const std::size_t nb = t.columns.size() > 0 ? t.columns.size() - 1 : 0;
+    // A continuum run alone bins its surface as the scene's surface-profile probe would.
+    std::size_t probe_bins = 0;
+    if (scene)
+      for (const auto& p : scene->probes)
+        if (p.kind == scene::ProbeKind::SurfaceProfile)
+          probe_bins = static_cast<std::size_t>(p.bins);
+    if ((want_dem && fs::exists(sf)) || (!want_dem && probe_bins > 0)) {
+      const CsvTable t = want_dem ? read_csv(sf) : CsvTable{};
+      const auto time = want_dem ? t.column("time") : std::vector<double>{};
+      const std::size_t nb = !want_dem              ? probe_bins
+                             : t.columns.size() > 0 ? t.columns.size() - 1
+                                                    : 0;
       double x0 = 0.0, x1 = 1.0;
       if (scene && !scene->domain.empty()) {
         x0 = x1 = scene->domain[0].x;
@@ -371,8 +383,9 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
           x1 = std::max(x1, q.x);
         }
       }
-      const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
-      if (nb > 0 && !snaps.empty()) {
+      const auto snaps = want_cont ? read_pvd_entries(run_dir / "continuum" / "continuum.pvd")
+                                   : decltype(read_pvd_entries(run_dir)){};
+      if (nb > 0 && (!want_cont || !snaps.empty())) {
         MetricSeries m;
         m.def.key = "surface.elevation";
         m.def.quantity = "surface elevation (mean over the width)";
@@ -416,7 +429,8 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
             // an unreadable snapshot is skipped
           }
         }
-        if (!m.dem.t.empty() && !m.continuum.t.empty()) set.series.push_back(std::move(m));
+        if ((!want_dem || !m.dem.t.empty()) && (!want_cont || !m.continuum.t.empty()))
+          set.series.push_back(std::move(m));
       }
     }
   }
@@ -434,6 +448,16 @@ MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
   std::stable_sort(set.series.begin(), set.series.end(),
                    [&](const MetricSeries& a, const MetricSeries& b) { return rank(a) < rank(b); });
   return set;
+}
+} // namespace
+
+MetricSet collect_metrics(const fs::path& run_dir, const scene::Scene* scene) {
+  return collect(run_dir, scene, Sides::Both);
+}
+
+MetricSet collect_solver_metrics(const fs::path& run_dir, const scene::Scene* scene,
+                                 scene::Solver solver) {
+  return collect(run_dir, scene, solver == scene::Solver::Dem ? Sides::Dem : Sides::Continuum);
 }
 
 } // namespace demfem::compare

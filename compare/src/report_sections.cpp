@@ -48,6 +48,25 @@ std::string study_summary(const nlohmann::json& j) {
     for (const auto& [k, v] : n) parts += fmt::format("{}{} {}", parts.empty() ? "" : ", ", v, k);
     return s + (parts.empty() ? "" : ": " + parts);
   }
+  if (kind == "error-vs-time" && j.contains("reference_runs") && j["reference_runs"].is_object() &&
+      j.contains("points") && j["points"].is_array()) {
+    // a scene without a closed form: each solver against its most resolved run
+    std::string refs, front;
+    for (const auto& [solver, name] : j["reference_runs"].items())
+      refs += fmt::format("{}{}: {}", refs.empty() ? "" : ", ", solver,
+                          name.is_string() ? name.get<std::string>() : std::string("?"));
+    for (const auto& p : j["points"])
+      if (p.value("pareto", false))
+        front += (front.empty() ? "" : ", ") + p.value("name", std::string("?"));
+    return fmt::format("{} ({}), {} runs against the most resolved run of each solver ({}); "
+                       "primary metric {}; Pareto front {}",
+                       j.value("solver", std::string("?")),
+                       j.value("duration", 0.0) > 0.0
+                           ? fmt::format("{:g} s simulated", j.value("duration", 0.0))
+                           : std::string("scene duration"),
+                       j["points"].size(), refs, j.value("primary_metric", std::string("?")),
+                       front.empty() ? std::string("–") : front);
+  }
   if (kind == "error-vs-time" && j.contains("fits") && j["fits"].is_array()) {
     std::string s;
     for (const auto& f : j["fits"]) {
@@ -252,21 +271,26 @@ std::string studies_section(const fs::path& run_dir, const std::vector<StudyLink
          "<code>runs/&lt;scene&gt;/</code>).</p>\n";
   }
   if (!scene) return o;
-  std::string stab = "demfem study stability " + shell_quote(scene->source_file);
-  if (!scene->variant.empty()) stab += " --variant " + shell_quote(scene->variant);
-  o += "<p>Stability of the DEM under stiff and extreme variants of this scene: <code>" + h(stab) +
-       "</code> (writes <code>runs/" + h(scene->info.name) + "/study-stability" +
-       (scene->variant.empty() ? "" : "/" + h(scene->variant)) +
+  std::string var;
+  if (!scene->variant.empty()) var = " --variant " + shell_quote(scene->variant);
+  const std::string stab = "demfem study stability " + shell_quote(scene->source_file) + var;
+  const std::string where = "runs/" + scene->info.name + "/study-";
+  const std::string sub = scene->variant.empty() ? "" : "/" + scene->variant;
+  o += "<p>Stability under stiff and extreme variants of this scene (DEM rows, and continuum rows "
+       "when it has a continuum): <code>" +
+       h(stab) + "</code> (writes <code>" + h(where + "stability" + sub) +
        "/study.html</code>, which this report then links). ";
-  std::string why;
-  if (head_on_closed_form(*scene, &why))
-    o += "Error against run time: <code>demfem study error-vs-time " +
-         h(shell_quote(scene->source_file)) + "</code>.</p>\n";
+  std::string evt = "demfem study error-vs-time " + shell_quote(scene->source_file) + var;
+  if (head_on_closed_form(*scene))
+    o += "Error against run time (against the closed form): <code>" + h(evt) + "</code>.</p>\n";
   else
-    o += "Error against run time needs a closed form, which this scene has not (" + h(why) +
-         "); the solvers' convergence is measured on <code>demfem study error-vs-time "
-         "cases/verification/head_on_collision.toml</code> (DEM) and <code>demfem study "
-         "error-vs-time flamant</code> (continuum).</p>\n";
+    o += "Error against run time, each solver against its most resolved run (this scene has no "
+         "closed form): <code>" +
+         h(evt + " --duration T --repeats 1") + "</code> (writes <code>" +
+         h(where + "error-vs-time" + sub) +
+         "/study.html</code>); the closed-form convergence orders are measured on <code>demfem "
+         "study error-vs-time cases/verification/head_on_collision.toml</code> (DEM) and "
+         "<code>demfem study error-vs-time flamant</code> (continuum).</p>\n";
   return o;
 }
 

@@ -1,6 +1,7 @@
 // `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
 #include "demfem/compare/study.hpp"
 #include "html.hpp"
+#include "study_runs.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
@@ -24,6 +26,9 @@ struct Variant {
   std::string name, description;
   // Edits the scene copy; returns "" or why the variant does not apply to this scene.
   std::function<std::string(scene::Scene&)> apply;
+  // Runs on the scene's own packing (only the run changes: Δt, shaking); otherwise a packed
+  // scene's row deposits its own (K_n, μ, radii are deposition parameters).
+  bool same_packing = false;
 };
 
 double limit_of(const scene::Scene& s) {
@@ -33,7 +38,7 @@ double limit_of(const scene::Scene& s) {
 
 std::vector<Variant> dem_variants(const scene::Scene& base) {
   std::vector<Variant> v;
-  v.push_back({"base", "the scene as given", [](scene::Scene&) { return std::string(); }});
+  v.push_back({"base", "the scene as given", [](scene::Scene&) { return std::string(); }, true});
   for (const double f : {10.0, 100.0, 1000.0})
     v.push_back({fmt::format("kn-x{:g}", f),
                  fmt::format("K_n and K_s (hertz-mindlin: E) × {:g}, automatic Δt", f),
@@ -52,7 +57,8 @@ std::vector<Variant> dem_variants(const scene::Scene& base) {
                    if (!(lim > 0.0)) return std::string("no stable limit (no particle radius)");
                    s.soil.dem->dt = f * lim;
                    return std::string();
-                 }});
+                 },
+                 true});
   for (const double mu : {0.0, 2.0})
     v.push_back(
         {fmt::format("mu-{:g}", mu), fmt::format("μ_s = μ_D = {:g}", mu), [mu](scene::Scene& s) {
@@ -80,7 +86,8 @@ std::vector<Variant> dem_variants(const scene::Scene& base) {
                  sh.acceleration = scene::TimeFunction::sine(20.0, 20.0);
                  s.load.shaking = sh;
                  return std::string();
-               }});
+               },
+               true});
   v.push_back({"overlap-20pct", "listed radii × 1.1: touching neighbours overlap by 0.2 r",
                [](scene::Scene& s) {
                  auto& d = *s.soil.dem;
@@ -117,15 +124,17 @@ std::string md_escape(std::string s) {
 } // namespace
 
 std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyOptions& o) {
-  if (!base.soil.dem) {
+  const bool cont = base.soil.continuum && o.continuum_rows;
+  if (!base.soil.dem && !cont) {
     scene::Diagnostic d;
     d.file = base.source_file;
     d.key = "soil.dem";
-    d.message = "the stability study runs the DEM model: the scene needs a [soil.dem] section";
+    d.message = "the stability study runs the DEM or the continuum model: the scene needs a "
+                "[soil.dem] or a [soil.continuum] section";
     throw scene::SceneError({d});
   }
   std::vector<StabilityRow> rows;
-  for (const auto& var : dem_variants(base)) {
+  for (const auto& var : base.soil.dem ? dem_variants(base) : std::vector<Variant>{}) {
     StabilityRow row;
     row.name = var.name;
     row.description = var.description;
@@ -140,6 +149,30 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
       continue;
     }
     row.dt_limit = limit_of(s);
+    if (var.same_packing && s.soil.dem->particles.empty() &&
+        dem::packing_key(s) != dem::packing_key(base)) {
+      // the scene's packing (deposited or read from the cache once), under this row's key
+      const std::filesystem::path base_pk = dem::packing_path(base, o.out_dir);
+      if (!std::filesystem::exists(base_pk)) (void)dem::pack_or_load(base, o.out_dir);
+      study_detail::use_packing(base_pk, s, o.out_dir / "packings");
+    }
+    if (!o.repack && s.soil.dem->particles.empty() &&
+        dem::packing_key(s) != dem::packing_key(base) &&
+        !std::filesystem::exists(dem::packing_path(s, o.out_dir / "rows" / var.name))) {
+      const auto& d = *s.soil.dem;
+      const auto b = dem::scene_critical_step(s);
+      const double dt = d.dt > 0.0 ? d.dt : b ? d.dt_safety * b->dt : 0.0;
+      row.outcome = "skipped";
+      row.cause = fmt::format(
+          "needs its own packing (K_n, K_s, μ and the radii are in the packing key), not in the "
+          "cache: a deposition of up to {:g} s simulated{}; run with --repack to deposit it",
+          d.packing.max_time,
+          dt > 0.0
+              ? fmt::format(" ≈ {:.3g} steps of {} particles", d.packing.max_time / dt, d.count)
+              : std::string());
+      rows.push_back(row);
+      continue;
+    }
     dem::RunOptions ro;
     ro.out_dir = o.out_dir / "rows" / var.name;
     ro.threads = o.threads;
@@ -164,6 +197,14 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
     row.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     rows.push_back(row);
   }
+  if (cont) {
+    scene::Scene s = base;
+    if (o.duration) s.info.duration = *o.duration;
+    for (auto& r : o.continuum_rows(s)) {
+      r.solver = "continuum";
+      rows.push_back(std::move(r));
+    }
+  }
   return rows;
 }
 
@@ -174,12 +215,15 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
   j["study"] = "stability";
   j["scene"] = s.label();
   j["source"] = s.source_file;
-  j["solver"] = "dem";
+  bool any_cont = false, any_dem = false;
+  for (const auto& r : rows) (r.solver == "dem" ? any_dem : any_cont) = true;
+  j["solver"] = any_dem && any_cont ? "both" : any_cont ? "continuum" : "dem";
   j["duration"] = s.info.duration;
   auto& jr = j["rows"];
   jr = nlohmann::json::array();
   for (const auto& r : rows)
-    jr.push_back({{"name", r.name},
+    jr.push_back({{"solver", r.solver},
+                  {"name", r.name},
                   {"description", r.description},
                   {"outcome", r.outcome},
                   {"cause", r.cause},
@@ -190,60 +234,106 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
                   {"max_overlap_ratio", r.max_overlap_ratio},
                   {"steps", r.steps},
                   {"simulated_time", r.simulated_time},
-                  {"wall_seconds", r.wall_seconds}});
+                  {"wall_seconds", r.wall_seconds},
+                  {"newton_iterations", r.iterations},
+                  {"residuals", r.residuals},
+                  {"measure", r.measure}});
   scene::write_file_atomic(dir / "study.json", j.dump(2) + "\n");
 
   auto num = [](double v, const char* f) {
     return v > 0.0 ? fmt::format(fmt::runtime(f), v) : std::string("–");
   };
-  std::string md = fmt::format("# DEM stability study: {}\n\n", s.label());
-  md += "Outcome: completed, refused at setup (the cause), or stopped (step, time, particle, "
-        "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
-        "Overlap: the largest δ/r seen at the probes.\n\n";
-  md += "| row | change | outcome | Δt [s] | Δt / limit | energy closure | max δ/r | steps | "
-        "wall [s] | cause |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  const std::string title = fmt::format("Stability study: {}", s.label());
+  std::string md = fmt::format("# {}\n\n", title);
   std::string html = fmt::format(
-      "<!doctype html><html><head><meta charset=\"utf-8\"><title>DEM stability study: {0}</title>"
+      "<!doctype html><html><head><meta charset=\"utf-8\"><title>{0}</title>"
       "<style>body{{font-family:sans-serif}}table{{border-collapse:collapse}}td,th{{border:1px "
       "solid #aaa;padding:3px 6px;font-size:13px}}.completed{{background:#e6f4e6}}.refused{{"
-      "background:#fff4d6}}.stopped{{background:#fbe3e3}}</style></head><body><h1>DEM stability "
-      "study: {0}</h1><p>Outcome: completed, refused at setup, or stopped (step, time, particle, "
-      "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
-      "Overlap: the largest δ/r seen at the probes.</p><table><tr><th>row</th><th>change</th>"
-      "<th>outcome</th><th>Δt [s]</th><th>Δt / limit</th><th>energy closure</th><th>max δ/r</th>"
-      "<th>steps</th><th>wall [s]</th><th>cause</th></tr>\n",
-      html_escape(s.label()));
+      "background:#fff4d6}}.stopped{{background:#fbe3e3}}</style></head><body><h1>{0}</h1>\n",
+      html_escape(title));
+  // one table: a heading, a note, the column names and the rows' cells
+  const auto table =
+      [&](const std::string& heading, const std::string& note, const std::vector<std::string>& cols,
+          const std::vector<std::pair<std::string, std::vector<std::string>>>& body) {
+        md += fmt::format("## {}\n\n{}\n\n|", heading, note);
+        html +=
+            fmt::format("<h2>{}</h2><p>{}</p><table><tr>", html_escape(heading), html_escape(note));
+        for (const auto& c : cols) {
+          md += ' ';
+          md += c;
+          md += " |";
+          html += "<th>" + html_escape(c) + "</th>";
+        }
+        md += "\n|";
+        for (std::size_t i = 0; i < cols.size(); ++i) md += "---|";
+        md += "\n";
+        html += "</tr>\n";
+        for (const auto& [cls, cells] : body) {
+          md += "|";
+          html += fmt::format("<tr class=\"{}\">", cls);
+          for (const auto& c : cells) {
+            // appended piecewise: GCC 12 reports a false -Wrestrict on "…" + std::string + "…" here
+            md += ' ';
+            md += md_escape(c);
+            md += " |";
+            html += "<td>";
+            html += html_escape(c);
+            html += "</td>";
+          }
+          md += "\n";
+          html += "</tr>\n";
+        }
+        md += "\n";
+        html += "</table>\n";
+      };
+  std::vector<std::pair<std::string, std::vector<std::string>>> dem_body, cont_body;
   for (const auto& r : rows) {
+    const std::string cls =
+        r.outcome == "not applicable" || r.outcome == "skipped" ? "na" : r.outcome;
+    const bool ran = r.outcome == "completed" || r.outcome == "stopped";
+    const std::string wall = r.outcome == "not applicable" || r.outcome == "skipped"
+                                 ? "–"
+                                 : fmt::format("{:.2f}", r.wall_seconds);
+    if (r.solver == "continuum") {
+      std::string res = "–";
+      if (!r.residuals.empty())
+        res = fmt::format("{} steps: first {:.2e}, last {:.2e}, max {:.2e}", r.residuals.size(),
+                          r.residuals.front(), r.residuals.back(),
+                          *std::max_element(r.residuals.begin(), r.residuals.end()));
+      cont_body.push_back(
+          {cls,
+           {r.name, r.description, r.outcome, r.measure, res,
+            r.iterations > 0 ? fmt::format("{}", r.iterations) : "–", wall, r.cause}});
+      continue;
+    }
     const std::string ratio = r.dt_limit > 0.0 && r.dt > 0.0
                                   ? fmt::format("{:.3g}", r.dt / r.dt_limit)
                                   : std::string("–");
-    const bool ran = r.outcome == "completed" || r.outcome == "stopped";
-    const std::string cells[] = {
-        r.name,
-        r.description,
-        r.outcome,
-        num(r.dt, "{:.3e}"),
-        ratio,
-        ran ? fmt::format("{:.3e}", r.closure) : "–",
-        ran ? fmt::format("{:.3g}", r.max_overlap_ratio) : "–",
-        ran ? fmt::format("{}", r.steps) : "–",
-        r.outcome == "not applicable" ? "–" : fmt::format("{:.2f}", r.wall_seconds),
-        r.cause};
-    md += "|";
-    html += fmt::format("<tr class=\"{}\">", r.outcome == "not applicable" ? "na" : r.outcome);
-    for (const auto& c : cells) {
-      // appended piecewise: GCC 12 reports a false -Wrestrict on "…" + std::string + "…" here
-      md += ' ';
-      md += md_escape(c);
-      md += " |";
-      html += "<td>";
-      html += html_escape(c);
-      html += "</td>";
-    }
-    md += "\n";
-    html += "</tr>\n";
+    dem_body.push_back({cls,
+                        {r.name, r.description, r.outcome, num(r.dt, "{:.3e}"), ratio,
+                         ran ? fmt::format("{:.3e}", r.closure) : "–",
+                         ran ? fmt::format("{:.3g}", r.max_overlap_ratio) : "–",
+                         ran ? fmt::format("{}", r.steps) : "–", wall, r.cause}});
   }
-  html += "</table></body></html>\n";
+  if (!dem_body.empty())
+    table("DEM",
+          "Outcome: completed, refused at setup (the cause), or stopped (step, time, particle, "
+          "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
+          "Overlap: the largest δ/r seen at the probes.",
+          {"row", "change", "outcome", "Δt [s]", "Δt / limit", "energy closure", "max δ/r", "steps",
+           "wall [s]", "cause"},
+          dem_body);
+  if (!cont_body.empty())
+    table("Continuum",
+          "Built-in problems with a closed form or bound (continuum/src/stability.cpp), at the "
+          "scene's degree, and the scene's own continuum for the explicit step. Outcome: "
+          "completed, refused at setup (the located diagnostic), or stopped (the diagnostic). "
+          "Residuals: the final Newton residual of each load step; iterations: Newton iterations "
+          "in all. Locking: a row without B-bar is compared with the same ν with B-bar.",
+          {"row", "case", "outcome", "measured", "residuals", "Newton iterations", "wall [s]",
+           "cause"},
+          cont_body);
+  html += "</body></html>\n";
   scene::write_file_atomic(dir / "study.md", md);
   scene::write_file_atomic(dir / "study.html", html);
 }

@@ -1,11 +1,13 @@
 // `demfem study error-vs-time` (issue 11 item 1): resolution sweeps, each run a separate process.
 #include "demfem/compare/error_study.hpp"
 #include "html.hpp"
+#include "study_runs.hpp"
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <fcntl.h>
 #include <fstream>
 #include <functional>
@@ -14,6 +16,7 @@
 #include <stdexcept>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -107,18 +110,14 @@ std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& s, std::
   return c;
 }
 
-namespace {
+namespace study_detail {
 
 // ---- separate processes ------------------------------------------------------------------------
 
 struct Task {
   std::vector<std::string> argv;
-  fs::path log; // stdout and stderr
-};
-struct TaskResult {
-  int exit_code = -1; // -1: did not exit normally (or could not start)
-  double wall = 0.0;
-  double rss_mib = 0.0;
+  fs::path log;         // stdout and stderr
+  double timeout = 0.0; // [s]; 0 = none
 };
 
 // Runs the tasks as child processes, at most `jobs` at once; wall time from fork to reaping and
@@ -133,6 +132,8 @@ std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
   std::vector<std::pair<pid_t, Running>> running;
   std::size_t next = 0;
   jobs = std::max(1, jobs);
+  bool any_timeout = false;
+  for (const auto& t : tasks) any_timeout = any_timeout || t.timeout > 0.0;
   while (next < tasks.size() || !running.empty()) {
     while (next < tasks.size() && static_cast<int>(running.size()) < jobs) {
       const auto& t = tasks[next];
@@ -162,8 +163,21 @@ std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
     if (running.empty()) continue;
     int status = 0;
     struct rusage ru {};
-    const pid_t pid = ::wait4(-1, &status, 0, &ru);
+    // with time limits: poll, and kill (SIGKILL, the child we started) a run past its limit
+    const pid_t pid = ::wait4(-1, &status, any_timeout ? WNOHANG : 0, &ru);
     const auto end = Clock::now();
+    if (pid == 0) {
+      for (const auto& [cpid, r] : running) {
+        const double lim = tasks[r.index].timeout;
+        if (lim > 0.0 && std::chrono::duration<double>(end - r.start).count() > lim &&
+            !res[r.index].timed_out) {
+          res[r.index].timed_out = true;
+          ::kill(cpid, SIGKILL);
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
     if (pid < 0) {
       if (errno == EINTR) continue;
       break;
@@ -201,14 +215,6 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// A point and how to run and evaluate it.
-struct Job {
-  ErrorPoint point;
-  std::vector<std::vector<std::string>> argv; // per repeat
-  std::vector<fs::path> dirs;                 // per repeat
-  std::function<void(ErrorPoint&, const fs::path& dir)> evaluate;
-};
-
 // Runs every job's repeats (repeat-major order, so that repeats of one point are spread in
 // time), fills timings and evaluates each point from its first successful repeat.
 void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
@@ -218,7 +224,7 @@ void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
     for (std::size_t j = 0; j < jobs.size(); ++j) {
       fs::remove_all(jobs[j].dirs[k]);
       fs::create_directories(jobs[j].dirs[k].parent_path());
-      tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log"});
+      tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log", jobs[j].timeout});
       owner.emplace_back(j, k);
     }
   const auto res = run_tasks(tasks, o.jobs);
@@ -229,6 +235,14 @@ void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
   std::vector<int> first_ok(jobs.size(), -1);
   for (std::size_t t = 0; t < tasks.size(); ++t) {
     auto& j = jobs[owner[t].first];
+    if (res[t].timed_out) {
+      j.point.ok = false;
+      j.timed_out = true;
+      j.point.message = fmt::format("stopped after {:.0f} s, the study's per-run limit "
+                                    "(--max-run-seconds)",
+                                    tasks[t].timeout);
+      continue;
+    }
     if (res[t].exit_code != 0) {
       j.point.ok = false;
       if (j.point.message.empty())
@@ -329,7 +343,9 @@ std::string frac_label(double f) {
   return fmt::format("{:g}", f);
 }
 
-} // namespace
+} // namespace study_detail
+
+using namespace study_detail;
 
 ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o) {
   std::string why;
@@ -571,15 +587,19 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
   Series front{"Pareto front", {}, {}, "lines", "lw 2 lc rgb '#444444' dt 2"};
   std::vector<std::pair<double, double>> fr;
   for (const auto& k : knobs) {
-    Series s{k, {}, {}, "linespoints", "pt 7 ps 1.2"};
+    // scenes without a closed form mix both solvers' knobs: the DEM's are named as such
+    const bool dem_knob = !st.reference_runs.empty() && (k == "dt" || k == "kn");
+    Series s{
+        dem_knob ? (k == "dt" ? "DEM Δt" : "DEM K_n") : k, {}, {}, "linespoints", "pt 7 ps 1.2"};
     for (const auto& p : st.points) {
       if (p.knob != k || !p.ok) continue;
       const auto e = p.errors.find(st.primary_metric);
       if (e == p.errors.end()) continue;
       s.x.push_back(p.wall_median);
       s.y.push_back(e->second);
-      if (p.pareto) fr.emplace_back(p.wall_median, e->second);
     }
+    // the front of the settings drawn here (several knobs: across them all)
+    for (std::size_t i = 0; i < s.x.size(); ++i) fr.emplace_back(s.x[i], s.y[i]);
     for (const auto& f : st.fits)
       if (f.knob == k && f.metric == st.primary_metric && f.against == "wall" &&
           std::isfinite(f.order))
@@ -588,10 +608,16 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
     if (!std::is_sorted(s.x.begin(), s.x.end())) s.style = "points";
     if (!s.x.empty()) ps.series.push_back(s);
   }
-  std::sort(fr.begin(), fr.end());
-  for (const auto& [x, y] : fr) {
-    front.x.push_back(x);
-    front.y.push_back(y);
+  {
+    std::vector<double> cx, cy;
+    for (const auto& [x, y] : fr) {
+      cx.push_back(x);
+      cy.push_back(y);
+    }
+    for (const auto i : pareto_front(cx, cy)) {
+      front.x.push_back(cx[i]);
+      front.y.push_back(cy[i]);
+    }
   }
   if (ps.series.empty()) return std::nullopt;
   ps.series.push_back(front);
@@ -616,6 +642,8 @@ std::optional<Figure> convergence_figure(const ErrorStudy& st,
   ps.log_x = ps.log_y = true;
   for (const auto& k : knobs)
     for (const auto& [metric, desc] : st.metric_descriptions) {
+      // scenes without a closed form: the primary metric only (the others are in the tables)
+      if (!st.reference_runs.empty() && metric != st.primary_metric) continue;
       Series s{fmt::format("{} {}", k, metric), {}, {}, "points", "pt 7 ps 1.2"};
       for (const auto& p : st.points) {
         if (p.knob != k || !p.ok) continue;
@@ -673,6 +701,8 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   j["primary_metric"] = st.primary_metric;
   j["metrics"] = st.metric_descriptions;
   j["closed_form"] = st.closed_form;
+  if (const auto d = st.closed_form.find("duration"); d != st.closed_form.end())
+    j["duration"] = d->second;
   j["expected_order"] = st.expected_order;
   j["expected_order_note"] = st.expected_order_note;
   j["repeats"] = st.repeats;
@@ -686,7 +716,8 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   for (const auto& p : st.points) {
     nlohmann::json e = nlohmann::json::object();
     for (const auto& [k, v] : p.errors) e[k] = num(v);
-    jp.push_back({{"knob", p.knob},
+    jp.push_back({{"solver", p.solver},
+                  {"knob", p.knob},
                   {"name", p.name},
                   {"value", p.value},
                   {"x", p.x},
@@ -720,8 +751,14 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
                   {"x_max", f.x_max}});
 
   std::vector<Figure> figs;
+  if (!st.reference_runs.empty()) j["reference_runs"] = st.reference_runs;
   std::vector<std::vector<std::string>> groups;
-  if (st.solver == "dem")
+  if (!st.wall_groups.empty()) {
+    for (const auto& g : st.wall_groups)
+      if (auto f = wall_figure(st, g.knobs, g.stem, g.what, dir)) figs.push_back(*f);
+    for (const auto& g : st.convergence_groups)
+      if (auto f = convergence_figure(st, g.knobs, g.against, g.stem, dir)) figs.push_back(*f);
+  } else if (st.solver == "dem")
     groups = {{"dt"}, {"kn"}};
   else {
     std::vector<std::string> all;
@@ -729,7 +766,7 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
       if (std::find(all.begin(), all.end(), p.knob) == all.end()) all.push_back(p.knob);
     groups = {all};
   }
-  for (const auto& g : groups) {
+  for (const auto& g : st.wall_groups.empty() ? groups : decltype(groups){}) {
     const std::string what = st.solver == "dem" ? (g[0] == "dt" ? "Δt as a fraction of the "
                                                                   "critical step"
                                                                 : "K_n scaling, automatic Δt")
@@ -738,9 +775,9 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
     for (const auto& k : g) stem += k;
     if (auto f = wall_figure(st, g, stem, what, dir)) figs.push_back(*f);
   }
-  if (st.solver == "dem") {
+  if (st.wall_groups.empty() && st.solver == "dem") {
     if (auto f = convergence_figure(st, {"dt"}, "dt", "convergence_dt", dir)) figs.push_back(*f);
-  } else {
+  } else if (st.wall_groups.empty()) {
     if (auto f = convergence_figure(st, groups[0], "h", "convergence_h", dir)) figs.push_back(*f);
   }
   j["figures"] = nlohmann::json::array();

@@ -721,8 +721,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   report("dem");
   if (const auto& st = e.stats(); st.team_full_steps + st.team_one_steps > 0) {
     const double all = static_cast<double>(st.team_full_steps + st.team_one_steps);
-    spdlog::info("threads: work cut into {} parts; {:.0f} % of the steps ran on {} threads, "
-                 "{:.0f} % on one (adaptive team: one thread where the full team measured slower, "
+    spdlog::info("threads: work cut into {} parts; {:.1f} % of the steps ran on {} threads, "
+                 "{:.1f} % on one (adaptive team: one thread where the full team measured slower, "
                  "e.g. a core shared with another process); results depend on the part count only",
                  e.threads_in_use(), 100.0 * static_cast<double>(st.team_full_steps) / all,
                  e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all);

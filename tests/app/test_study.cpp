@@ -45,8 +45,9 @@ TEST(StudyStability, TwoDiskColumnRowsAndTables) {
   EXPECT_NE(slurp(out / "study.html").find("<table>"), std::string::npos);
 }
 
-// The two-disk column has no closed form: error-vs-time refuses it (exit 2).
-TEST(StudyStability, ErrorVsTimeRefusesSceneWithoutClosedForm) {
+// The two-disk column has no closed form and nothing of the metric table to measure (no
+// structure, no surface profile): error-vs-time refuses it (exit 2).
+TEST(StudyStability, ErrorVsTimeRefusesSceneWithNothingToMeasure) {
   const std::string cmd = std::string(DEMFEM_BINARY) +
                           " study error-vs-time " DEMFEM_SOURCE_DIR
                           "/cases/verification/two_disk_column.toml > /dev/null 2>&1";

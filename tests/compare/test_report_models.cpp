@@ -258,6 +258,16 @@ TEST(ReportModels, ReportShowsModelsRunTimesAndStudies) {
       << R"({"study": "stability", "scene": "box-wall/quick", "rows": [{"outcome": "completed"},)"
       << R"( {"outcome": "refused"}]})";
   std::ofstream(root / "study-stability" / "quick" / "study.html") << "<html></html>";
+  // an error-vs-time study of this scene without a closed form (issue 11): its summary names the
+  // reference runs, the primary metric and the Pareto front
+  fs::create_directories(root / "study-error-vs-time" / "quick");
+  std::ofstream(root / "study-error-vs-time" / "quick" / "study.json")
+      << R"({"study": "error-vs-time", "scene": "box-wall/quick", "solver": "both", )"
+      << R"("duration": 2, "primary_metric": "wall.thrust.amplitude", )"
+      << R"("reference_runs": {"continuum": "cont-q2-r3-explicit", "dem": "dem-dt-1/8"}, )"
+      << R"("fits": [], "points": [{"name": "dem-dt-1/2", "pareto": true}, )"
+      << R"({"name": "dem-dt-1/8", "pareto": false}]})";
+  std::ofstream(root / "study-error-vs-time" / "quick" / "study.html") << "<html></html>";
   fs::create_directories(root / "study-other");
   std::ofstream(root / "study-other" / "study.json")
       << R"({"study": "stability", "scene": "other-scene", "rows": []})";
@@ -278,9 +288,15 @@ TEST(ReportModels, ReportShowsModelsRunTimesAndStudies) {
   EXPECT_NE(html.find("61.0 s"), std::string::npos); // the DEM's recorded wall time
   EXPECT_NE(html.find("not recorded"),
             std::string::npos); // the continuum wrote no run_continuum.json
-  ASSERT_EQ(r.studies.size(), 1u);
-  EXPECT_EQ(r.studies[0].scene, "box-wall/quick");
-  EXPECT_EQ(r.studies[0].summary, "2 rows: 1 completed, 1 refused");
+  ASSERT_EQ(r.studies.size(), 2u);
+  EXPECT_EQ(r.studies[0].kind, "error-vs-time"); // same scene: sorted by kind
+  EXPECT_EQ(r.studies[0].summary,
+            "both (2 s simulated), 2 runs against the most resolved run of each solver "
+            "(continuum: cont-q2-r3-explicit, dem: dem-dt-1/8); primary metric "
+            "wall.thrust.amplitude; Pareto front dem-dt-1/2");
+  EXPECT_NE(html.find("href=\"../study-error-vs-time/quick/study.html\""), std::string::npos);
+  EXPECT_EQ(r.studies[1].scene, "box-wall/quick");
+  EXPECT_EQ(r.studies[1].summary, "2 rows: 1 completed, 1 refused");
   EXPECT_NE(html.find("href=\"../study-stability/quick/study.html\""), std::string::npos);
   EXPECT_EQ(html.find("study-other"), std::string::npos);
   const auto j = nlohmann::json::parse(slurp(r.metrics_json));

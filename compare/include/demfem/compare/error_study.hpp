@@ -32,14 +32,33 @@ struct ErrorStudyOptions {
   // Points whose fit abscissa is at most this fraction of the coarsest's form the convergence
   // fit... (0: all points). The DEM fit uses Δt ≤ fit_max_fraction × the critical step.
   double fit_max_fraction = 1.0 / 16;
+
+  // ---- scenes without a closed form (scene_error_study) ----
+  std::string solvers = "both";   // "dem", "continuum" or "both" (those the scene lists)
+  std::optional<double> duration; // simulated time of every run [s] (default: the scene's)
+  // DEM: Δt as fractions of the critical step; K_n (and K_s) multipliers, automatic Δt
+  std::vector<double> scene_dt_fractions = {0.5, 0.25, 0.125};
+  std::vector<double> scene_kn_factors = {0.3, 1.0, 3.0};
+  // K_n points on the scene's packing (true) or each on its own, deposited with its K_n (false:
+  // the packing key includes K_n; costs a deposition per factor)
+  bool kn_same_packing = true;
+  // continuum: refinements (empty: the scene's refinement − 2 … the scene's), degrees, and
+  // integrators (empty: the scene's, then the other)
+  std::vector<int> scene_refinements;
+  std::vector<int> scene_degrees = {1, 2};
+  std::vector<std::string> integrators;
+  // A run longer than this is stopped (its setting and every finer one of the same knob are
+  // then skipped and listed with the reason); 0 = no limit [s]
+  double max_run_seconds = 300.0;
 };
 
 struct ErrorPoint {
-  std::string knob; // "dt", "kn", "mesh-q1", "mesh-q2"
-  std::string name; // e.g. "dt-1/64"
-  double value = 0; // the knob's setting (Δt fraction, K_n factor, refinement)
-  double x = 0;     // convergence abscissa: Δt [s] (DEM), smallest cell h [m] (continuum)
-  double dt = 0;    // DEM step [s]
+  std::string solver = "dem"; // "dem" or "continuum"
+  std::string knob;           // "dt", "kn", "mesh-q1", "mesh-q2"
+  std::string name;           // e.g. "dt-1/64"
+  double value = 0;           // the knob's setting (Δt fraction, K_n factor, refinement)
+  double x = 0;  // convergence abscissa: Δt [s] (DEM), smallest cell h [m] (continuum)
+  double dt = 0; // DEM step [s]
   std::size_t dofs = 0;
   std::map<std::string, double> errors;  // metric → relative error (≥ 0)
   std::map<std::string, double> results; // the computed quantities behind them
@@ -76,6 +95,15 @@ struct ErrorStudy {
   std::vector<ErrorFit> fits;
   std::vector<std::string> notes; // knobs skipped and why
   int repeats = 0, jobs = 0;
+  // scenes without a closed form: the reference run of each solver (solver → point name)
+  std::map<std::string, std::string> reference_runs;
+  // Figures: groups of knobs drawn together (empty: the closed-form studies' fixed groups).
+  struct FigureGroup {
+    std::vector<std::string> knobs;
+    std::string stem, what;
+    std::string against; // convergence figures: "dt" or "h"
+  };
+  std::vector<FigureGroup> wall_groups, convergence_groups;
 };
 
 // Least-squares slope of log y against log x over the pairs with x, y > 0 (NaN when fewer than
@@ -111,6 +139,15 @@ struct HeadOnClosedForm {
 // Continuum sweep of the built-in Flamant strip-load problem (continuum/verification.hpp); each
 // run is `demfem study-point flamant …`.
 [[nodiscard]] ErrorStudy flamant_error_study(const ErrorStudyOptions& o);
+
+// Any scene (issue 11: no closed form needed): each solver the scene lists (o.solvers) swept over
+// its knobs — DEM: Δt as a fraction of the critical step on the same packing, K_n scaling with
+// the automatic Δt (each K_n deposits its own packing); continuum: refinement × degree ×
+// integrator — each run measured with the comparison layer's metric table
+// (collect_solver_metrics: static value, mean increment and oscillation amplitude of thrust,
+// settlement, rotation and surface) against the most resolved run of the same solver. Each run is
+// `demfem study-point dem|continuum --scene …`. Throws std::runtime_error when nothing can run.
+[[nodiscard]] ErrorStudy scene_error_study(const scene::Scene& scene, const ErrorStudyOptions& o);
 
 // study.json, study.md, study.html and the figures (figures/*.png, .svg) in dir.
 void write_error_study(const ErrorStudy& study, const std::filesystem::path& dir);

@@ -54,6 +54,12 @@ struct MetricSet {
 // structure kinds and the domain come from the files alone).
 [[nodiscard]] MetricSet collect_metrics(const std::filesystem::path& run_dir,
                                         const scene::Scene* scene);
+// The same table for one solver's run alone (the other side of every series stays empty): a
+// quantity is listed when that solver wrote it and it is not 0 throughout; the continuum's surface
+// is binned as the scene's surface-profile probe. Used by `demfem study error-vs-time` to measure
+// a run against the most resolved run of the same solver with the comparison's own metrics.
+[[nodiscard]] MetricSet collect_solver_metrics(const std::filesystem::path& run_dir,
+                                               const scene::Scene* scene, scene::Solver solver);
 
 // ---- the static / increment / oscillation split -------------------------------------------------
 struct SplitOptions {

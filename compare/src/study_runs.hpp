@@ -1,0 +1,47 @@
+// Internals of `demfem study error-vs-time` shared by the closed-form sweeps (study_error.cpp) and
+// the sweeps of scenes without one (study_scene.cpp): runs as separate processes, fits, fronts.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "demfem/compare/error_study.hpp"
+
+namespace demfem::compare::study_detail {
+
+struct TaskResult {
+  int exit_code = -1; // -1: did not exit normally (or could not start)
+  double wall = 0.0;
+  double rss_mib = 0.0;
+  bool timed_out = false; // killed at its time limit
+};
+
+// A point and how to run and evaluate it.
+struct Job {
+  ErrorPoint point;
+  std::vector<std::vector<std::string>> argv; // per repeat
+  std::vector<std::filesystem::path> dirs;    // per repeat
+  std::function<void(ErrorPoint&, const std::filesystem::path& dir)> evaluate;
+  double timeout = 0.0;   // per run [s]; 0 = none
+  bool timed_out = false; // a repeat was stopped at the limit
+};
+
+// Runs every job's repeats (at most o.jobs processes at once), fills timings and evaluates each
+// point from its first successful repeat.
+void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o);
+// Marks each group's Pareto front (median wall time against the primary error).
+void mark_fronts(ErrorStudy& st, const std::vector<std::vector<std::string>>& groups);
+// Least-squares order of `metric` against `against` ("dt", "h" or "wall") over the knob's points.
+void add_fit(ErrorStudy& st, const std::string& knob, const std::string& metric,
+             const std::string& against, double x_max);
+std::string frac_label(double f);
+
+// Makes `s` start from the packing checkpoint `from` (another scene's: e.g. the same scene with
+// another Δt, which the packing key includes): writes it into `cache_dir` under s's cache key and
+// label and points s's packing cache there (study_scene.cpp).
+void use_packing(const std::filesystem::path& from, scene::Scene& s,
+                 const std::filesystem::path& cache_dir);
+
+} // namespace demfem::compare::study_detail
