@@ -211,6 +211,19 @@ void Model::Impl::explicit_setup() {
       << " s (" << pb.explicit_safety << " of the critical step)\n";
 }
 
+// A contact record of a node on a plane: its dofs, outward normal and position, no force yet.
+Model::Impl::Explicit::Contact Model::Impl::contact_at(const ContactNode& n, std::size_t plane) {
+  Explicit::Contact c;
+  c.ix = n.ix;
+  c.iz = n.iz;
+  c.nx = n.nx;
+  c.nz = n.nz;
+  c.x = n.X[0];
+  c.z = n.X[1];
+  c.plane = plane;
+  return c;
+}
+
 // Coulomb contact nodes: every soil node on a contact plane's faces, unless one of its dofs is
 // held otherwise (a rigid body, a prescribed or periodic dof, or fixed by a box boundary
 // condition of a face off the planes, e.g. the corner with a fixed base): such a node keeps
@@ -228,15 +241,8 @@ void Model::Impl::explicit_contact_setup() {
         rigid_or_linked = rigid_or_linked || e.kind[i] >= 2;
       }
       if (rigid_or_linked) continue; // its force belongs to a rigid body, a patch or a master
-      Explicit::Contact ct;
+      Explicit::Contact ct = contact_at(c, k);
       ct.held = held;
-      ct.ix = c.ix;
-      ct.iz = c.iz;
-      ct.nx = c.nx;
-      ct.nz = c.nz;
-      ct.x = c.X[0];
-      ct.z = c.X[1];
-      ct.plane = k;
       e.contacts.push_back(ct);
     }
   for (const auto& c : e.contacts)
@@ -579,14 +585,7 @@ std::vector<Model::Impl::Explicit::Contact> Model::Impl::contact_state(std::size
   // nodes on the plane, f_int − f_ext at their dofs (the force of the soil on the support)
   const auto nodes = contact_nodes();
   for (const ContactNode& n : nodes.at(plane)) {
-    Explicit::Contact c;
-    c.ix = n.ix;
-    c.iz = n.iz;
-    c.nx = n.nx;
-    c.nz = n.nz;
-    c.x = n.X[0];
-    c.z = n.X[1];
-    c.plane = plane;
+    Explicit::Contact c = contact_at(n, plane);
     const double rx = owned.is_element(n.ix) && hom.is_constrained(n.ix) ? res(n.ix) : 0.0;
     const double rz = owned.is_element(n.iz) && hom.is_constrained(n.iz) ? res(n.iz) : 0.0;
     c.fx = rx; // the plane's force on the soil: f_int − f_ext at a held dof

@@ -327,6 +327,7 @@ struct Model::Impl {
     double weight; // ∫φ_i ds over the node's faces on the plane
   };
   [[nodiscard]] std::vector<std::vector<ContactNode>> contact_nodes() const;
+  static Explicit::Contact contact_at(const ContactNode& n, std::size_t plane);
   // contact forces at the nodes of a plane: the explicit run's, or before it the reactions of
   // the implicit stages' constraints (the K0 state)
   [[nodiscard]] std::vector<Explicit::Contact> contact_state(std::size_t plane) const;

@@ -235,6 +235,22 @@ TEST(DemResume, EngineStateRoundTrip) {
   }
 }
 
+namespace {
+// n disks (r 0.04–0.075 m) on a lattice of `cols` columns in a box, random velocities ±1 m/s
+// (collisions everywhere at once), automatic Δt.
+void add_shaken_lattice(dem::Engine& e, int n, int cols, std::uint64_t seed) {
+  e.add_wall({{0, 10}, {0, 0}, {cols * 0.151 + 0.01, 0}, {cols * 0.151 + 0.01, 10}}, "box");
+  std::mt19937_64 g(seed);
+  auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
+  for (int k = 0; k < n; ++k) {
+    const double r = 0.04 + 0.035 * u();
+    e.add_particle(0.08 + 0.151 * (k % cols), 0.08 + 0.151 * (k / cols), r, 2 * u() - 1,
+                   2 * u() - 1);
+  }
+  e.set_dt(e.auto_dt());
+}
+} // namespace
+
 // OpenMP: 2 threads give bit-identical results across runs and agree with 1 thread to round-off.
 TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
   auto run = [](int threads) {
@@ -246,16 +262,7 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
     c.parallel_min_particles = 0;
     dem::Engine e(c);
     // 2000 disks on a lattice with random velocities (±1 m/s): collisions everywhere at once.
-    const int n = 2000, cols = 50;
-    e.add_wall({{0, 10}, {0, 0}, {cols * 0.151 + 0.01, 0}, {cols * 0.151 + 0.01, 10}}, "box");
-    std::mt19937_64 g(1);
-    auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
-    for (int k = 0; k < n; ++k) {
-      const double r = 0.04 + 0.035 * u();
-      e.add_particle(0.08 + 0.151 * (k % cols), 0.08 + 0.151 * (k / cols), r, 2 * u() - 1,
-                     2 * u() - 1);
-    }
-    e.set_dt(e.auto_dt());
+    add_shaken_lattice(e, 2000, 50, 1);
     e.run_steps(600);
     EXPECT_FALSE(e.failed()) << e.failure();
     std::vector<dem::ContactView> cv;
@@ -299,16 +306,7 @@ namespace {
 TEST(DemThreads, TeamSizeDoesNotChangeResults) {
   auto run = [](int threads, bool vary) {
     dem::Engine e(team_test_config(threads));
-    const int n = 1000, cols = 40;
-    e.add_wall({{0, 10}, {0, 0}, {cols * 0.151 + 0.01, 0}, {cols * 0.151 + 0.01, 10}}, "box");
-    std::mt19937_64 g(7);
-    auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
-    for (int k = 0; k < n; ++k) {
-      const double r = 0.04 + 0.035 * u();
-      e.add_particle(0.08 + 0.151 * (k % cols), 0.08 + 0.151 * (k / cols), r, 2 * u() - 1,
-                     2 * u() - 1);
-    }
-    e.set_dt(e.auto_dt());
+    add_shaken_lattice(e, 1000, 40, 7);
     if (!vary) e.set_team(0);
     for (int s = 0; s < 300; ++s) {
       if (vary) e.set_team(1 + (s / 7) % threads); // 1, 2, …, threads, 1, … every 7 steps
