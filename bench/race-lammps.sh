@@ -7,6 +7,8 @@
 #   CORES   core counts (default "1 2"): LAMMPS MPI ranks / demfem OpenMP threads
 #   REPS    interleaved repeats per (N, cores) (default 3; N >= 1e6: 1)
 #   BUSY    1: keep the other core busy (stress-ng --cpu 1) during every run (default 0)
+#   ADAPT   demfem's team with cores > 1: 1 adaptive (default, as `demfem run`), 0 the full team
+#           always (bench_dem_race's 6th argument)
 #   LAMMPS_BENCH  the shared LAMMPS bench dir (default ../shared/bench/lammps-bed2d, else
 #                 /work/shared/bench/lammps-bed2d); its run.sh runs LAMMPS
 #   RACE_BIN      demfem's runner (default build/bench/bench_dem_race, else build-dem/…)
@@ -67,8 +69,8 @@ run_lammps() { # N cores
   STEPS=$STEPS CORES=$2 REPS=1 WORK="$WORK/lammps" "$LAMMPS_BENCH/run.sh" "$1"
 }
 run_demfem() { # N cores
-  OMP_PROC_BIND=${OMP_PROC_BIND:-false} "$RACE_BIN" "$WORK/race_$1.toml" "$STEPS" "$2" 10 \
-    2>>"$WORK/demfem_stderr.log"
+  OMP_PROC_BIND=${OMP_PROC_BIND:-false} "$RACE_BIN" "$WORK/race_$1.toml" "$STEPS" "$2" 10 0 \
+    "${ADAPT:-1}" 2>>"$WORK/demfem_stderr.log"
 }
 load() { cut -d' ' -f1 /proc/loadavg; }
 
