@@ -169,6 +169,37 @@ dem_friction(const scene::Scene& scene, std::optional<double> mu_s, std::optiona
   return soil;
 }
 
+// Contact planes (continuum.interface = "coulomb") along the axis-aligned segments of a wall's
+// polyline or a structure's closed outline, with the friction the DEM particles meet there
+// (dem_friction); inclined segments get none. `region`: the structure's index, −1 for a wall.
+// False (with `message`) when the scene gives no friction to take.
+bool add_contact_planes(const scene::Scene& scene, const std::string& kind, const std::string& name,
+                        const std::vector<scene::Vec2>& points, bool closed,
+                        std::optional<double> mu_s, std::optional<double> mu_d, int region,
+                        double tol, fem::Problem& pb, std::string& message) {
+  const auto mu = dem_friction(scene, mu_s, mu_d);
+  if (!mu) {
+    message = fmt::format("continuum.interface = \"coulomb\" takes the friction of {} '{}' from "
+                          "the DEM: give its mu_static/mu_dynamic or a [soil.dem] section",
+                          kind, name);
+    return false;
+  }
+  const std::size_t n = points.size(), segments = closed ? n : (n > 0 ? n - 1 : 0);
+  for (std::size_t k = 0; k < segments; ++k) {
+    const auto &a = points[k], &b = points[(k + 1) % n];
+    if (std::abs(a.x - b.x) > tol && std::abs(a.z - b.z) > tol) continue; // inclined: none
+    fem::ContactPlane cp;
+    cp.name = name;
+    cp.a = {a.x, a.z};
+    cp.b = {b.x, b.z};
+    cp.mu_static = mu->first;
+    cp.mu_dynamic = mu->second;
+    cp.region = region;
+    pb.contacts.push_back(cp);
+  }
+  return true;
+}
+
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
 // procedures. Returns false with `message` when the scene cannot be meshed.
 struct Setup {
@@ -305,29 +336,12 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
     const bool at_rest = s.dof_x == scene::DofMode::Fixed && s.dof_z == scene::DofMode::Fixed &&
                          s.dof_rotation == scene::DofMode::Fixed;
     if (co.interface == "coulomb" && at_rest) {
-      const auto mu = dem_friction(scene, s.mu_static, s.mu_dynamic);
-      if (!mu) {
-        message = fmt::format("continuum.interface = \"coulomb\" takes the friction of structure "
-                              "'{}' from the DEM: give its mu_static/mu_dynamic or a [soil.dem] "
-                              "section",
-                              s.name);
-        return false;
-      }
       r.contact = true;
       r.seat = false;
-      const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
-      for (std::size_t k = 0; k < s.outline.size(); ++k) {
-        const auto &a = s.outline[k], &b = s.outline[(k + 1) % s.outline.size()];
-        if (std::abs(a.x - b.x) > tol && std::abs(a.z - b.z) > tol) continue; // inclined: none
-        fem::ContactPlane cp;
-        cp.name = s.name;
-        cp.a = {a.x, a.z};
-        cp.b = {b.x, b.z};
-        cp.mu_static = mu->first;
-        cp.mu_dynamic = mu->second;
-        cp.region = static_cast<int>(pb.regions.size());
-        pb.contacts.push_back(cp);
-      }
+      if (!add_contact_planes(scene, "structure", s.name, s.outline, true, s.mu_static,
+                              s.mu_dynamic, static_cast<int>(pb.regions.size()),
+                              1e-9 * std::max(xmax - xmin, zmax - zmin), pb, message))
+        return false;
     }
     pb.regions.push_back(r);
   }
@@ -352,28 +366,10 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   // boundary faces on it slide and separate with the friction the DEM particles meet there
   // (dem_friction). Boundaries without a wall keep their box condition (sides rollers, base fixed).
   if (co.interface == "coulomb") {
-    for (const auto& w : scene.walls) {
-      const auto mu = dem_friction(scene, w.mu_static, w.mu_dynamic);
-      if (!mu) {
-        message = fmt::format("continuum.interface = \"coulomb\" takes the friction of wall '{}' "
-                              "from the DEM: give the wall mu_static/mu_dynamic or a [soil.dem] "
-                              "section",
-                              w.name);
+    for (const auto& w : scene.walls)
+      if (!add_contact_planes(scene, "wall", w.name, w.points, false, w.mu_static, w.mu_dynamic, -1,
+                              1e-9 * std::max(xmax - xmin, zmax - zmin), pb, message))
         return false;
-      }
-      for (std::size_t k = 0; k + 1 < w.points.size(); ++k) {
-        const auto &a = w.points[k], &b = w.points[k + 1];
-        const double tol = 1e-9 * std::max(xmax - xmin, zmax - zmin);
-        if (std::abs(a.x - b.x) > tol && std::abs(a.z - b.z) > tol) continue; // inclined: none
-        fem::ContactPlane cp;
-        cp.name = w.name;
-        cp.a = {a.x, a.z};
-        cp.b = {b.x, b.z};
-        cp.mu_static = mu->first;
-        cp.mu_dynamic = mu->second;
-        pb.contacts.push_back(cp);
-      }
-    }
   }
   // ---- loads and procedures
   pb.gravity = scene.load.gravity;

@@ -19,23 +19,29 @@ using demfem::scene::TimeFunction;
 namespace {
 constexpr double kG = 9.81;
 
+// An elastic soil (E, ν 0.3, ρ 2000 kg/m³) under gravity, explicit, direct solver for the K0 state.
+Problem elastic_explicit(double young) {
+  Problem pb;
+  pb.soil.young = young;
+  pb.soil.poisson = 0.3;
+  pb.soil.plastic = false;
+  pb.density = 2000.0;
+  pb.gravity = kG;
+  pb.linear_solver = "direct";
+  pb.integrator = "explicit";
+  return pb;
+}
+
 // An elastic block 2 m × 0.25 m (ρ = 2000 kg/m³, M = 1000 kg/m; flat, so that rocking barely
 // changes the base pressure) resting on a Coulomb base plane z = 0 with μ_s = 0.5, μ_d = 0.2; its
 // sides and top are free. Gravity from the K0 state with K0 = 0 (the exact geostatic state of a
 // block with free sides).
 Problem block(int component, const TimeFunction& accel) {
-  Problem pb;
+  Problem pb = elastic_explicit(5.0e7);
   pb.mesh.dx = {0.5, 0.5, 0.5, 0.5};
   pb.mesh.dz = {0.25};
   pb.mesh.refinement = 1;
-  pb.soil.young = 5.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
-  pb.density = 2000.0;
-  pb.gravity = kG;
   pb.left = pb.right = pb.bottom = pb.top = Bc::Free;
-  pb.linear_solver = "direct";
-  pb.integrator = "explicit";
   ContactPlane base;
   base.name = "base";
   base.a = {-0.5, 0.0};
@@ -194,17 +200,10 @@ namespace {
 // Elastic soil 4 m × 3 m under a 50 kPa surcharge, fixed base, roller on the right, K0 = 0.5,
 // shaken horizontally at 1 m/s², 3.6 Hz; the left side a roller or a frictionless Coulomb plane.
 Problem box(bool contact_left) {
-  Problem pb;
+  Problem pb = elastic_explicit(2.0e7);
   pb.mesh.dx = {2.0, 2.0};
   pb.mesh.dz = {1.5, 1.5};
   pb.mesh.refinement = 2;
-  pb.soil.young = 2.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
-  pb.density = 2000.0;
-  pb.gravity = kG;
-  pb.linear_solver = "direct";
-  pb.integrator = "explicit";
   pb.shaking_component = 0;
   pb.shaking = TimeFunction::sine(1.0, 3.6, 0.0);
   pb.tractions.push_back({{0.0, 3.0}, {4.0, 3.0}, 5.0e4}); // surcharge: no tension at the side
@@ -265,19 +264,12 @@ namespace {
 // rigid wall 0.2 m thick on the right (every DoF fixed): tied (shared nodes), or not meshed and in
 // Coulomb contact through its face x = 4 (Region::contact) with friction μ. K0 = 0.5.
 Problem fill_against_wall(bool contact, double mu, double amplitude) {
-  Problem pb;
+  Problem pb = elastic_explicit(2.0e7);
   const double W = 4.0, H = 3.0, t = 0.2;
   pb.mesh.dx = {1.0, 1.0, 1.0, 1.0, t};
   pb.mesh.dz = {1.0, 1.0, 1.0};
   pb.mesh.refinement = 2;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
-  pb.soil.young = 2.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
-  pb.density = 2000.0;
-  pb.gravity = kG;
-  pb.linear_solver = "direct";
-  pb.integrator = "explicit";
   pb.rayleigh_alpha = 1.0;
   Region wall;
   wall.name = "wall";
