@@ -212,6 +212,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
   compare::SolverRun rec;
   rec.solver = solver == scene::Solver::Dem ? "dem" : "continuum";
   rec.threads = solver == scene::Solver::Dem ? a.threads : 1;
+  bool root = true; // false on MPI ranks > 0 of a continuum run
   app::ProgressReporter reporter;
   const auto progress = [&](const scene::Progress& p) { reporter(p); };
   try {
@@ -264,6 +265,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       rec.h_min = x.h_min;
       rec.h_max = x.h_max;
       rec.seated = x.seated;
+      root = x.root;
       if (!x.note.empty()) spdlog::warn("{}: continuum: {}", s.label(), x.note);
 #else
       r.message = "the continuum solver is not in this build (-DDEMFEM_WITH_CONTINUUM=OFF)";
@@ -279,7 +281,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     r.message = e.what();
   }
   reporter.finish();
-  if (r.ran && !r.bad_input && !r.interrupted) {
+  if (r.ran && !r.bad_input && !r.interrupted && root) { // (MPI: rank 0 writes it)
     rec.ok = r.ok;
     rec.message = r.message;
     rec.note = r.note;

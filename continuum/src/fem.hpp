@@ -182,7 +182,7 @@ struct Problem {
   bool absorbing = false;
   bool absorbing_sides[4] = {true, true, true, false};
   // Time integration of dynamic_step: "implicit" (Newmark-β with Newton) or "explicit" (central
-  // differences, lumped mass, cell-wise internal force, automatic stable step; one MPI rank).
+  // differences, lumped mass, cell-wise internal force, automatic stable step; N MPI ranks).
   std::string integrator = "implicit";
   double explicit_safety = 0.8; // fraction of the critical step (element bound, Irons 1970)
   double explicit_dt = 0.0;     // explicit step [s]; 0 = automatic; above the stable step: error

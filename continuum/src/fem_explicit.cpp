@@ -2,7 +2,10 @@
 // Belytschko, Liu & Moran 2000 §6.2): lumped (row-sum) mass, internal force cell by cell from the
 // B̄ rows and the constitutive seam (no global matrix), automatic stable step from an element
 // bound on the highest frequency (Irons 1970), the implicit path's loads, constraints, rigid
-// bodies and base shaking. One MPI rank (replicated nodal vectors).
+// bodies and base shaking. On N MPI ranks of the shared triangulation (continuum/README.md
+// "MPI"): each rank updates the stresses and sums the internal force of its locally owned cells,
+// one MPI_Allreduce per step adds the ranks' parts, and the O(ndof) nodal update, contact and
+// rigid bodies run replicated, so every rank holds the same state.
 #include "fem_impl.hpp"
 
 namespace demfem::continuum::fem {
@@ -27,27 +30,35 @@ void solve_small(int k, double A[3][3], double b[3]) {
     b[c] /= A[c][c];
   }
 }
+// Sum of a replicated per-dof array over the ranks, in place (every rank gets the same sums).
+void allreduce_sum(std::vector<double>& x, MPI_Comm comm) {
+  if (Utilities::MPI::n_mpi_processes(comm) == 1 || x.empty()) return;
+  const int rc =
+      MPI_Allreduce(MPI_IN_PLACE, x.data(), static_cast<int>(x.size()), MPI_DOUBLE, MPI_SUM, comm);
+  AssertThrowMPI(rc);
+}
 } // namespace
 
 void Model::Impl::explicit_setup() {
-  if (Utilities::MPI::n_mpi_processes(comm) != 1)
-    throw std::runtime_error("the explicit integrator runs on one MPI rank (continuum.integrator = "
-                             "\"implicit\" runs on several)");
   Explicit& e = ex;
+  const bool several = Utilities::MPI::n_mpi_processes(comm) > 1;
   const std::size_t N = dof.n_dofs();
   const unsigned n = fe.n_dofs_per_cell();
   e.n = n;
   e.nq = nq();
-  for (auto* w : {&e.u, &e.v, &e.a, &e.f, &e.mass, &e.damp, &e.f_static, &e.f_shake})
+  for (auto* w : {&e.u, &e.v, &e.a, &e.f, &e.f_int, &e.mass, &e.damp, &e.f_static, &e.f_shake})
     w->assign(N, 0.0);
   e.f_region.assign(pb.regions.size(), {});
   for (auto& fr : e.f_region)
     for (auto& w : fr) w.assign(N, 0.0);
-  // the current state (the K0 state at rest, or a set displacement)
+  // the current state (the K0 state at rest, or a set displacement): each rank has its owned
+  // entries, the others are 0, so the sum over the ranks is exact
   for (const auto i : owned) {
     e.u[i] = u(i);
     e.v[i] = v(i);
   }
+  allreduce_sum(e.u, comm);
+  allreduce_sum(e.v, comm);
 
   FEValues<2> fv(mapping, fe, quad,
                  update_values | update_gradients | update_quadrature_points | update_JxW_values);
@@ -134,6 +145,9 @@ void Model::Impl::explicit_setup() {
       }
     }
     if (rigid_cell) continue; // a small rigid motion has no strain: no stress, no internal force
+    // the masses and loads above come from every cell on every rank (identical sums); stresses
+    // and internal forces only from this rank's cells (their states are updated here only)
+    if (!cell->is_locally_owned()) continue;
     cell_b(fv, cb);
     e.cell_base.push_back(cell->active_cell_index() * nq());
     e.cell_model.push_back(&model_of(cell->active_cell_index(), id));
@@ -176,8 +190,11 @@ void Model::Impl::explicit_setup() {
     for (int a = 0; a < 3; ++a) b.q_prev[a] = b.q[a];
     e.bodies.push_back(std::move(b));
   }
+  // `hom` knows the locally relevant dofs only: each rank classifies its owned dofs, and the
+  // classes are gathered below (one rank: all dofs are owned)
+  bool unsupported = false;
   for (std::size_t i = 0; i < N; ++i) {
-    if (e.kind[i] == 4 || !hom.is_constrained(i)) continue;
+    if (e.kind[i] == 4 || !owned.is_element(i) || !hom.is_constrained(i)) continue;
     const auto it = lines.find(i);
     if (it != lines.end() && it->second.target) {
       e.kind[i] = 2;
@@ -190,12 +207,19 @@ void Model::Impl::explicit_setup() {
       continue;
     }
     if (entries->size() != 1 || e.kind[(*entries)[0].first] != 0 ||
-        std::abs((*entries)[0].second - 1.0) > 1e-12)
-      throw std::runtime_error("the explicit integrator supports only u_i = u_j constraints "
-                               "(periodic sides) besides rigid bodies and fixed dofs");
+        std::abs((*entries)[0].second - 1.0) > 1e-12) {
+      unsupported = true;
+      continue;
+    }
     e.kind[i] = 3;
     e.follows.emplace_back(i, (*entries)[0].first);
   }
+  if (several) explicit_gather_classes();
+  for (const auto& [i, j] : e.follows) // (a master classified on another rank)
+    unsupported = unsupported || e.kind[j] != 0;
+  if (Utilities::MPI::max(unsupported ? 1 : 0, comm) != 0) // refused on every rank together
+    throw std::runtime_error("the explicit integrator supports only u_i = u_j constraints "
+                             "(periodic sides) besides rigid bodies and fixed dofs");
   // u_i = u_j: condensed mass and damping of the master
   for (const auto& [i, j] : e.follows) {
     e.mass[j] += e.mass[i];
@@ -203,12 +227,46 @@ void Model::Impl::explicit_setup() {
   }
   for (const auto& [i, val] : e.prescribed) e.u[i] = val;
   explicit_contact_setup();
-  e.dt_stable = explicit_stable_step();
+  // every rank bounds every cell (the whole shared mesh): the same step; the reduction keeps it so
+  e.dt_stable = Utilities::MPI::min(explicit_stable_step(), comm);
+  e.omega_max = Utilities::MPI::max(e.omega_max, comm);
   e.ready = true;
-  log << "explicit: " << N << " dofs, " << e.cell_base.size() << " cells with stresses, "
-      << e.bodies.size() << " rigid bodies, " << e.contacts.size()
+  log << "explicit: " << N << " dofs, " << Utilities::MPI::sum(e.cell_base.size(), comm)
+      << " cells with stresses";
+  if (several)
+    log << " (" << e.cell_base.size() << " on rank " << Utilities::MPI::this_mpi_process(comm)
+        << " of " << Utilities::MPI::n_mpi_processes(comm) << ")";
+  log << ", " << e.bodies.size() << " rigid bodies, " << e.contacts.size()
       << " Coulomb contact nodes, ω_max ≤ " << e.omega_max << " rad/s, Δt = " << e.dt_stable
       << " s (" << pb.explicit_safety << " of the critical step)\n";
+}
+
+// Several ranks: every rank classified its owned dofs (fixed, prescribed with their value, periodic
+// with their master; `contact_roller`); the sums over the ranks (each dof has one owner, the others
+// give 0) give every rank all of them, listed in dof order as on one rank. Rigid-body dofs are
+// classified on every rank already.
+void Model::Impl::explicit_gather_classes() {
+  Explicit& e = ex;
+  const std::size_t N = e.kind.size();
+  std::vector<double> buf(4 * N, 0.0); // class, prescribed value, master + 1, roller
+  for (const auto i : owned)
+    if (e.kind[i] != 4) {
+      buf[i] = e.kind[i];
+      buf[3 * N + i] = contact_roller[i];
+    }
+  for (const auto& [i, x] : e.prescribed) buf[N + i] = x;
+  for (const auto& [i, j] : e.follows) buf[2 * N + i] = double(j) + 1.0;
+  allreduce_sum(buf, comm);
+  e.prescribed.clear();
+  e.follows.clear();
+  for (std::size_t i = 0; i < N; ++i) {
+    contact_roller[i] = buf[3 * N + i] != 0.0;
+    if (e.kind[i] == 4) continue;
+    e.kind[i] = static_cast<char>(buf[i]);
+    if (e.kind[i] == 2) e.prescribed.emplace_back(i, buf[N + i]);
+    if (e.kind[i] == 3)
+      e.follows.emplace_back(i, static_cast<types::global_dof_index>(buf[2 * N + i] - 1.0));
+  }
 }
 
 // A contact record of a node on a plane: its dofs, outward normal and position, no force yet.
@@ -385,8 +443,11 @@ void Model::Impl::explicit_accel(double dt) {
       if (load[k] != 0.0)
         for (std::size_t i = 0; i < N; ++i) f[i] += load[k] * e.f_region[r][k][i];
   }
-  // internal forces cell by cell: stress update at every point through the constitutive seam
+  // internal forces cell by cell (this rank's cells): stress update at every point through the
+  // constitutive seam, summed over the ranks below
   const double beta = pb.rayleigh_beta;
+  std::vector<double>& fcell = e.f_int;
+  std::fill(fcell.begin(), fcell.end(), 0.0);
   std::vector<double> ul(n), vl(n), fl(n);
   constitutive::State ns;
   const std::size_t ncell = e.cell_base.size();
@@ -419,8 +480,10 @@ void Model::Impl::explicit_accel(double dt) {
       for (unsigned i = 0; i < n; ++i)
         fl[i] += (B[3 * i] * sig[0] + B[3 * i + 1] * sig[1] + B[3 * i + 2] * sig[2]) * w;
     }
-    for (unsigned i = 0; i < n; ++i) f[ld[i]] -= fl[i];
+    for (unsigned i = 0; i < n; ++i) fcell[ld[i]] += fl[i];
   }
+  allreduce_sum(fcell, comm); // the ranks' parts at the dofs they share (one rank: nothing)
+  for (std::size_t i = 0; i < N; ++i) f[i] -= fcell[i];
   // viscous damping (mass-proportional, dashpots) with the current velocity
   for (std::size_t i = 0; i < N; ++i) f[i] -= e.damp[i] * e.v[i];
   // fold u_i = u_j
@@ -583,11 +646,20 @@ std::vector<Model::Impl::Explicit::Contact> Model::Impl::contact_state(std::size
   }
   // before the explicit run (K0 state, seating): the reactions of the constraints that hold the
   // nodes on the plane, f_int − f_ext at their dofs (the force of the soil on the support)
+  // (collective: each rank reads the reactions at its owned dofs, the sum gives every rank all)
   const auto nodes = contact_nodes();
-  for (const ContactNode& n : nodes.at(plane)) {
+  const auto& on_plane = nodes.at(plane);
+  std::vector<double> r(2 * on_plane.size(), 0.0);
+  for (std::size_t k = 0; k < on_plane.size(); ++k) {
+    const ContactNode& n = on_plane[k];
+    r[2 * k] = owned.is_element(n.ix) && hom.is_constrained(n.ix) ? res(n.ix) : 0.0;
+    r[2 * k + 1] = owned.is_element(n.iz) && hom.is_constrained(n.iz) ? res(n.iz) : 0.0;
+  }
+  allreduce_sum(r, comm);
+  for (std::size_t k = 0; k < on_plane.size(); ++k) {
+    const ContactNode& n = on_plane[k];
     Explicit::Contact c = contact_at(n, plane);
-    const double rx = owned.is_element(n.ix) && hom.is_constrained(n.ix) ? res(n.ix) : 0.0;
-    const double rz = owned.is_element(n.iz) && hom.is_constrained(n.iz) ? res(n.iz) : 0.0;
+    const double rx = r[2 * k], rz = r[2 * k + 1];
     c.fx = rx; // the plane's force on the soil: f_int − f_ext at a held dof
     c.fz = rz;
     c.N = -(c.fx * c.nx + c.fz * c.nz);

@@ -267,11 +267,13 @@ struct Model::Impl {
     double omega_max = 0.0; // element bound on the highest angular frequency [rad/s]
     double dt_stable = 0.0; // safety × critical step
     unsigned n = 0, nq = 0; // dofs and quadrature points per cell
-    // replicated full-length nodal vectors (one rank)
-    std::vector<double> u, v, a, f, mass, damp;
+    // replicated full-length nodal vectors (the same on every rank); f_int: the internal force,
+    // each rank's cells summed over the ranks
+    std::vector<double> u, v, a, f, f_int, mass, damp;
     std::vector<double> f_static, f_shake; // gravity + tractions; shaking per unit acceleration
     std::vector<std::array<std::vector<double>, 3>> f_region; // per region: unit Fx, Fz, Mt
-    // cells with stresses (every non-rigid cell): dofs, B̄ rows, weights, state offset, model
+    // cells with stresses (every non-rigid cell owned by this rank): dofs, B̄ rows, weights, state
+    // offset, model
     std::vector<types::global_dof_index> cell_dofs; // [c·n + i]
     std::vector<double> cell_B;                     // [((c·nq + q)·n + i)·3 + k]
     std::vector<double> cell_w;                     // [c·nq + q]
@@ -316,6 +318,7 @@ struct Model::Impl {
   void explicit_setup();
   double explicit_stable_step();
   void explicit_accel(double dt); // a from u, v at time t (dt: the step, for prescribed motion)
+  void explicit_gather_classes(); // several ranks: the dof classes of every rank's owned dofs
   void explicit_contact_setup();  // contact nodes of Problem::contacts (after the dof classes)
   void explicit_contacts();       // contact forces into a (after the free accelerations)
   // soil nodes on the boundary faces of a contact plane: (x dof, z dof, support point, outward

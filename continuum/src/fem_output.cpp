@@ -344,8 +344,8 @@ double Model::elastic_energy() const {
         for (int b = 0; b < 3; ++b) e += 0.5 * eps[q][a] * C[a][b] * eps[q][b] * w;
     }
   }
-  if (lumped)
-    for (std::size_t i = 0; i < m.ex.u.size(); ++i)
+  if (lumped) // the replicated nodal vectors: each rank adds its owned dofs
+    for (const auto i : m.owned)
       if (m.ex.kind[i] != 3) e += 0.5 * m.ex.mass[i] * m.ex.v[i] * m.ex.v[i];
   return Utilities::MPI::sum(e, m.comm);
 }

@@ -428,6 +428,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   if (!build_problem(scene, options, su, summary.message)) return summary;
   fem::ensure_mpi();
   const bool root = fem::MpiScope::rank() == 0;
+  summary.root = root;
   const scene::ContinuumSoil& soil = *scene.soil.continuum;
   const scene::ContinuumOptions& co = scene.continuum;
   const fem::Problem& pb = su.pb;
@@ -776,11 +777,14 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     if (fem::MpiScope::any(!failure.empty()))
       throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
                                               : failure);
+    // Coulomb contact planes (continuum.interface = "coulomb"): state at the end (collective
+    // before the explicit run has started)
+    std::vector<fem::ContactForce> contact_end;
+    for (std::size_t k = 0; k < pb.contacts.size(); ++k) contact_end.push_back(m.contact_force(k));
     if (root) {
       log << m.log();
-      // Coulomb contact planes (continuum.interface = "coulomb"): state at the end
       for (std::size_t k = 0; k < pb.contacts.size(); ++k) {
-        const fem::ContactForce c = m.contact_force(k);
+        const fem::ContactForce& c = contact_end[k];
         const fem::ContactPlane& p = pb.contacts[k];
         log << fmt::format("contact '{}' ({:.4g}, {:.4g})–({:.4g}, {:.4g}), μ_s = {}, μ_d = {}: {} "
                            "nodes in contact ({} sliding), {} separated, soil force ({:.6g}, "

@@ -36,6 +36,7 @@ struct RunSummary {
   long long substeps = 0;          // explicit: central-difference steps taken
   double h_min = 0.0, h_max = 0.0; // cell sizes [m] (coarse grid steps / 2^refinement)
   std::vector<std::pair<std::string, double>> seated; // (structure, settlement [m]) when seated
+  bool root = true; // this process is MPI rank 0 (writes the run's shared records)
 };
 
 // An explicit-integrator continuum.dt above the stable step is refused with scene::SceneError
