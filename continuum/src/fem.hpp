@@ -240,6 +240,16 @@ public:
   // Explicit integrator: the automatic step, safety × 2/ω_max with ω_max bounded by the largest
   // element eigenvalue (Irons 1970) [s].
   [[nodiscard]] double stable_time_step();
+  // Explicit integrator: wall time of this rank's central-difference steps, split into the cell
+  // loop (stress update and internal force of its cells), the reduction of the internal force
+  // over the ranks, and the replicated rest (nodal update, loads, damping, contact, rigid bodies).
+  struct ExplicitProfile {
+    long steps = 0;
+    int ranks = 1;
+    std::size_t cells = 0; // this rank's cells with stresses
+    double cells_s = 0, reduce_s = 0, nodal_s = 0;
+  };
+  [[nodiscard]] ExplicitProfile explicit_profile() const;
   // Initial displacement for free vibration tests (gravity off).
   void set_displacement(const std::function<Point(Point)>& u);
 

@@ -448,6 +448,7 @@ void Model::Impl::explicit_accel(double dt) {
   const double beta = pb.rayleigh_beta;
   std::vector<double>& fcell = e.f_int;
   std::fill(fcell.begin(), fcell.end(), 0.0);
+  const auto t_cells = std::chrono::steady_clock::now();
   std::vector<double> ul(n), vl(n), fl(n);
   constitutive::State ns;
   const std::size_t ncell = e.cell_base.size();
@@ -482,7 +483,11 @@ void Model::Impl::explicit_accel(double dt) {
     }
     for (unsigned i = 0; i < n; ++i) fcell[ld[i]] += fl[i];
   }
+  const auto t_reduce = std::chrono::steady_clock::now();
   allreduce_sum(fcell, comm); // the ranks' parts at the dofs they share (one rank: nothing)
+  const auto t_nodal = std::chrono::steady_clock::now();
+  e.cells_s += std::chrono::duration<double>(t_reduce - t_cells).count();
+  e.reduce_s += std::chrono::duration<double>(t_nodal - t_reduce).count();
   for (std::size_t i = 0; i < N; ++i) f[i] -= fcell[i];
   // viscous damping (mass-proportional, dashpots) with the current velocity
   for (std::size_t i = 0; i < N; ++i) f[i] -= e.damp[i] * e.v[i];
@@ -539,6 +544,7 @@ void Model::Impl::explicit_accel(double dt) {
 void Model::Impl::explicit_move(double dt) {
   Explicit& e = ex;
   const std::size_t N = e.u.size();
+  const auto t_start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < N; ++i)
     if (e.kind[i] == 0) {
       e.v[i] += 0.5 * dt * e.a[i];
@@ -587,6 +593,7 @@ void Model::Impl::explicit_move(double dt) {
     }
   }
   ++e.steps;
+  e.step_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
 }
 
 void Model::Impl::explicit_sync() {
@@ -700,6 +707,18 @@ ContactForce Model::contact_force(std::size_t plane) const {
 double stable_time_step(const Problem& pb) {
   Model::Impl lite(pb, true);
   return lite.explicit_stable_step();
+}
+
+Model::ExplicitProfile Model::explicit_profile() const {
+  const Impl& m = *impl_;
+  ExplicitProfile p;
+  p.steps = m.ex.steps;
+  p.ranks = static_cast<int>(Utilities::MPI::n_mpi_processes(m.comm));
+  p.cells = m.ex.cell_base.size();
+  p.cells_s = m.ex.cells_s;
+  p.reduce_s = m.ex.reduce_s;
+  p.nodal_s = std::max(0.0, m.ex.step_s - m.ex.cells_s - m.ex.reduce_s);
+  return p;
 }
 
 double Model::stable_time_step() {

@@ -39,6 +39,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -313,6 +314,8 @@ struct Model::Impl {
     // or Δt/2 at the initial acceleration)
     double contact_dt = 0.0, contact_tau = 0.0;
     long steps = 0;
+    // wall time of the steps: total, the cell loop and the reduction (Model::explicit_profile)
+    double step_s = 0.0, cells_s = 0.0, reduce_s = 0.0;
   } ex;
   bool is_explicit() const { return pb.integrator == "explicit"; }
   void explicit_setup();

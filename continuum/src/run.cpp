@@ -798,10 +798,20 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                          "iterations, {} step cuts, {:.3f} s wall per step ({:.1f} s)\n",
                          summary.steps, dt, newton_total, linear_total, cuts_total,
                          wall_dyn / double(std::max(1LL, summary.steps)), wall_dyn);
-      if (explicit_dyn)
+      if (explicit_dyn) {
         log << fmt::format("explicit: {} central-difference steps, {:.3g} s wall per simulated "
                            "second\n",
                            substeps_total, wall_dyn / std::max(1e-300, m.time()));
+        // where a step's time goes (rank 0; continuum/README.md "MPI")
+        const auto pr = m.explicit_profile();
+        const double us = 1e6 / double(std::max(1L, pr.steps));
+        log << fmt::format(
+            "explicit on {} rank(s), rank 0: {} cells with stresses; per step {:.1f} µs = cells "
+            "{:.1f} + reduction {:.1f} + replicated nodal update {:.1f} µs; steps {:.1f} s of "
+            "{:.1f} s dynamic wall\n",
+            pr.ranks, pr.cells, (pr.cells_s + pr.reduce_s + pr.nodal_s) * us, pr.cells_s * us,
+            pr.reduce_s * us, pr.nodal_s * us, pr.cells_s + pr.reduce_s + pr.nodal_s, wall_dyn);
+      }
     }
     for (CheckedStream* f : {&sfile, &wfile, &stepfile, &log}) f->close();
     for (auto& f : pfiles) f.close();
