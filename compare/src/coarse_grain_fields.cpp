@@ -103,6 +103,7 @@ std::vector<CgContact> read_force_chains_vtp(const fs::path& vtp) {
   if (!pd || !pd->GetLines()) return out;
   vtkDataArray* fn = pd->GetCellData()->GetArray("normal_force");
   vtkDataArray* fs_ = pd->GetCellData()->GetArray("shear_force");
+  vtkDataArray* bnd = pd->GetCellData()->GetArray("boundary");
   vtkNew<vtkIdList> ids;
   vtkCellArray* lines = pd->GetLines();
   lines->InitTraversal();
@@ -119,7 +120,8 @@ std::vector<CgContact> read_force_chains_vtp(const fs::path& vtp) {
         const double f_n = fn ? fn->GetTuple1(cell) : 0.0;
         const double f_s = fs_ ? fs_->GetTuple1(cell) : 0.0;
         // force on i (the line's first point) from j: fn·n + fs·t (paper eq. 2.15)
-        out.push_back({a[0], a[1], b[0], b[1], f_n * nx + f_s * tx, f_n * nz + f_s * tz});
+        const bool wall = bnd && bnd->GetTuple1(cell) >= 0.0;
+        out.push_back({a[0], a[1], b[0], b[1], f_n * nx + f_s * tx, f_n * nz + f_s * tz, wall});
       }
     }
     ++cell;
@@ -555,10 +557,14 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
       "DEM coarse-grained with Lucy's kernel, support radius c = {:.3g} m (2 mean particle "
       "diameters), on a {} × {} grid of spacing {:.3g} m; DEM snapshots at t = {:.3g} s (rest) and "
       "{:.3g} s, continuum snapshots at t = {:.3g} s and {:.3g} s. Grid nodes where the DEM's "
-      "coarse-grained density is below half its median are blank. Stress tension positive; the "
-      "DEM's stress omits the wall and base contacts (not in the force-chain files), so it is low "
-      "within c of a boundary.",
-      out.width, g.nx, g.nz, g.h, out.rest_time, out.end_time, cp[c_rest].time, cp[c_end].time));
+      "coarse-grained density is below half its median are blank. Stress tension positive; {}",
+      out.width, g.nx, g.nz, g.h, out.rest_time, out.end_time, cp[c_rest].time, cp[c_end].time,
+      std::any_of(chains_rest.begin(), chains_rest.end(),
+                  [](const CgContact& k) { return k.boundary; })
+          ? "the DEM's stress includes the wall and base contacts (Weinhart et al. 2012: the line "
+            "from each particle to its contact point), so it holds up to the boundaries."
+          : "the DEM's stress omits the wall and base contacts (not in these force-chain files, "
+            "written before they were), so it is low within c of a boundary."));
   return out;
 }
 
