@@ -26,6 +26,7 @@
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -415,7 +416,7 @@ ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o)
     const fs::path dir = runs / dir_name;
     fs::create_directories(dir);
     const fs::path toml = dir / "scene.toml";
-    std::ofstream(toml) << scene::to_toml(s);
+    scene::write_file_atomic(toml, scene::to_toml(s));
     for (int k = 0; k < o.repeats; ++k) {
       const fs::path rd = dir / fmt::format("rep-{}", k);
       j.dirs.push_back(rd);
@@ -782,7 +783,7 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   }
   j["figures"] = nlohmann::json::array();
   for (const auto& f : figs) j["figures"].push_back({{"file", f.file}, {"caption", f.caption}});
-  std::ofstream(dir / "study.json") << j.dump(2) << "\n";
+  scene::write_file_atomic(dir / "study.json", j.dump(2) + "\n");
 
   // study.md and study.html: the fits, then every point.
   std::vector<std::string> metrics;
@@ -889,8 +890,8 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
     html += "</ul>";
   }
   html += "</body></html>\n";
-  std::ofstream(dir / "study.md") << md;
-  std::ofstream(dir / "study.html") << html;
+  scene::write_file_atomic(dir / "study.md", md);
+  scene::write_file_atomic(dir / "study.html", html);
 }
 
 } // namespace demfem::compare
