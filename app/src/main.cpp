@@ -887,9 +887,10 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
     o.out_dir =
         a.out.empty() ? fs::path("runs") / "flamant" / "study-error-vs-time" : fs::path(a.out);
     o.out_dir = fs::absolute(o.out_dir);
-    setup_run_log(o.out_dir, false);
+    if (compare::study_rank() == 0) setup_run_log(o.out_dir, false);
     const auto st = compare::flamant_error_study(o);
-    compare::write_error_study(st, o.out_dir);
+    if (compare::study_rank() == 0) compare::write_error_study(st, o.out_dir);
+    compare::finish_study_ranks(o.out_dir);
     for (const auto& f : st.fits)
       spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
                    f.order, f.points);
@@ -946,7 +947,11 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
     o.out_dir = fs::absolute(out);
-    setup_run_log(o.out_dir, false);
+    // under mpirun the runs are spread over the ranks; rank 0 keeps the log and writes the study
+    if (compare::study_rank() == 0) setup_run_log(o.out_dir, false);
+    if (compare::study_ranks() > 1)
+      spdlog::info("study rank {} of {}: runs every {}th setting", compare::study_rank(),
+                   compare::study_ranks(), compare::study_ranks());
     compare::ErrorStudy st;
     if (closed) {
       st = compare::dem_error_study(*s, o);
@@ -975,7 +980,9 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
         return kBadInput;
       }
     }
-    compare::write_error_study(st, o.out_dir);
+    if (compare::study_rank() == 0) compare::write_error_study(st, o.out_dir);
+    compare::finish_study_ranks(o.out_dir);
+    if (compare::study_rank() != 0) continue;
     for (const auto& f : st.fits)
       spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
                    f.order, f.points);

@@ -5,19 +5,24 @@
 #include <numbers>
 #include <regex>
 #include <sstream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
+#include <vtkCellType.h>
 #include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
+#include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridWriter.h>
 
 #include "demfem/compare/coarse_grain.hpp"
 #include "out_file.hpp"
@@ -103,6 +108,7 @@ std::vector<CgContact> read_force_chains_vtp(const fs::path& vtp) {
   if (!pd || !pd->GetLines()) return out;
   vtkDataArray* fn = pd->GetCellData()->GetArray("normal_force");
   vtkDataArray* fs_ = pd->GetCellData()->GetArray("shear_force");
+  vtkDataArray* bnd = pd->GetCellData()->GetArray("boundary");
   vtkNew<vtkIdList> ids;
   vtkCellArray* lines = pd->GetLines();
   lines->InitTraversal();
@@ -119,7 +125,8 @@ std::vector<CgContact> read_force_chains_vtp(const fs::path& vtp) {
         const double f_n = fn ? fn->GetTuple1(cell) : 0.0;
         const double f_s = fs_ ? fs_->GetTuple1(cell) : 0.0;
         // force on i (the line's first point) from j: fn·n + fs·t (paper eq. 2.15)
-        out.push_back({a[0], a[1], b[0], b[1], f_n * nx + f_s * tx, f_n * nz + f_s * tz});
+        const bool wall = bnd && bnd->GetTuple1(cell) >= 0.0;
+        out.push_back({a[0], a[1], b[0], b[1], f_n * nx + f_s * tx, f_n * nz + f_s * tz, wall});
       }
     }
     ++cell;
@@ -384,6 +391,75 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
   return true;
 }
 
+// Bilinear interpolation of a grid field at (x, z); NaN outside the grid or where a corner is
+// NaN (masked: outside the granular material).
+double grid_at(const Grid& g, const std::vector<double>& v, double x, double z) {
+  const double fi = (x - g.x0) / g.h, fk = (z - g.z0) / g.h;
+  if (!(fi >= 0.0 && fk >= 0.0 && fi <= g.nx - 1 && fk <= g.nz - 1)) return std::nan("");
+  const int i = std::min(static_cast<int>(fi), g.nx - 2),
+            k = std::min(static_cast<int>(fk), g.nz - 2);
+  const double a = fi - i, b = fk - k;
+  return (1 - a) * (1 - b) * v[g.at(i, k)] + a * (1 - b) * v[g.at(i + 1, k)] +
+         (1 - a) * b * v[g.at(i, k + 1)] + a * b * v[g.at(i + 1, k + 1)];
+}
+
+// One field of the maps on the continuum's mesh: the continuum's own point values and the DEM's
+// coarse-grained grid field, in SI units.
+struct MeshField {
+  std::string key;
+  std::vector<double> continuum; // per mesh point (NaN where the continuum has no value)
+  const std::vector<double>* dem_grid = nullptr;
+};
+
+// The continuum's mesh at rest (reference coordinates, its cells as VTK quads or polygons) with,
+// per point, "continuum <key>", "DEM <key>" (interpolated from the kernel grid; NaN off the soil
+// and outside the granular material) and "continuum - DEM <key>": both methods and their difference
+// on one mesh in ParaView (issue 9 item 3). Written through the checked atomic write.
+void write_fields_vtu(const fs::path& file, const ContinuumSnapshot& mesh, const Grid& g,
+                      const std::vector<MeshField>& fields) {
+  const std::size_t np = mesh.x.size();
+  vtkNew<vtkUnstructuredGrid> ug;
+  vtkNew<vtkPoints> pts;
+  pts->SetDataTypeToDouble();
+  pts->SetNumberOfPoints(static_cast<vtkIdType>(np));
+  for (std::size_t k = 0; k < np; ++k)
+    pts->SetPoint(static_cast<vtkIdType>(k), mesh.x[k], mesh.z[k], 0.0);
+  ug->SetPoints(pts);
+  ug->Allocate(static_cast<vtkIdType>(mesh.cells.size()));
+  for (const auto& c : mesh.cells) {
+    std::vector<vtkIdType> ids(c.begin(), c.end());
+    ug->InsertNextCell(ids.size() == 4 ? VTK_QUAD : VTK_POLYGON, static_cast<vtkIdType>(ids.size()),
+                       ids.data());
+  }
+  const double nan = std::nan("");
+  for (const auto& f : fields) {
+    vtkNew<vtkDoubleArray> c, d, diff;
+    c->SetName(("continuum " + f.key).c_str());
+    d->SetName(("DEM " + f.key).c_str());
+    diff->SetName(("continuum - DEM " + f.key).c_str());
+    for (auto* a : {c.Get(), d.Get(), diff.Get()}) a->SetNumberOfValues(static_cast<vtkIdType>(np));
+    for (std::size_t k = 0; k < np; ++k) {
+      const double cv = k < f.continuum.size() ? f.continuum[k] : nan;
+      const double dv = soil_point(mesh, k) ? grid_at(g, *f.dem_grid, mesh.x[k], mesh.z[k]) : nan;
+      const auto id = static_cast<vtkIdType>(k);
+      c->SetValue(id, cv);
+      d->SetValue(id, dv);
+      diff->SetValue(id, cv - dv);
+    }
+    ug->GetPointData()->AddArray(c);
+    ug->GetPointData()->AddArray(d);
+    ug->GetPointData()->AddArray(diff);
+  }
+  vtkNew<vtkXMLUnstructuredGridWriter> w;
+  w->SetInputData(ug);
+  w->SetDataModeToBinary();
+  w->WriteToOutputStringOn();
+  if (!w->Write()) throw std::runtime_error("VTK could not encode " + file.string());
+  OutFile out(file);
+  out << w->GetOutputString();
+  out.close();
+}
+
 } // namespace
 
 FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double density,
@@ -496,7 +572,9 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
                       fmt::format("horizontal stress σ_xx at rest (t = {:.3g} s)", out.rest_time),
                       "kPa", 1e-3, masked(f.sxx), sample_continuum(crest, g, "stress_xx")});
   } else {
-    out.notes.push_back("no DEM force-chain snapshot: no stress maps");
+    out.notes.push_back(dc.empty() ? "no DEM force-chain snapshot: no stress maps"
+                                   : "no contacts in the DEM's force-chain snapshot at rest: no "
+                                     "stress maps");
   }
   fields.push_back({"ux_inc",
                     fmt::format("horizontal displacement u_x, t = {:.3g} s − t = {:.3g} s",
@@ -525,6 +603,40 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
         csv << "\n";
       }
     csv.close();
+  }
+  {
+    // the continuum's own point values on its rest mesh (the end snapshot has the same points)
+    const bool same_mesh = cend.x.size() == crest.x.size();
+    auto at_rest = [&](const char* name) {
+      const auto* v = crest.get(name);
+      return v ? *v : std::vector<double>(crest.x.size(), std::nan(""));
+    };
+    auto increment = [&](const char* name) {
+      std::vector<double> o(crest.x.size(), std::nan(""));
+      const auto *a = cend.get(name), *b = crest.get(name);
+      if (same_mesh && a && b)
+        for (std::size_t k = 0; k < o.size(); ++k) o[k] = (*a)[k] - (*b)[k];
+      return o;
+    };
+    std::vector<MeshField> mf;
+    for (const auto& fl : fields) {
+      MeshField m{fl.key, {}, &fl.dem};
+      if (fl.key == "szz_rest")
+        m.continuum = at_rest("stress_zz");
+      else if (fl.key == "sxx_rest")
+        m.continuum = at_rest("stress_xx");
+      else if (fl.key == "ux_inc")
+        m.continuum = increment("displacement_x");
+      else if (fl.key == "vol_inc")
+        m.continuum = increment("volumetric_strain");
+      mf.push_back(std::move(m));
+    }
+    write_fields_vtu(run_dir / "compare" / "fields.vtu", crest, g, mf);
+    out.notes.push_back(
+        "ParaView: compare/fields.vtu is the continuum's mesh at rest with each field below from "
+        "both methods and their difference (point arrays \"continuum <key>\", \"DEM <key>\", "
+        "\"continuum - DEM <key>\"; keys szz_rest, sxx_rest [Pa], ux_inc [m], vol_inc [-]); "
+        "compare/fields.csv has the same fields on the kernel grid.");
   }
   for (const auto& fl : fields) {
     FieldComparison::Summary sm;
@@ -555,10 +667,14 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
       "DEM coarse-grained with Lucy's kernel, support radius c = {:.3g} m (2 mean particle "
       "diameters), on a {} × {} grid of spacing {:.3g} m; DEM snapshots at t = {:.3g} s (rest) and "
       "{:.3g} s, continuum snapshots at t = {:.3g} s and {:.3g} s. Grid nodes where the DEM's "
-      "coarse-grained density is below half its median are blank. Stress tension positive; the "
-      "DEM's stress omits the wall and base contacts (not in the force-chain files), so it is low "
-      "within c of a boundary.",
-      out.width, g.nx, g.nz, g.h, out.rest_time, out.end_time, cp[c_rest].time, cp[c_end].time));
+      "coarse-grained density is below half its median are blank. Stress tension positive; {}",
+      out.width, g.nx, g.nz, g.h, out.rest_time, out.end_time, cp[c_rest].time, cp[c_end].time,
+      std::any_of(chains_rest.begin(), chains_rest.end(),
+                  [](const CgContact& k) { return k.boundary; })
+          ? "the DEM's stress includes the wall and base contacts (Weinhart et al. 2012: the line "
+            "from each particle to its contact point), so it holds up to the boundaries."
+          : "the DEM's stress omits the wall and base contacts (not in these force-chain files, "
+            "written before they were), so it is low within c of a boundary."));
   return out;
 }
 

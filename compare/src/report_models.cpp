@@ -556,11 +556,13 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
     const double h = f.continuum.h_min > 0.0 ? f.continuum.h_min : 0.0;
     if (co.interface == "coulomb") {
       // continuum/src/run.cpp: structures with every DoF fixed are unmeshed Coulomb contact
-      // bodies; moving structures stay tied
+      // bodies; moving structures too unless continuum.structure_interface = "tied"
       std::string at_rest, moving;
       for (const auto& st : s.structures) {
-        const bool fixed = st.dof_x == scene::DofMode::Fixed && st.dof_z == scene::DofMode::Fixed &&
-                           st.dof_rotation == scene::DofMode::Fixed;
+        const bool fixed =
+            (st.dof_x == scene::DofMode::Fixed && st.dof_z == scene::DofMode::Fixed &&
+             st.dof_rotation == scene::DofMode::Fixed) ||
+            co.structure_interface == "contact";
         std::string& list = fixed ? at_rest : moving;
         list += fmt::format("{}'{}'", list.empty() ? "" : ", ", st.name);
       }
@@ -569,8 +571,9 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
                            "continuum.interface = \"coulomb\"), slides and separates",
                            at_rest);
       if (!moving.empty())
-        cont += fmt::format("{}{}: rigid bodies tied to the soil (Coulomb contact with moving "
-                            "bodies is not implemented)",
+        cont += fmt::format("{}{}: rigid bodies tied to the soil and seated (the soil carries "
+                            "their weight, as the DEM bed does; continuum.structure_interface = "
+                            "\"tied\": a contact body is not seated yet)",
                             cont.empty() ? "" : "; ", moving);
       matched = moving.empty();
       why = matched ? "Matched: zero-thickness contact with the same μ_s/μ_D, sliding and "

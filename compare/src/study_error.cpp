@@ -4,6 +4,7 @@
 #include "study_runs.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -14,6 +15,7 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <string_view>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
@@ -26,6 +28,7 @@
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -114,16 +117,138 @@ namespace study_detail {
 
 // ---- separate processes ------------------------------------------------------------------------
 
+std::string env_or(const char* name, const std::string& fallback) {
+  const char* v = std::getenv(name);
+  return v && *v ? std::string(v) : fallback;
+}
+
+const Spread& launcher_spread() {
+  static const Spread sp = [] {
+    Spread r;
+    // Open MPI, MPICH/Hydra (and Intel MPI), Slurm's srun
+    const std::pair<const char*, const char*> vars[] = {
+        {"OMPI_COMM_WORLD_RANK", "OMPI_COMM_WORLD_SIZE"},
+        {"PMI_RANK", "PMI_SIZE"},
+        {"SLURM_PROCID", "SLURM_NTASKS"}};
+    for (const auto& [rank, size] : vars) {
+      const char* a = std::getenv(rank);
+      const char* b = std::getenv(size);
+      if (!a || !b) continue;
+      try {
+        const int rr = std::stoi(a), nn = std::stoi(b);
+        if (nn >= 1 && rr >= 0 && rr < nn) {
+          r.rank = rr;
+          r.size = nn;
+        }
+      } catch (const std::exception&) {
+      }
+      break;
+    }
+    // one launch, one exchange directory: the launcher's job id where it gives one, else the
+    // launcher's process (the ranks' common parent on a node)
+    r.token = env_or("PMIX_NAMESPACE", env_or("OMPI_MCA_orte_ess_jobid",
+                                              env_or("SLURM_JOB_ID", std::to_string(::getppid()))));
+    for (char& c : r.token)
+      if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    return r;
+  }();
+  return sp;
+}
+
+fs::path spread_directory(const fs::path& out_dir) {
+  return out_dir / (".ranks-" + launcher_spread().token);
+}
+
 struct Task {
   std::vector<std::string> argv;
   fs::path log;         // stdout and stderr
   double timeout = 0.0; // [s]; 0 = none
 };
 
-// Runs the tasks as child processes, at most `jobs` at once; wall time from fork to reaping and
-// the child's peak resident set from wait4's rusage (ru_maxrss, KiB on Linux).
-std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
+// The environment without the launcher's variables, so that a child started from a rank is an MPI
+// singleton of its own instead of a second copy of that rank (built before fork: the child only
+// execs).
+std::vector<std::string> child_environment() {
+  std::vector<std::string> env;
+  for (char** e = environ; e && *e; ++e) {
+    const std::string_view v(*e);
+    bool launcher = false;
+    for (const char* p : {"OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPI_LOCAL"})
+      launcher = launcher || v.starts_with(p);
+    if (!launcher) env.emplace_back(v);
+  }
+  return env;
+}
+
+// Writes this rank's task results of a wave into `dir` and reads the other ranks' back, waiting
+// until they are all there (under a launcher a rank that fails ends the whole job).
+void exchange_results(std::vector<TaskResult>& res, const std::vector<std::size_t>& mine,
+                      const fs::path& dir) {
+  const Spread& sp = launcher_spread();
+  fs::create_directories(dir);
+  for (const std::size_t t : mine) {
+    const auto& r = res[t];
+    const nlohmann::json j = {{"exit_code", r.exit_code},
+                              {"wall", r.wall},
+                              {"rss_mib", r.rss_mib},
+                              {"timed_out", r.timed_out},
+                              {"rank", r.rank}};
+    scene::write_file_atomic(dir / fmt::format("task-{}.json", t), j.dump() + "\n");
+  }
   using Clock = std::chrono::steady_clock;
+  auto last_note = Clock::now();
+  std::vector<bool> have(res.size(), false);
+  for (const std::size_t t : mine) have[t] = true;
+  for (;;) {
+    std::size_t missing = 0;
+    for (std::size_t t = 0; t < res.size(); ++t) {
+      if (have[t]) continue;
+      const fs::path f = dir / fmt::format("task-{}.json", t);
+      std::ifstream in(f);
+      if (!in) {
+        ++missing;
+        continue;
+      }
+      const auto j = nlohmann::json::parse(in, nullptr, false);
+      if (j.is_discarded()) { // written atomically: a parse failure is a foreign file
+        throw std::runtime_error(fmt::format("{}: not a task result", f.string()));
+      }
+      res[t].exit_code = j.value("exit_code", -1);
+      res[t].wall = j.value("wall", 0.0);
+      res[t].rss_mib = j.value("rss_mib", 0.0);
+      res[t].timed_out = j.value("timed_out", false);
+      res[t].rank = j.value("rank", -1);
+      have[t] = true;
+    }
+    if (missing == 0) return;
+    if (Clock::now() - last_note > std::chrono::seconds(60)) {
+      fmt::print(stderr, "study rank {} of {}: waiting for {} result(s) of the other ranks in {}\n",
+                 sp.rank, sp.size, missing, dir.string());
+      last_note = Clock::now();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+}
+
+// Runs this rank's share of the tasks (all of them outside a launcher) as child processes, at most
+// `jobs` at once; wall time from fork to reaping and the child's peak resident set from wait4's
+// rusage (ru_maxrss, KiB on Linux). Under a launcher the other ranks' results are read back from
+// `exchange` (one subdirectory per call, the same sequence on every rank).
+std::vector<TaskResult> run_tasks(const std::vector<Task>& all_tasks, int jobs,
+                                  const fs::path& exchange) {
+  using Clock = std::chrono::steady_clock;
+  const Spread& sp = launcher_spread();
+  static int wave = 0;
+  const int this_wave = wave++;
+  std::vector<std::size_t> mine;
+  for (std::size_t t = 0; t < all_tasks.size(); ++t)
+    if (static_cast<int>(t % static_cast<std::size_t>(sp.size)) == sp.rank) mine.push_back(t);
+  std::vector<Task> tasks;
+  for (const std::size_t t : mine) tasks.push_back(all_tasks[t]);
+  const std::vector<std::string> env = child_environment();
+  std::vector<char*> envp;
+  for (const auto& e : env) envp.push_back(const_cast<char*>(e.c_str()));
+  envp.push_back(nullptr);
   std::vector<TaskResult> res(tasks.size());
   struct Running {
     std::size_t index;
@@ -150,7 +275,7 @@ std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
           ::dup2(fd, 2);
           ::close(fd);
         }
-        ::execv(argv[0], argv.data());
+        ::execve(argv[0], argv.data(), envp.data());
         ::_exit(127);
       }
       if (pid < 0) {
@@ -191,7 +316,13 @@ std::vector<TaskResult> run_tasks(const std::vector<Task>& tasks, int jobs) {
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     running.erase(it);
   }
-  return res;
+  std::vector<TaskResult> out(all_tasks.size());
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    out[mine[k]] = res[k];
+    out[mine[k]].rank = sp.rank;
+  }
+  if (sp.size > 1) exchange_results(out, mine, exchange / fmt::format("wave-{}", this_wave));
+  return out;
 }
 
 std::string tail_of(const fs::path& log) {
@@ -222,12 +353,15 @@ void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
   std::vector<std::pair<std::size_t, int>> owner;
   for (int k = 0; k < o.repeats; ++k)
     for (std::size_t j = 0; j < jobs.size(); ++j) {
-      fs::remove_all(jobs[j].dirs[k]);
+      // each rank clears only the runs it starts (task t runs on rank t mod size)
+      if (static_cast<int>(tasks.size() % static_cast<std::size_t>(launcher_spread().size)) ==
+          launcher_spread().rank)
+        fs::remove_all(jobs[j].dirs[k]);
       fs::create_directories(jobs[j].dirs[k].parent_path());
       tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log", jobs[j].timeout});
       owner.emplace_back(j, k);
     }
-  const auto res = run_tasks(tasks, o.jobs);
+  const auto res = run_tasks(tasks, o.jobs, spread_directory(o.out_dir));
   for (auto& j : jobs) {
     j.point.wall.clear();
     j.point.ok = true;
@@ -259,6 +393,7 @@ void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
     j.point.wall.push_back(solver);
     j.point.process_wall.push_back(res[t].wall);
     j.point.peak_rss_mib = std::max(j.point.peak_rss_mib, res[t].rss_mib);
+    j.point.rank = res[t].rank;
     if (first_ok[owner[t].first] < 0) first_ok[owner[t].first] = owner[t].second;
   }
   for (std::size_t i = 0; i < jobs.size(); ++i) {
@@ -415,7 +550,7 @@ ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o)
     const fs::path dir = runs / dir_name;
     fs::create_directories(dir);
     const fs::path toml = dir / "scene.toml";
-    std::ofstream(toml) << scene::to_toml(s);
+    scene::write_file_atomic(toml, scene::to_toml(s));
     for (int k = 0; k < o.repeats; ++k) {
       const fs::path rd = dir / fmt::format("rep-{}", k);
       j.dirs.push_back(rd);
@@ -736,6 +871,7 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
                   {"process_median", p.process_median},
                   {"process_max", p.process_max},
                   {"peak_rss_mib", p.peak_rss_mib},
+                  {"rank", p.rank},
                   {"pareto", p.pareto},
                   {"command", p.command}});
   }
@@ -782,7 +918,7 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   }
   j["figures"] = nlohmann::json::array();
   for (const auto& f : figs) j["figures"].push_back({{"file", f.file}, {"caption", f.caption}});
-  std::ofstream(dir / "study.json") << j.dump(2) << "\n";
+  scene::write_file_atomic(dir / "study.json", j.dump(2) + "\n");
 
   // study.md and study.html: the fits, then every point.
   std::vector<std::string> metrics;
@@ -889,8 +1025,29 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
     html += "</ul>";
   }
   html += "</body></html>\n";
-  std::ofstream(dir / "study.md") << md;
-  std::ofstream(dir / "study.html") << html;
+  scene::write_file_atomic(dir / "study.md", md);
+  scene::write_file_atomic(dir / "study.html", html);
+}
+
+int study_rank() {
+  return study_detail::launcher_spread().rank;
+}
+int study_ranks() {
+  return study_detail::launcher_spread().size;
+}
+
+void finish_study_ranks(const fs::path& out_dir) {
+  const auto& sp = study_detail::launcher_spread();
+  if (sp.size <= 1) return;
+  const fs::path dir = study_detail::spread_directory(out_dir);
+  fs::create_directories(dir);
+  scene::write_file_atomic(dir / fmt::format("done-{}", sp.rank), "done\n");
+  if (sp.rank != 0) return;
+  for (int r = 1; r < sp.size; ++r)
+    while (!fs::exists(dir / fmt::format("done-{}", r)))
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::error_code ec;
+  fs::remove_all(dir, ec); // every rank has read every result
 }
 
 } // namespace demfem::compare

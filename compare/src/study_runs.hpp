@@ -16,7 +16,20 @@ struct TaskResult {
   double wall = 0.0;
   double rss_mib = 0.0;
   bool timed_out = false; // killed at its time limit
+  int rank = 0;           // the launcher rank that ran it
 };
+
+// A study under a launcher (`mpirun -np N`, srun): rank r of N runs the tasks t with t mod N = r,
+// writes their results into spread_directory(out) and reads the others' back, so every rank goes
+// on with the same results; rank 0 alone writes the study's outputs. Outside a launcher: rank 0
+// of 1 and nothing is exchanged. No scheduler of our own: the launcher places the ranks.
+struct Spread {
+  int rank = 0;
+  int size = 1;
+  std::string token; // one launch (its job id), naming the exchange directory
+};
+const Spread& launcher_spread();
+std::filesystem::path spread_directory(const std::filesystem::path& out_dir);
 
 // A point and how to run and evaluate it.
 struct Job {

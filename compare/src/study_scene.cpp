@@ -19,6 +19,7 @@
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
@@ -135,7 +136,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     const fs::path dir = runs / dir_name(name);
     fs::create_directories(dir);
     const fs::path toml = dir / "scene.toml";
-    std::ofstream(toml) << scene::to_toml(s);
+    scene::write_file_atomic(toml, scene::to_toml(s));
     for (int k = 0; k < o.repeats; ++k) {
       const fs::path rd = dir / fmt::format("rep-{}", k);
       j.dirs.push_back(rd);

@@ -70,7 +70,9 @@ struct Region {
   // In Coulomb contact (issue 9): the region is not meshed; it is a rigid body at rest in the
   // shaking frame whose faces are Problem::contacts with `region` = its index. The soil keeps its
   // own nodes on those faces (no shared nodes); soil_reaction and soil_pressure come from the
-  // contact forces. Explicit integrator; every mode Fixed.
+  // contact forces. Explicit integrator. With a mode not Fixed it is a moving rigid body (mass and
+  // polar moment from the outline × density, dead weight, its loads and modes as a tied body's)
+  // whose faces move with it: the contact is solved with its motion (explicit_contact_body).
   bool contact = false;
 };
 
@@ -276,6 +278,16 @@ public:
   // the integral of the traction σ·n over all those faces (force of the soil on the region).
   [[nodiscard]] std::vector<double> soil_pressure(std::size_t region, double z0, double z1,
                                                   int bins, Reaction* force = nullptr) const;
+  // Explicit runs: linear momentum (px, pz) [kg·m/s per m] and angular momentum about the origin
+  // [kg·m²/s per m] of the soil (lumped masses at their nodes' reference positions) and the
+  // moving contact bodies (M_q q̇ moved from the pivot to the origin); zero before the first step.
+  struct Momentum {
+    double px = 0, pz = 0, angular = 0;
+  };
+  [[nodiscard]] Momentum momentum() const;
+  // Explicit runs: one line per moving contact body (Region::contact with a DoF not fixed): its
+  // contact nodes, active-set passes per step and the steps whose set did not settle.
+  [[nodiscard]] std::string contact_body_summary() const;
   // ½ vᵀM v + ½ uᵀK0 u: kinetic plus elastic strain energy (linear elastic problems) [J/m]
   [[nodiscard]] double elastic_energy() const;
   [[nodiscard]] std::vector<QpStress> stresses() const; // locally owned only

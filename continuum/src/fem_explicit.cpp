@@ -37,6 +37,13 @@ void allreduce_sum(std::vector<double>& x, MPI_Comm comm) {
       MPI_Allreduce(MPI_IN_PLACE, x.data(), static_cast<int>(x.size()), MPI_DOUBLE, MPI_SUM, comm);
   AssertThrowMPI(rc);
 }
+
+// the small rigid motion S(x) q of a body at (x, z) about its pivot p:
+// S = [[1, 0, −(z − zp)], [0, 1, x − xp]] (as the tied body's rows)
+void rigid_at(const double q[3], const Point& p, double x, double z, double out[2]) {
+  out[0] = q[0] - q[2] * (z - p.z);
+  out[1] = q[1] + q[2] * (x - p.x);
+}
 } // namespace
 
 void Model::Impl::explicit_setup() {
@@ -190,6 +197,36 @@ void Model::Impl::explicit_setup() {
     for (int a = 0; a < 3; ++a) b.q_prev[a] = b.q[a];
     e.bodies.push_back(std::move(b));
   }
+  // moving structures in Coulomb contact (Region::contact, a DoF not fixed): unmeshed rigid
+  // bodies whose faces are moving contact planes (explicit_contact_body)
+  for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+    const Region& reg = pb.regions[r];
+    if (!reg.contact || (reg.mode[0] == Region::Mode::Fixed && reg.mode[1] == Region::Mode::Fixed &&
+                         reg.mode[2] == Region::Mode::Fixed))
+      continue;
+    Explicit::Body b;
+    b.region = r;
+    b.contact = true;
+    const RegionGeom& g = geom[r + 1];
+    if (g.area <= 0.0 || rho[r + 1] <= 0.0)
+      throw std::runtime_error("structure '" + reg.name +
+                               "' in Coulomb contact has no mass (its "
+                               "outline's area × density is 0)");
+    const double m = rho[r + 1] * g.area, dx = g.xc - reg.pivot.x, dz = g.zc - reg.pivot.z;
+    // M_q = ∫ ρ Sᵀ S dA with S = [[1, 0, −(z − zp)], [0, 1, x − xp]] (small rigid motion about
+    // the pivot): m, static moments m (x_c − x_p), m (z_c − z_p) and the polar moment about the
+    // pivot ρ (J_c + A |c − p|²) (parallel-axis theorem)
+    b.M[0][0] = b.M[1][1] = m;
+    b.M[0][2] = b.M[2][0] = -m * dz;
+    b.M[1][2] = b.M[2][1] = m * dx;
+    b.M[2][2] = rho[r + 1] * (g.J + g.area * (dx * dx + dz * dz));
+    // dead weight −m g at the centroid (as the tied body's cells get it): Q = Sᵀ(c) (0, −m g)
+    const double W =
+        reg.dead_weight ? m * pb.gravity * gfactor * weight_factor(types::material_id(r + 1)) : 0.0;
+    b.Qw[1] = -W;
+    b.Qw[2] = -W * dx;
+    e.bodies.push_back(std::move(b));
+  }
   // `hom` knows the locally relevant dofs only: each rank classifies its owned dofs, and the
   // classes are gathered below (one rank: all dofs are owned)
   bool unsupported = false;
@@ -291,6 +328,12 @@ void Model::Impl::explicit_contact_setup() {
   e.contacts.clear();
   e.contact_work.assign(pb.contacts.size(), 0.0);
   const auto nodes = contact_nodes();
+  std::vector<int> body_of(pb.regions.size(), -1); // region → its moving contact body
+  for (std::size_t bi = 0; bi < e.bodies.size(); ++bi) {
+    e.bodies[bi].contacts.clear();
+    if (e.bodies[bi].contact) body_of[e.bodies[bi].region] = static_cast<int>(bi);
+  }
+  std::set<std::pair<int, types::global_dof_index>> on_body; // (body, node): one record each
   for (std::size_t k = 0; k < nodes.size(); ++k)
     for (const ContactNode& c : nodes[k]) {
       bool held = false, rigid_or_linked = false;
@@ -301,6 +344,14 @@ void Model::Impl::explicit_contact_setup() {
       if (rigid_or_linked) continue; // its force belongs to a rigid body, a patch or a master
       Explicit::Contact ct = contact_at(c, k);
       ct.held = held;
+      const int region = pb.contacts[k].region;
+      if (region >= 0 && body_of[region] >= 0 && !held) {
+        // a node at a corner of the body (on two of its faces) keeps the first face's contact
+        // only: one normal per node keeps the body's coupled system regular
+        if (!on_body.insert({body_of[region], c.ix}).second) continue;
+        ct.body = body_of[region];
+        e.bodies[ct.body].contacts.push_back(e.contacts.size());
+      }
       e.contacts.push_back(ct);
     }
   for (const auto& c : e.contacts)
@@ -319,6 +370,7 @@ void Model::Impl::explicit_contacts() {
   Explicit& e = ex;
   const double dt = e.contact_dt, tau = e.contact_tau;
   for (auto& c : e.contacts) {
+    if (c.body >= 0 && !c.held) continue; // with its body (explicit_contact_body)
     c.fx = c.fz = c.N = c.Ft = 0.0;
     c.slide = false;
     if (c.held) { // the normal part of the reaction −f that holds the fixed dof at rest
@@ -353,6 +405,192 @@ void Model::Impl::explicit_contacts() {
     e.a[c.ix] += c.fx / m;
     e.a[c.iz] += c.fz / m;
   }
+}
+
+// A moving rigid body in Coulomb contact with the soil (Region::contact with a DoF not fixed):
+// the kinematic contact of explicit_contacts against a moving surface, solved with the body's
+// equation of motion. Node i (lumped mass m_i, trial acceleration a*_i = f_i/m_i) touches the body
+// at its reference point X_i, where the body's surface moves with J_i q (J_i = S(X_i), rigid_at).
+// With gap g and normal velocity v_n of the node relative to that surface, the targets of the
+// node's relative acceleration are those of explicit_contacts (Carpenter, Taylor & Katona 1991):
+//   normal  d_n = −(g + Δt v_n)/(Δt τ)   (back on the surface at the next step)
+//   stick   d_t = −v_t/τ                 (no relative tangential velocity at the next velocity)
+// Sticking: r_i = m_i (d_i − a*_i + J_i q̈) (the force of the body on the node); sliding:
+// r_i = N_i w_i, w_i = −n + s μ_d t, N_i = m_i (n·a*_i − d_n − n·J_i q̈); open: r_i = 0.
+// The body M q̈ = Q − Σ J_iᵀ r_i; eliminating r_i gives the 3×3 Schur complement
+//   (M + Σ_stick m J_iᵀJ_i − Σ_slide m J_iᵀ w_i n_iᵀ J_i) q̈ = Q − Σ_stick m J_iᵀ(d_i − a*_i)
+//                                                              − Σ_slide m J_iᵀ w_i (n·a*_i − d_n)
+// over the free DoFs (fixed ones at rest, prescribed ones with their motion's second
+// difference). The active set (open / stick / slide and the slip direction) starts from the last
+// step's and is updated from the Coulomb cone and the sign of N with the solved q̈, at most 8
+// passes; the forces are those of the last solve, so that soil + body momentum is exact whatever
+// the set (only the Coulomb law can be violated by an unsettled set: counted in `unsettled`).
+void Model::Impl::explicit_contact_body(Explicit::Body& b, double dt) {
+  Explicit& e = ex;
+  const Region& reg = pb.regions[b.region];
+  const Point p = reg.pivot;
+  const double h = e.contact_dt, tau = e.contact_tau;
+  // generalised external force: weight, the loads (resultant at load_point and a couple: Q =
+  // (Fx, Fz, M + (l − p) × F)) and mass-proportional Rayleigh damping −α M_q q̇ (as on the tied
+  // body's dofs)
+  const double Fx = lambda * reg.force_x(t), Fz = lambda * reg.force_z(t);
+  double Q[3] = {b.Qw[0] + Fx, b.Qw[1] + Fz,
+                 b.Qw[2] + lambda * reg.moment(t) + (reg.load_point.x - p.x) * Fz -
+                     (reg.load_point.z - p.z) * Fx};
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) Q[a] -= pb.rayleigh_alpha * b.M[a][c] * b.qv[c];
+  double ap[3] = {0, 0, 0};
+  int fr[3], nf = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (reg.mode[a] == Region::Mode::Free)
+      fr[nf++] = a;
+    else if (reg.mode[a] == Region::Mode::Prescribed && dt > 0)
+      ap[a] = (reg.motion[a](t + dt) - 2 * reg.motion[a](t) + reg.motion[a](t - dt)) / (dt * dt);
+  }
+  const bool active = h > 0 && tau > 0;
+  // per contact: mass, J, trial acceleration, normal/tangent and the targets
+  struct Row {
+    double m, J[2][3], as[2], n[2], tg[2], dn, dtg, mus, mud;
+  };
+  std::vector<Row> rows(b.contacts.size());
+  for (std::size_t k = 0; k < b.contacts.size(); ++k) {
+    const auto& c = e.contacts[b.contacts[k]];
+    Row& w = rows[k];
+    w.m = e.mass[c.ix];
+    w.J[0][0] = 1, w.J[0][1] = 0, w.J[0][2] = -(c.z - p.z);
+    w.J[1][0] = 0, w.J[1][1] = 1, w.J[1][2] = c.x - p.x;
+    // the free acceleration f/m without FLAC local damping: −α|f| sign(v) of a node pressed on
+    // the body is a large force (f is balanced by the contact force) flipping with the sign of a
+    // near-zero velocity, which the contact would pass on to the body as a chatter; a node in
+    // contact is damped through its body (and by Rayleigh damping, which is in f)
+    w.as[0] = e.f[c.ix] / w.m;
+    w.as[1] = e.f[c.iz] / w.m;
+    w.n[0] = c.nx, w.n[1] = c.nz, w.tg[0] = -c.nz, w.tg[1] = c.nx;
+    double ub[2], vb[2];
+    rigid_at(b.q, p, c.x, c.z, ub);
+    rigid_at(b.qv, p, c.x, c.z, vb);
+    const double du_rel[2] = {e.u[c.ix] - ub[0], e.u[c.iz] - ub[1]};
+    const double dv[2] = {e.v[c.ix] - vb[0], e.v[c.iz] - vb[1]};
+    const double g = w.n[0] * du_rel[0] + w.n[1] * du_rel[1]; // penetration positive
+    const double vn = w.n[0] * dv[0] + w.n[1] * dv[1], vt = w.tg[0] * dv[0] + w.tg[1] * dv[1];
+    w.dn = active ? -(g + h * vn) / (h * tau) : 0.0; // Carpenter et al. 1991, normal
+    w.dtg = active ? -vt / tau : 0.0;                // stick: no relative tangential velocity
+    const ContactPlane& cp = pb.contacts[c.plane];
+    w.mus = cp.mu_static;
+    w.mud = cp.mu_dynamic;
+  }
+  std::vector<int> status(rows.size());
+  std::vector<double> sign(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    status[k] = active ? e.contacts[b.contacts[k]].status : 0;
+    sign[k] = e.contacts[b.contacts[k]].sign;
+  }
+  double qa[3] = {ap[0], ap[1], ap[2]};
+  // J_i q̈ (the body's surface acceleration at X_i)
+  auto surface = [&](const Row& w, double out[2]) {
+    for (int r = 0; r < 2; ++r) out[r] = w.J[r][0] * qa[0] + w.J[r][1] * qa[1] + w.J[r][2] * qa[2];
+  };
+  bool settled = false;
+  for (int pass = 0; pass < 8; ++pass) {
+    ++b.passes;
+    double A[3][3], R[3];
+    for (int a = 0; a < 3; ++a) {
+      R[a] = Q[a];
+      for (int c = 0; c < 3; ++c) A[a][c] = b.M[a][c];
+    }
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const Row& w = rows[k];
+      if (status[k] == 0) continue;
+      if (status[k] == 1) { // stick: A += m JᵀJ, R −= m Jᵀ(d − a*)
+        const double d[2] = {w.dn * w.n[0] + w.dtg * w.tg[0] - w.as[0],
+                             w.dn * w.n[1] + w.dtg * w.tg[1] - w.as[1]};
+        for (int a = 0; a < 3; ++a) {
+          R[a] -= w.m * (w.J[0][a] * d[0] + w.J[1][a] * d[1]);
+          for (int c = 0; c < 3; ++c)
+            A[a][c] += w.m * (w.J[0][a] * w.J[0][c] + w.J[1][a] * w.J[1][c]);
+        }
+      } else { // slide: A −= m Jᵀw nᵀJ, R −= m Jᵀw (n·a* − d_n)
+        const double ww[2] = {-w.n[0] + sign[k] * w.mud * w.tg[0],
+                              -w.n[1] + sign[k] * w.mud * w.tg[1]};
+        const double na = w.n[0] * w.as[0] + w.n[1] * w.as[1] - w.dn;
+        for (int a = 0; a < 3; ++a) {
+          const double Jw = w.J[0][a] * ww[0] + w.J[1][a] * ww[1];
+          R[a] -= w.m * Jw * na;
+          for (int c = 0; c < 3; ++c)
+            A[a][c] -= w.m * Jw * (w.n[0] * w.J[0][c] + w.n[1] * w.J[1][c]);
+        }
+      }
+    }
+    double Af[3][3], Rf[3];
+    for (int x = 0; x < nf; ++x) {
+      Rf[x] = R[fr[x]];
+      for (int c = 0; c < 3; ++c)
+        if (reg.mode[c] != Region::Mode::Free) Rf[x] -= A[fr[x]][c] * ap[c];
+      for (int y = 0; y < nf; ++y) Af[x][y] = A[fr[x]][fr[y]];
+    }
+    if (nf > 0) solve_small(nf, Af, Rf);
+    for (int x = 0; x < nf; ++x) qa[fr[x]] = Rf[x];
+    if (!active) {
+      settled = true;
+      break;
+    }
+    // the law of explicit_contacts with the relative trial acceleration a*_i − J_i q̈
+    bool changed = false;
+    std::vector<int> next(rows.size());
+    std::vector<double> nsign(rows.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const Row& w = rows[k];
+      double js[2];
+      surface(w, js);
+      const double ar[2] = {w.as[0] - js[0], w.as[1] - js[1]};
+      const double N = w.m * (w.n[0] * ar[0] + w.n[1] * ar[1] - w.dn);
+      nsign[k] = sign[k];
+      if (N <= 0.0) {
+        next[k] = 0;
+      } else {
+        const double F = w.m * (w.dtg - (w.tg[0] * ar[0] + w.tg[1] * ar[1]));
+        if (std::abs(F) > w.mus * N) {
+          next[k] = 2;
+          nsign[k] = F > 0 ? 1.0 : -1.0;
+        } else {
+          next[k] = 1;
+        }
+      }
+      changed = changed || next[k] != status[k] || (next[k] == 2 && nsign[k] != sign[k]);
+    }
+    if (!changed) {
+      settled = true;
+      break;
+    }
+    if (pass == 7) break; // keep the forces of the last solve
+    status = next;
+    sign = nsign;
+  }
+  if (!settled) ++b.unsettled;
+  // the forces of the last solve: on the soil nodes, and −Σ J_iᵀ r_i on the body (in q̈)
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    auto& c = e.contacts[b.contacts[k]];
+    const Row& w = rows[k];
+    double js[2], r[2] = {0.0, 0.0};
+    surface(w, js);
+    if (status[k] == 1) {
+      for (int d = 0; d < 2; ++d) r[d] = w.m * (w.dn * w.n[d] + w.dtg * w.tg[d] - w.as[d] + js[d]);
+    } else if (status[k] == 2) {
+      const double N = w.m * (w.n[0] * (w.as[0] - js[0]) + w.n[1] * (w.as[1] - js[1]) - w.dn);
+      for (int d = 0; d < 2; ++d) r[d] = N * (-w.n[d] + sign[k] * w.mud * w.tg[d]);
+    }
+    c.status = status[k];
+    c.sign = sign[k];
+    c.fx = r[0];
+    c.fz = r[1];
+    c.N = -(r[0] * w.n[0] + r[1] * w.n[1]);
+    c.Ft = r[0] * w.tg[0] + r[1] * w.tg[1];
+    c.slide = status[k] == 2;
+    if (status[k] == 0) continue; // open: the free (damped) acceleration stays
+    e.a[c.ix] = w.as[0] + r[0] / w.m;
+    e.a[c.iz] = w.as[1] + r[1] / w.m;
+  }
+  for (int a = 0; a < 3; ++a) b.qa[a] = qa[a];
 }
 
 // Irons (1970): the largest eigenvalue of (K, M) is bounded by the largest element eigenvalue
@@ -509,6 +747,10 @@ void Model::Impl::explicit_accel(double dt) {
   // rigid bodies: M_q a_q = F_q, F_q = Σ row_i f_i; fixed components at rest, prescribed ones
   // with the motion's acceleration (second difference), free ones solved for
   for (auto& b : e.bodies) {
+    if (b.contact) {
+      explicit_contact_body(b, dt);
+      continue;
+    }
     const Region& reg = pb.regions[b.region];
     double F[3] = {0, 0, 0};
     for (std::size_t k = 0; k < b.dofs.size(); ++k)
@@ -580,9 +822,6 @@ void Model::Impl::explicit_move(double dt) {
   for (std::size_t i = 0; i < N; ++i)
     if (e.kind[i] == 0) e.v[i] += 0.5 * dt * e.a[i];
   for (const auto& [i, j] : e.follows) e.v[i] = e.v[j];
-  // work of the contact forces on the soil over the step around t_{n+1}: Δt f·v_{n+1}
-  for (const auto& c : e.contacts)
-    e.contact_work[c.plane] += dt * (c.fx * e.v[c.ix] + c.fz * e.v[c.iz]);
   for (auto& b : e.bodies) {
     const Region& reg = pb.regions[b.region];
     for (int a = 0; a < 3; ++a)
@@ -591,6 +830,17 @@ void Model::Impl::explicit_move(double dt) {
       const auto& rw = b.rows[k];
       e.v[b.dofs[k]] = rw[0] * b.qv[0] + rw[1] * b.qv[1] + rw[2] * b.qv[2];
     }
+  }
+  // work of the contact forces on the soil over the step around t_{n+1}: Δt f·(v_{n+1} − the
+  // plane's velocity there; a moving body's surface velocity J q̇), the frictional and separation
+  // work of the interface (the body's own work is in its motion)
+  for (const auto& c : e.contacts) {
+    double vb[2] = {0.0, 0.0};
+    if (c.body >= 0) {
+      const auto& b = e.bodies[c.body];
+      rigid_at(b.qv, pb.regions[b.region].pivot, c.x, c.z, vb);
+    }
+    e.contact_work[c.plane] += dt * (c.fx * (e.v[c.ix] - vb[0]) + c.fz * (e.v[c.iz] - vb[1]));
   }
   ++e.steps;
   e.step_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
@@ -685,7 +935,12 @@ ContactForce Model::contact_force(std::size_t plane) const {
   if (p.region >= 0) pivot = m.pb.regions.at(static_cast<std::size_t>(p.region)).pivot;
   for (const auto& c : m.contact_state(plane)) {
     if (m.ex.ready) {
-      const double ut = -c.nz * m.ex.u[c.ix] + c.nx * m.ex.u[c.iz];
+      double ub[2] = {0.0, 0.0}; // a moving body's surface displacement under the node
+      if (c.body >= 0) {
+        const auto& b = m.ex.bodies[c.body];
+        rigid_at(b.q, m.pb.regions[b.region].pivot, c.x, c.z, ub);
+      }
+      const double ut = -c.nz * (m.ex.u[c.ix] - ub[0]) + c.nx * (m.ex.u[c.iz] - ub[1]);
       out.max_slip = std::max(out.max_slip, std::abs(ut));
     }
     if (c.N <= 0.0) {
@@ -702,6 +957,60 @@ ContactForce Model::contact_force(std::size_t plane) const {
   }
   if (plane < m.ex.contact_work.size()) out.dissipated = -m.ex.contact_work[plane];
   return out;
+}
+
+Model::Momentum Model::momentum() const {
+  const Impl& m = *impl_;
+  Momentum out;
+  if (!m.ex.ready) return out;
+  // soil: Σ m_i v_i and Σ m_i (X_i × v_i)_y at the nodes' reference positions (a periodic
+  // follower's mass is its master's: skipped)
+  const auto& usp = m.fe.get_unit_support_points();
+  std::vector<types::global_dof_index> ld(m.fe.n_dofs_per_cell());
+  std::vector<char> seen(m.ex.u.size(), 0);
+  for (const auto& cell : m.dof.active_cell_iterators()) {
+    cell->get_dof_indices(ld);
+    for (unsigned k = 0; k < ld.size(); ++k) {
+      const auto i = ld[k];
+      if (seen[i] || m.ex.kind[i] == 3) continue;
+      seen[i] = 1;
+      const double p = m.ex.mass[i] * m.ex.v[i];
+      const auto X = m.mapping.transform_unit_to_real_cell(cell, usp[k]);
+      if (m.fe.system_to_component_index(k).first == 0) {
+        out.px += p;
+        out.angular -= X[1] * p; // counter-clockwise (as the rotation): x v_z − z v_x
+      } else {
+        out.pz += p;
+        out.angular += X[0] * p;
+      }
+    }
+  }
+  // contact bodies: M_q q̇ = (P_x, P_z, L_p); L_0 = L_p + p × P
+  for (const auto& b : m.ex.bodies) {
+    if (!b.contact) continue;
+    double P[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a)
+      for (int c = 0; c < 3; ++c) P[a] += b.M[a][c] * b.qv[c];
+    const Point& p = m.pb.regions[b.region].pivot;
+    out.px += P[0];
+    out.pz += P[1];
+    out.angular += P[2] + p.x * P[1] - p.z * P[0];
+  }
+  return out;
+}
+
+std::string Model::contact_body_summary() const {
+  const Impl& m = *impl_;
+  std::ostringstream s;
+  for (const auto& b : m.ex.bodies) {
+    if (!b.contact) continue;
+    const long steps = std::max(1L, m.ex.steps);
+    s << "contact body '" << m.pb.regions[b.region].name << "': " << b.contacts.size()
+      << " soil nodes in Coulomb contact with its faces, " << double(b.passes) / double(steps)
+      << " active-set passes per step, " << b.unsettled << " of " << m.ex.steps
+      << " steps ended with an unsettled set (8 passes)\n";
+  }
+  return s.str();
 }
 
 double stable_time_step(const Problem& pb) {

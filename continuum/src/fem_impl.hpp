@@ -293,6 +293,14 @@ struct Model::Impl {
       double M[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
       double q[3] = {0, 0, 0}, qv[3] = {0, 0, 0}, qa[3] = {0, 0, 0};
       double q_prev[3] = {0, 0, 0}; // prescribed components one step back
+      // A moving structure in Coulomb contact (Region::contact with a DoF not fixed): not
+      // meshed (no dofs/rows); M from its outline × density, its dead weight as a generalised
+      // force Qw, its soil contacts (indices into `contacts`) solved with it
+      // (explicit_contact_body)
+      bool contact = false;
+      double Qw[3] = {0, 0, 0};
+      std::vector<std::size_t> contacts;
+      long passes = 0, unsettled = 0; // active-set passes; steps that ended unsettled
     };
     std::vector<Body> bodies;
     // Coulomb contact nodes (Problem::contacts): one per (node, plane); n the soil's outward
@@ -307,6 +315,12 @@ struct Model::Impl {
       // held by another constraint (a fixed dof of a box side off the planes, e.g. the corner
       // with a fixed base): no contact law; its reaction's normal component is reported
       bool held = false;
+      // ≥ 0: the soil node touches a face of the moving contact body bodies[body]: gap and
+      // relative velocity are measured against the body's surface motion (J q at (x, z)); the
+      // active-set state of its last step (0 open, 1 stick, 2 slide) and the slip direction
+      int body = -1;
+      int status = 1;
+      double sign = 0.0;
     };
     std::vector<Contact> contacts;
     std::vector<double> contact_work; // by plane: work of the contact forces on the soil [J/m]
@@ -324,6 +338,8 @@ struct Model::Impl {
   void explicit_gather_classes(); // several ranks: the dof classes of every rank's owned dofs
   void explicit_contact_setup();  // contact nodes of Problem::contacts (after the dof classes)
   void explicit_contacts();       // contact forces into a (after the free accelerations)
+  // a moving contact body's acceleration and its soil contacts' forces, solved together
+  void explicit_contact_body(Explicit::Body& b, double dt);
   // soil nodes on the boundary faces of a contact plane: (x dof, z dof, support point, outward
   // normal of the face) by plane
   struct ContactNode {

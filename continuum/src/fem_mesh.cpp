@@ -153,6 +153,34 @@ void Model::Impl::setup() {
         g.J += (rx * rx + rz * rz) * fv.JxW(q);
       }
     }
+    // unmeshed contact bodies (Region::contact): area, centroid and polar moment about the
+    // centroid of the outline polygon (shoelace sums, e.g. Bourke 1988 "Calculating the area and
+    // centroid of a polygon"; second moments ∫x² dA = Σ c_i (x_i² + x_i x_j + x_j²)/12)
+    for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+      const auto& o = pb.regions[r].outline;
+      if (!pb.regions[r].contact || o.size() < 3) continue;
+      const double x0 = o[0].x, z0 = o[0].z; // relative coordinates (conditioning)
+      double a = 0, sx = 0, sz = 0, ixx = 0, izz = 0;
+      for (std::size_t i = 0; i < o.size(); ++i) {
+        const auto& p = o[i];
+        const auto& q = o[(i + 1) % o.size()];
+        const double xi = p.x - x0, zi = p.z - z0, xj = q.x - x0, zj = q.z - z0;
+        const double c = xi * zj - xj * zi;
+        a += 0.5 * c;
+        sx += (xi + xj) * c / 6.0;
+        sz += (zi + zj) * c / 6.0;
+        ixx += (xi * xi + xi * xj + xj * xj) * c / 12.0;
+        izz += (zi * zi + zi * zj + zj * zj) * c / 12.0;
+      }
+      const double sgn = a < 0 ? -1.0 : 1.0; // clockwise outlines
+      RegionGeom& g = geom[r + 1];
+      g.area = sgn * a;
+      g.xc = g.area > 0 ? sgn * sx / g.area : 0.0;
+      g.zc = g.area > 0 ? sgn * sz / g.area : 0.0;
+      g.J = sgn * (ixx + izz) - g.area * (g.xc * g.xc + g.zc * g.zc); // parallel axes
+      g.xc += x0;
+      g.zc += z0;
+    }
   }
 
   build_constraints();

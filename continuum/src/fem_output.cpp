@@ -274,6 +274,11 @@ std::vector<double> Model::soil_pressure(std::size_t region, double z0, double z
 
 Model::RegionMotion Model::region_motion(std::size_t region) const {
   Impl& m = *impl_;
+  if (m.pb.regions.at(region).contact) { // unmeshed: its generalised coordinates (rest: zero)
+    for (const auto& b : m.ex.bodies)
+      if (b.contact && b.region == region) return RegionMotion{b.q[0], b.q[1], b.q[2]};
+    return RegionMotion{};
+  }
   m.update_ghost();
   if (!m.rigid.at(region).is_dof.empty()) {
     const auto& R = m.rigid[region];
@@ -347,6 +352,11 @@ double Model::elastic_energy() const {
   if (lumped) // the replicated nodal vectors: each rank adds its owned dofs
     for (const auto i : m.owned)
       if (m.ex.kind[i] != 3) e += 0.5 * m.ex.mass[i] * m.ex.v[i] * m.ex.v[i];
+  if (lumped) // moving contact bodies (unmeshed): ½ q̇ᵀ M_q q̇
+    for (const auto& b : m.ex.bodies)
+      if (b.contact)
+        for (int a = 0; a < 3; ++a)
+          for (int c = 0; c < 3; ++c) e += 0.5 * b.qv[a] * b.M[a][c] * b.qv[c];
   return Utilities::MPI::sum(e, m.comm);
 }
 

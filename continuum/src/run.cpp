@@ -329,13 +329,15 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
                          top_of(domain, sx1 + 1e3 * tol, dz0) > sz0 + tol;
       r.seat = below && (co.seat_structures.has_value() || sides);
     }
-    // continuum.interface = "coulomb": a structure that never moves (every DoF fixed, e.g. the
-    // retaining wall) is a rigid body in zero-thickness Coulomb contact with the soil instead of
-    // sharing its nodes: not meshed, each axis-aligned outline edge a contact plane with the
-    // friction the DEM particles meet on it (dem_friction). Moving structures stay tied.
+    // continuum.interface = "coulomb": a structure is a rigid body in zero-thickness Coulomb
+    // contact with the soil instead of sharing its nodes: not meshed, each axis-aligned outline
+    // edge a contact plane with the friction the DEM particles meet on it (dem_friction). One that
+    // never moves (every DoF fixed, e.g. the retaining wall) always; a moving one (the rocking
+    // foundation) unless continuum.structure_interface = "tied". Not seated (as the fixed wall):
+    // the contact nodes hold the soil in the K0 state and the weight acts from t = 0.
     const bool at_rest = s.dof_x == scene::DofMode::Fixed && s.dof_z == scene::DofMode::Fixed &&
                          s.dof_rotation == scene::DofMode::Fixed;
-    if (co.interface == "coulomb" && at_rest) {
+    if (co.interface == "coulomb" && (at_rest || co.structure_interface == "contact")) {
       r.contact = true;
       r.seat = false;
       if (!add_contact_planes(scene, "structure", s.name, s.outline, true, s.mu_static,
@@ -792,6 +794,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                            p.name, p.a.x, p.a.z, p.b.x, p.b.z, p.mu_static, p.mu_dynamic, c.nodes,
                            c.sliding, c.open, c.fx, c.fz, c.max_slip, c.dissipated);
       }
+      log << m.contact_body_summary();
       const double wall_dyn =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
       log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations, {} linear "

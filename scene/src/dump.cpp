@@ -212,6 +212,7 @@ std::string to_toml(const Scene& s) {
                             {"absorbing", o.absorbing},
                             {"linear_solver", o.linear_solver},
                             {"interface", o.interface},
+                            {"structure_interface", o.structure_interface},
                             {"interface_friction_angle", deg(o.interface_friction_angle)},
                             {"load_steps", o.load_steps},
                             {"newton_tolerance", o.newton_tolerance},

@@ -684,6 +684,11 @@ ContinuumOptions read_continuum_options(Reader& r) {
   if (o.interface != "tied" && o.interface != "frictional" && o.interface != "coulomb")
     r.error("interface",
             fmt::format("unknown interface '{}'; valid: tied, frictional, coulomb", o.interface));
+  o.structure_interface = r.string("structure_interface", o.structure_interface);
+  if (o.structure_interface != "contact" && o.structure_interface != "tied")
+    r.error("structure_interface",
+            fmt::format("unknown structure_interface '{}'; valid: contact, tied",
+                        o.structure_interface));
   o.interface_friction_angle =
       r.in_range("interface_friction_angle", o.interface_friction_angle / kDeg, 0.0, 89.0) * kDeg;
   o.load_steps = r.integer("load_steps", o.load_steps, 1, 100000);
@@ -719,6 +724,7 @@ ContinuumOptions read_continuum_options(Reader& r) {
             "absorbing",
             "linear_solver",
             "interface",
+            "structure_interface",
             "interface_friction_angle",
             "load_steps",
             "newton_tolerance",

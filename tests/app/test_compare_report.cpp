@@ -16,6 +16,12 @@ using demfem::test::slurp;
 
 #ifdef DEMFEM_TEST_CONTINUUM
 namespace {
+std::string fmt_row(double x, double z) { // one explicit particle: x, z, r, vx, vz, ω
+  std::string row = "[";
+  row.append(std::to_string(x)).append(", ").append(std::to_string(z));
+  row.append(", 0.05, 0.0, 0.0, 0.0]");
+  return row;
+}
 // Two disks on a 1 m floor against a left wall; an elastic continuum box (one Q1 cell level).
 const char* kTiny = R"(
 [scene]
@@ -110,5 +116,54 @@ TEST(CompareReport, RecordsRunsAndListsWhatDiffers) {
   EXPECT_FALSE(rows["initial stress"]["matched"].get<bool>());
   EXPECT_NE(html.find("demfem calibrate " + scene.string()), std::string::npos);
   EXPECT_GT(m["run_times"]["dem"]["solver_seconds"].get<double>(), 0.0);
+}
+
+// The same scene with snapshots: two rows of disks on the floor. The coarse-grained DEM fields
+// and the continuum's come out on the continuum's mesh in one ParaView file (both methods and their
+// difference per field), and the force-chain files carry the particles' wall contacts.
+TEST(CompareReport, FieldMapsOnTheContinuumMeshOpenInParaView) {
+  std::string scene_text = kTiny;
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = scene_text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    scene_text.replace(at, from.size(), to);
+  };
+  std::string rows = "particles = [";
+  for (int k = 0; k < 9; ++k)
+    rows.append(fmt_row(0.1 + 0.1 * k, 0.0497))
+        .append(", ")
+        .append(fmt_row(0.15 + 0.1 * k, 0.1362))
+        .append(", ");
+  rows.push_back(']');
+  replace("count = 2\n", "count = 18\n");
+  replace("particles = [[0.3, 0.051, 0.05, 0.0, 0.0, 0.0], [0.6, 0.051, 0.05, 0.0, 0.0, 0.0]]",
+          rows);
+  replace("vtk = false", "vtk = true\ninterval = 0.025");
+  // at rest until 0.025 s (the fields' rest snapshot, once the contacts have formed), then shaken
+  replace("gravity = 9.81\n", "gravity = 9.81\nshaking = { direction = \"x\", amplitude = 1.0, "
+                              "frequency = 20.0, start = 0.025 }\n");
+  const fs::path scene = demfem::test::write_temp("tiny_fields.toml", scene_text);
+  const fs::path out = demfem::test::scratch("tiny-fields");
+  const Result r = run("compare " + scene.string() + " --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string vtu = slurp(out / "compare" / "fields.vtu");
+  ASSERT_FALSE(vtu.empty());
+  EXPECT_NE(vtu.find("<VTKFile type=\"UnstructuredGrid\""), std::string::npos);
+  for (const char* key : {"szz_rest", "sxx_rest", "ux_inc", "vol_inc"})
+    for (const char* who : {"continuum ", "DEM ", "continuum - DEM "}) {
+      std::string name = "Name=\"";
+      name.append(who).append(key).push_back('"');
+      EXPECT_NE(vtu.find(name), std::string::npos) << name;
+    }
+  EXPECT_NE(slurp(out / "report.html").find("compare/fields.vtu"), std::string::npos);
+  // wall contacts in the force chains, so the coarse-grained stress holds up to the base
+  bool boundary_array = false;
+  for (const auto& e : fs::directory_iterator(out / "dem" / "vtk"))
+    if (e.path().filename().string().starts_with("force_chains"))
+      boundary_array =
+          boundary_array || slurp(e.path()).find("Name=\"boundary\"") != std::string::npos;
+  EXPECT_TRUE(boundary_array);
+  EXPECT_NE(slurp(out / "report.html").find("includes the wall and base contacts"),
+            std::string::npos);
 }
 #endif

@@ -1,11 +1,14 @@
 // Coarse-graining (issue 9 item 3): closed-form checks of the kernel averaging.
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "demfem/compare/coarse_grain.hpp"
+#include "demfem/dem/io.hpp"
+#include "demfem/dem/state.hpp"
 
 using namespace demfem;
 
@@ -130,4 +133,69 @@ TEST(CoarseGrain, MassAndMomentumAreConserved) {
   EXPECT_NEAR(M, m, 2e-3 * m);
   EXPECT_NEAR(PX, px, 2e-3 * m);
   EXPECT_NEAR(PZ, pz, 2e-3 * m);
+}
+
+// A column of N disks (radius r, weight w each) resting on a floor at z = 0, its contact forces
+// written by the DEM's force-chain writer and read back by the coarse-grainer (kernel support
+// c = 2 diameters, the comparison's default). Statics: the contact below disk k carries (N − k) w.
+// Closed forms (Weinhart et al. 2012, with the boundary term):
+//  - ∫∫ σ_zz dA = Σ_c f_z l_z = −w r N² (= −g Σ m_i z_i, the virial of the weights); without the
+//    floor contact it would be −w r N(N − 1), 1/N short;
+//  - ∫ σ_zz dx across the section through disk k's centre = −(N − k − ½) w, the weight above the
+//    section (the carried force is a staircase stepping down by w at every centre; a symmetric
+//    kernel that stays inside the column averages each step), for kernels clear of both ends.
+TEST(CoarseGrain, ColumnOnFloorCarriesItsWeightThroughTheBoundaryContact) {
+  const int N = 12;
+  const double r = 0.1, w = 2.5e3, c = 4.0 * r;
+  dem::Particles p;
+  for (int k = 0; k < N; ++k) {
+    p.x.push_back(0.0);
+    p.z.push_back(r + 2.0 * r * k);
+    p.radius.push_back(r);
+    p.mass.push_back(w / 9.81);
+  }
+  std::vector<dem::ContactView> views;
+  views.push_back({0, -1, 0.0, 0.0, N * w, 0.0, false}); // bottom disk on boundary 0 at (0, 0)
+  for (int k = 0; k + 1 < N; ++k) // the upper disk (i) on the lower one (j): pushed up
+    views.push_back({static_cast<std::uint32_t>(k + 1), k, 0.0,
+                     p.z[static_cast<std::size_t>(k)] + r, (N - 1 - k) * w, 0.0, false});
+  const auto dir = std::filesystem::temp_directory_path() / "demfem_cg_column";
+  std::filesystem::create_directories(dir);
+  dem::io::write_force_chains_vtp(dir / "chains.vtp", p, views);
+  const auto contacts = compare::read_force_chains_vtp(dir / "chains.vtp");
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(contacts.size(), static_cast<std::size_t>(N));
+  EXPECT_TRUE(contacts[0].boundary);
+  EXPECT_FALSE(contacts[1].boundary);
+
+  compare::CgParticles parts;
+  parts.x = p.x;
+  parts.z = p.z;
+  parts.mass = p.mass;
+  compare::Grid g;
+  g.h = c / 40.0;
+  g.x0 = -1.25 * c;
+  g.z0 = -1.25 * c;
+  g.nx = static_cast<int>(2.5 * c / g.h) + 1;
+  g.nz = static_cast<int>((2.0 * r * N + 2.5 * c) / g.h) + 1;
+  const auto total = [&](const std::vector<compare::CgContact>& cs) { // ∫∫ σ_zz dA
+    const auto f = compare::coarse_grain(parts, cs, g, c);
+    double s = 0.0;
+    for (std::size_t n = 0; n < g.size(); ++n) s += f.szz[n] * g.h * g.h;
+    return s;
+  };
+  const double virial = -w * r * N * N;
+  EXPECT_NEAR(total(contacts), virial, 2e-3 * std::abs(virial));
+  const std::vector<compare::CgContact> pairs_only(contacts.begin() + 1, contacts.end());
+  EXPECT_GT(std::abs(total(pairs_only) - virial), 0.05 * std::abs(virial)); // the test can fail
+
+  const auto f = compare::coarse_grain(parts, contacts, g, c);
+  for (int k = 0; k < N; ++k) {
+    const double zk = p.z[static_cast<std::size_t>(k)];
+    if (zk - c < 0.0 || zk + c > p.z.back()) continue; // kernel clear of the column's ends
+    const int row = static_cast<int>(std::lround((zk - g.z0) / g.h));
+    double s = 0.0;
+    for (int i = 0; i < g.nx; ++i) s += f.szz[g.at(i, row)] * g.h;
+    EXPECT_NEAR(s, -(N - k - 0.5) * w, 5e-3 * N * w) << "section through disk " << k;
+  }
 }

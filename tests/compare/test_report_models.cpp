@@ -102,8 +102,9 @@ TEST(ReportModels, BoundariesAreWhatEachSolverDoes) {
 }
 
 // continuum.interface = "coulomb": the walls are Coulomb contact planes with the DEM's μ and the
-// fixed wall an unmeshed contact body, so the boundary rows say matched; a moving structure stays
-// tied and its row says so.
+// fixed wall an unmeshed contact body, so the boundary rows say matched; a moving structure is a
+// moving contact body too (matched), unless continuum.structure_interface = "tied", and then its
+// row says so.
 TEST(ReportModels, CoulombInterfaceMatchesTheBoundaries) {
   auto s = wall_scene();
   s.continuum.integrator = "explicit";
@@ -123,6 +124,10 @@ TEST(ReportModels, CoulombInterfaceMatchesTheBoundaries) {
       << faces->continuum;
 
   s.structures[0].dof_rotation = scene::DofMode::Free;
+  const auto* in_contact = row(compare::model_differences(s, {}), "boundary: structure faces");
+  ASSERT_NE(in_contact, nullptr);
+  EXPECT_TRUE(in_contact->matched);
+  s.continuum.structure_interface = "tied";
   const auto moving = compare::model_differences(s, {});
   const auto* m = row(moving, "boundary: structure faces");
   ASSERT_NE(m, nullptr);

@@ -201,7 +201,7 @@ TEST_F(IoTest, ForceChainsVtpReadsBack) {
   const Particles p = make_particles(5);
   std::vector<ContactView> contacts;
   contacts.push_back({0, 1, 0.5, 0.5, 12.5, -3.25, false});
-  contacts.push_back({3, -1, 0.0, 0.0, 99.0, 1.0, false}); // boundary contact: not a chain
+  contacts.push_back({3, -3, 0.25, -0.5, 99.0, 1.0, false}); // particle 3 on boundary 2
   contacts.push_back({4, 3, 0.1, 0.2, -0.75, 0.5, true});
   const fs::path file = dir_ / "contacts.vtp";
   io::write_force_chains_vtp(file, p, contacts);
@@ -209,32 +209,38 @@ TEST_F(IoTest, ForceChainsVtpReadsBack) {
 
   auto poly = read_vtp(file);
   ASSERT_NE(poly, nullptr);
-  ASSERT_EQ(poly->GetNumberOfLines(), 2);
-  ASSERT_EQ(poly->GetNumberOfCells(), 2);
+  ASSERT_EQ(poly->GetNumberOfLines(), 3);
+  ASSERT_EQ(poly->GetNumberOfCells(), 3);
   vtkCellData* cd = poly->GetCellData();
   vtkDataArray* fn = array_of(cd, "normal_force", 1);
   vtkDataArray* fs_ = array_of(cd, "shear_force", 1);
   vtkDataArray* tensile = array_of(cd, "tensile", 1);
-  ASSERT_TRUE(fn && fs_ && tensile);
+  vtkDataArray* boundary = array_of(cd, "boundary", 1);
+  ASSERT_TRUE(fn && fs_ && tensile && boundary);
 
-  const std::vector<std::pair<std::size_t, std::size_t>> ends = {{0, 1}, {4, 3}};
-  const std::vector<const ContactView*> chains = {&contacts[0], &contacts[2]};
   vtkNew<vtkIdList> ids;
-  for (vtkIdType c = 0; c < 2; ++c) {
-    SCOPED_TRACE(::testing::Message() << "chain " << c);
+  for (vtkIdType c = 0; c < 3; ++c) {
+    SCOPED_TRACE(::testing::Message() << "contact " << c);
+    const ContactView& k = contacts[static_cast<std::size_t>(c)];
     poly->GetCellPoints(c, ids);
     ASSERT_EQ(ids->GetNumberOfIds(), 2);
     double a[3], b[3];
     poly->GetPoint(ids->GetId(0), a);
     poly->GetPoint(ids->GetId(1), b);
-    const auto [i, j] = ends[static_cast<std::size_t>(c)];
-    EXPECT_EQ(a[0], p.x[i]);
-    EXPECT_EQ(a[1], p.z[i]);
-    EXPECT_EQ(b[0], p.x[j]);
-    EXPECT_EQ(b[1], p.z[j]);
-    EXPECT_EQ(fn->GetTuple1(c), chains[static_cast<std::size_t>(c)]->fn);
-    EXPECT_EQ(fs_->GetTuple1(c), chains[static_cast<std::size_t>(c)]->fs);
-    EXPECT_EQ(tensile->GetTuple1(c), chains[static_cast<std::size_t>(c)]->tensile ? 1.0 : 0.0);
+    EXPECT_EQ(a[0], p.x[k.i]);
+    EXPECT_EQ(a[1], p.z[k.i]);
+    if (k.j >= 0) { // pair: to the other centre
+      EXPECT_EQ(b[0], p.x[static_cast<std::size_t>(k.j)]);
+      EXPECT_EQ(b[1], p.z[static_cast<std::size_t>(k.j)]);
+      EXPECT_EQ(boundary->GetTuple1(c), -1.0);
+    } else { // boundary: to the contact point, with the boundary's index
+      EXPECT_EQ(b[0], k.cx);
+      EXPECT_EQ(b[1], k.cz);
+      EXPECT_EQ(boundary->GetTuple1(c), 2.0);
+    }
+    EXPECT_EQ(fn->GetTuple1(c), k.fn);
+    EXPECT_EQ(fs_->GetTuple1(c), k.fs);
+    EXPECT_EQ(tensile->GetTuple1(c), k.tensile ? 1.0 : 0.0);
   }
 
   contacts.push_back({0, 5, 0.0, 0.0, 1.0, 0.0, false}); // j beyond the particles

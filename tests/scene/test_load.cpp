@@ -336,3 +336,17 @@ TEST(SceneLoad, CoulombInterfaceNeedsTheExplicitIntegrator) {
       kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = \"coulomb\"\n", "test.toml");
   EXPECT_EQ(ok.base.continuum.interface, "coulomb");
 }
+
+// continuum.structure_interface (moving structures in Coulomb contact, or tied as before): an
+// unknown value is refused at the key (line and column), saying what is valid.
+TEST(SceneLoad, StructureInterfaceValues) {
+  const int line = int(std::count(kValid.begin(), kValid.end(), '\n')) + 5;
+  expect_error(kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = \"coulomb\"\n"
+                        "structure_interface = \"glued\"\n",
+               line, "valid: contact, tied");
+  const auto ok = parse_scene(kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = "
+                                       "\"coulomb\"\nstructure_interface = \"tied\"\n",
+                              "test.toml");
+  EXPECT_EQ(ok.base.continuum.structure_interface, "tied");
+  EXPECT_EQ(parse_scene(kValid, "test.toml").base.continuum.structure_interface, "contact");
+}

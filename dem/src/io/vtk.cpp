@@ -161,16 +161,14 @@ void write_force_chains_vtp(const std::filesystem::path& path, const Particles& 
         fmt::format("cannot write '{}': the Particles arrays differ in length", path.string()));
   }
   const std::size_t np = p.size();
-  vtkIdType n = 0;
   for (const ContactView& c : contacts) {
-    if (c.j < 0) continue;
-    if (c.i >= np || static_cast<std::uint64_t>(c.j) >= np) {
+    if (c.i >= np || (c.j >= 0 && static_cast<std::uint64_t>(c.j) >= np)) {
       throw IoError(fmt::format("cannot write '{}': contact ({}, {}) refers to a particle "
                                 "beyond the {} particles",
                                 path.string(), c.i, c.j, np));
     }
-    ++n;
   }
+  const auto n = static_cast<vtkIdType>(contacts.size());
 
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
@@ -178,6 +176,7 @@ void write_force_chains_vtp(const std::filesystem::path& path, const Particles& 
   auto fn = make_array<vtkDoubleArray>("normal_force", 1, n);
   auto fs = make_array<vtkDoubleArray>("shear_force", 1, n);
   auto tensile = make_array<vtkUnsignedCharArray>("tensile", 1, n);
+  auto boundary = make_array<vtkIntArray>("boundary", 1, n);
   vtkNew<vtkIdTypeArray> offsets;
   offsets->SetNumberOfValues(n + 1);
   offsets->SetValue(0, 0);
@@ -186,11 +185,16 @@ void write_force_chains_vtp(const std::filesystem::path& path, const Particles& 
 
   vtkIdType c_out = 0;
   for (const ContactView& c : contacts) {
-    if (c.j < 0) continue;
     const std::size_t a = c.i;
-    const auto b = static_cast<std::size_t>(c.j);
     points->SetPoint(2 * c_out, p.x[a], p.z[a], 0.0);
-    points->SetPoint(2 * c_out + 1, p.x[b], p.z[b], 0.0);
+    if (c.j >= 0) { // particle pair: centre to centre
+      const auto b = static_cast<std::size_t>(c.j);
+      points->SetPoint(2 * c_out + 1, p.x[b], p.z[b], 0.0);
+      boundary->SetValue(c_out, -1);
+    } else { // particle–boundary: centre to the contact point on the boundary
+      points->SetPoint(2 * c_out + 1, c.cx, c.cz, 0.0);
+      boundary->SetValue(c_out, static_cast<int>(-1 - c.j));
+    }
     connectivity->SetValue(2 * c_out, 2 * c_out);
     connectivity->SetValue(2 * c_out + 1, 2 * c_out + 1);
     offsets->SetValue(c_out + 1, 2 * (c_out + 1));
@@ -209,6 +213,7 @@ void write_force_chains_vtp(const std::filesystem::path& path, const Particles& 
   cd->AddArray(fn);
   cd->AddArray(fs);
   cd->AddArray(tensile);
+  cd->AddArray(boundary);
   cd->SetActiveScalars("normal_force");
   write_polydata(path, poly);
 }

@@ -38,8 +38,9 @@ struct CgParticles {
 };
 
 struct CgContact {
-  double xi = 0, zi = 0, xj = 0, zj = 0; // centres of the two particles
+  double xi = 0, zi = 0, xj = 0, zj = 0; // centres of the two particles (or i's contact point)
   double fx = 0, fz = 0;                 // force on i from j [N/m]
+  bool boundary = false;                 // j is a wall or structure: (xj, zj) is the contact point
 };
 
 struct CgFields {
@@ -71,9 +72,13 @@ struct ParticleSnapshot {
 };
 [[nodiscard]] ParticleSnapshot read_particles_vtp(const std::filesystem::path& vtp);
 
-// Force chains .vtp (dem/src/io/vtk.cpp): a line from particle i to particle j with the normal
+// Force chains .vtp (dem/src/io/vtk.cpp): a line from particle i to particle j, or from particle
+// i to its contact point on a wall or structure (cell array `boundary` ≥ 0), with the normal
 // force fn (compression positive) and the shear force fs of the contact law (paper eq. 2.15:
-// force on i = fn·n + fs·t, n = (x_i − x_j)/|x_i − x_j|, t = (−n_z, n_x)).
+// force on i = fn·n + fs·t, n = (x_i − x_j)/|x_i − x_j|, t = (−n_z, n_x); for a boundary contact
+// x_j is the contact point, so the stress gets Weinhart et al.'s (2012) boundary term, the line
+// integral from the particle's centre to its contact point). Files written before the boundary
+// lines existed give particle pairs only.
 [[nodiscard]] std::vector<CgContact> read_force_chains_vtp(const std::filesystem::path& vtp);
 
 // A continuum .pvtu/.vtu snapshot (continuum/src/fem.cpp write_vtu): points (reference

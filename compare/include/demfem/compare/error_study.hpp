@@ -70,6 +70,7 @@ struct ErrorPoint {
   double wall_min = 0, wall_median = 0, wall_max = 0;
   double process_min = 0, process_median = 0, process_max = 0;
   double peak_rss_mib = 0; // largest resident set of the repeats (getrusage) [MiB]
+  int rank = 0;            // the launcher rank that ran its first repeat (0 outside mpirun)
   bool pareto = false;     // on the error–wall-time Pareto front of its knob (primary metric)
   std::string command;     // the command line of one repeat
 };
@@ -151,5 +152,14 @@ struct HeadOnClosedForm {
 
 // study.json, study.md, study.html and the figures (figures/*.png, .svg) in dir.
 void write_error_study(const ErrorStudy& study, const std::filesystem::path& dir);
+
+// A study under a launcher (`mpirun -np N demfem study error-vs-time …`, srun): the runs are spread
+// over the ranks (rank r starts every N-th run) and every rank gets every result. study_rank():
+// this process's rank, 0 outside a launcher; rank 0 alone writes the study. Every rank calls
+// finish_study_ranks(out_dir) at the end; rank 0 waits there for the others and removes the
+// exchange directory.
+[[nodiscard]] int study_rank();
+[[nodiscard]] int study_ranks();
+void finish_study_ranks(const std::filesystem::path& out_dir);
 
 } // namespace demfem::compare

@@ -40,10 +40,11 @@ public:
 //   speed (|v|).
 void write_particles_vtp(const std::filesystem::path& path, const Particles& particles);
 
-// One line cell per particle–particle contact (j ≥ 0) between the two particle centres;
-// contacts with boundaries (j < 0) are skipped. i and j index the Particles arrays. Cell data:
-//   normal_force, shear_force (Float64), tensile (UInt8 0/1). Throws IoError for an index out
-//   of range.
+// One line cell per contact: a particle pair (j ≥ 0) between the two particle centres, a
+// particle–boundary contact (j < 0) from the particle's centre to its contact point (cx, cz) on
+// the boundary. i and j index the Particles arrays. Cell data: normal_force, shear_force
+// (Float64), tensile (UInt8 0/1), boundary (Int32: −1 for a pair, else the boundary's index in
+// the order of the boundaries file, −1 − j). Throws IoError for an index out of range.
 void write_force_chains_vtp(const std::filesystem::path& path, const Particles& particles,
                             std::span<const ContactView> contacts);
 

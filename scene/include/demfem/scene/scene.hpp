@@ -191,6 +191,10 @@ struct ContinuumOptions {
   // zero-thickness Coulomb contact with the DEM's walls and fixed structures, with their μ;
   // continuum/README.md)
   std::string interface = "tied";
+  // With interface = "coulomb": structures that move (a DoF free or prescribed) are rigid bodies
+  // in Coulomb contact with the soil ("contact", continuum/README.md) or tied to it as before
+  // ("tied"); structures with every DoF fixed are in contact either way
+  std::string structure_interface = "contact";
   double interface_friction_angle = 0.3491; // [rad]
   int load_steps = 20;                      // static procedure
   double newton_tolerance = 1e-8;
