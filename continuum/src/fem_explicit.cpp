@@ -425,6 +425,22 @@ void Model::Impl::explicit_contacts() {
 // step's and is updated from the Coulomb cone and the sign of N with the solved q̈, at most 8
 // passes; the forces are those of the last solve, so that soil + body momentum is exact whatever
 // the set (only the Coulomb law can be violated by an unsettled set: counted in `unsettled`).
+namespace {
+// A rigid body's generalised DoFs (x, z, rotation): the free ones listed in `fr` (their count
+// returned), a prescribed one's acceleration in `ap` by the central difference of its motion
+// (q(t+Δt) − 2q(t) + q(t−Δt))/Δt², a fixed one left at rest.
+int free_and_prescribed(const Region& reg, double t, double dt, int fr[3], double ap[3]) {
+  int nf = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (reg.mode[a] == Region::Mode::Free)
+      fr[nf++] = a;
+    else if (reg.mode[a] == Region::Mode::Prescribed && dt > 0)
+      ap[a] = (reg.motion[a](t + dt) - 2 * reg.motion[a](t) + reg.motion[a](t - dt)) / (dt * dt);
+  }
+  return nf;
+}
+} // namespace
+
 void Model::Impl::explicit_contact_body(Explicit::Body& b, double dt) {
   Explicit& e = ex;
   const Region& reg = pb.regions[b.region];
@@ -440,13 +456,8 @@ void Model::Impl::explicit_contact_body(Explicit::Body& b, double dt) {
   for (int a = 0; a < 3; ++a)
     for (int c = 0; c < 3; ++c) Q[a] -= pb.rayleigh_alpha * b.M[a][c] * b.qv[c];
   double ap[3] = {0, 0, 0};
-  int fr[3], nf = 0;
-  for (int a = 0; a < 3; ++a) {
-    if (reg.mode[a] == Region::Mode::Free)
-      fr[nf++] = a;
-    else if (reg.mode[a] == Region::Mode::Prescribed && dt > 0)
-      ap[a] = (reg.motion[a](t + dt) - 2 * reg.motion[a](t) + reg.motion[a](t - dt)) / (dt * dt);
-  }
+  int fr[3];
+  const int nf = free_and_prescribed(reg, t, dt, fr, ap);
   const bool active = h > 0 && tau > 0;
   // per contact: mass, J, trial acceleration, normal/tangent and the targets
   struct Row {
@@ -756,13 +767,8 @@ void Model::Impl::explicit_accel(double dt) {
     for (std::size_t k = 0; k < b.dofs.size(); ++k)
       for (int a = 0; a < 3; ++a) F[a] += b.rows[k][a] * f[b.dofs[k]];
     double ap[3] = {0, 0, 0};
-    int fr[3], nf = 0;
-    for (int a = 0; a < 3; ++a) {
-      if (reg.mode[a] == Region::Mode::Free)
-        fr[nf++] = a;
-      else if (reg.mode[a] == Region::Mode::Prescribed && dt > 0)
-        ap[a] = (reg.motion[a](t + dt) - 2 * reg.motion[a](t) + reg.motion[a](t - dt)) / (dt * dt);
-    }
+    int fr[3];
+    const int nf = free_and_prescribed(reg, t, dt, fr, ap);
     double A[3][3], F_f[3];
     for (int x = 0; x < nf; ++x) {
       F_f[x] = F[fr[x]];

@@ -6,6 +6,8 @@
 // cannot do), exact momentum of body + soil through an impact, and the pure-rotation DoF mode.
 #include <gtest/gtest.h>
 
+#include "fit.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +18,7 @@
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
 using demfem::scene::TimeFunction;
+using demfem::test::fitted_acceleration;
 
 namespace {
 constexpr double kG = 9.81;
@@ -74,30 +77,6 @@ double penetration(const Model& m, double x) {
   return m.displacement({x, kTop}).z - (q.uz + q.rotation * (x - xp));
 }
 
-// Least-squares fit of q(t) = c0 + c1 t + c2 t²; returns 2 c2 (the acceleration).
-double fitted_acceleration(const std::vector<std::pair<double, double>>& s) {
-  double A[3][3] = {}, b[3] = {};
-  for (const auto& [t, q] : s) {
-    const double p[3] = {1.0, t, t * t};
-    for (int i = 0; i < 3; ++i) {
-      b[i] += p[i] * q;
-      for (int j = 0; j < 3; ++j) A[i][j] += p[i] * p[j];
-    }
-  }
-  for (int c = 0; c < 3; ++c)
-    for (int r = c + 1; r < 3; ++r) {
-      const double f = A[r][c] / A[c][c];
-      for (int j = c; j < 3; ++j) A[r][j] -= f * A[c][j];
-      b[r] -= f * b[c];
-    }
-  double x[3];
-  for (int c = 2; c >= 0; --c) {
-    x[c] = b[c];
-    for (int j = c + 1; j < 3; ++j) x[c] -= A[c][j] * x[j];
-    x[c] /= A[c][c];
-  }
-  return 2.0 * x[2];
-}
 } // namespace
 
 // A free block (all three DoFs free) released on the layer at t = 0 (its weight acts from then,
