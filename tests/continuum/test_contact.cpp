@@ -4,7 +4,7 @@
 // off (unilateral), and a frictionless side wall reproduces the roller it replaces.
 #include <gtest/gtest.h>
 
-#include "fit.hpp"
+#include "helpers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -249,14 +249,7 @@ Problem fill_against_wall(bool contact, double mu, double amplitude) {
   pb.mesh.refinement = 2;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
   pb.rayleigh_alpha = 1.0;
-  Region wall;
-  wall.name = "wall";
-  wall.outline = {{W, 0}, {W + t, 0}, {W + t, H}, {W, H}};
-  wall.material.young = 2.0e10;
-  wall.material.poisson = 0.2;
-  wall.rigid = true;
-  wall.pivot = wall.load_point = {W + 0.5 * t, 0};
-  wall.mode[0] = wall.mode[1] = wall.mode[2] = Region::Mode::Fixed;
+  Region wall = demfem::test::fixed_rigid_wall(W, t, H, 2.0e10);
   wall.contact = contact;
   pb.regions.push_back(wall);
   if (contact) {

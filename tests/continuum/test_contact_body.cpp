@@ -6,7 +6,7 @@
 // cannot do), exact momentum of body + soil through an impact, and the pure-rotation DoF mode.
 #include <gtest/gtest.h>
 
-#include "fit.hpp"
+#include "helpers.hpp"
 
 #include <algorithm>
 #include <cmath>

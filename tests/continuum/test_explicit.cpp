@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fem.hpp"
+#include "helpers.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -152,14 +153,7 @@ Problem wall_problem(const char* integrator, double amplitude, int refinement) {
   pb.linear_solver = "direct";
   pb.newton_tolerance = 1e-6;
   pb.integrator = integrator;
-  Region wall;
-  wall.name = "wall";
-  wall.outline = {{W, 0}, {W + t, 0}, {W + t, H}, {W, H}};
-  wall.material.young = 3.0e10;
-  wall.material.poisson = 0.2;
-  wall.rigid = true;
-  wall.pivot = wall.load_point = {W + 0.5 * t, 0};
-  wall.mode[0] = wall.mode[1] = wall.mode[2] = Region::Mode::Fixed;
+  Region wall = demfem::test::fixed_rigid_wall(W, t, H, 3.0e10);
   pb.regions.push_back(wall);
   if (amplitude > 0) {
     pb.shaking_component = 0;

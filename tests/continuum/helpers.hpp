@@ -1,8 +1,10 @@
-// Shared by the contact tests: the acceleration of a sampled motion.
+// Shared by the continuum tests: the acceleration of a sampled motion, a fixed rigid wall.
 #pragma once
 
 #include <utility>
 #include <vector>
+
+#include "fem.hpp"
 
 namespace demfem::test {
 
@@ -29,6 +31,21 @@ inline double fitted_acceleration(const std::vector<std::pair<double, double>>& 
     x[c] /= A[c][c];
   }
   return 2.0 * x[2];
+}
+
+// A rigid wall of thickness t against the soil's right side x = W, from z = 0 to H, every DoF
+// fixed, pivot and load point at its base centre.
+inline demfem::continuum::fem::Region fixed_rigid_wall(double W, double t, double H, double young) {
+  using demfem::continuum::fem::Region;
+  Region wall;
+  wall.name = "wall";
+  wall.outline = {{W, 0}, {W + t, 0}, {W + t, H}, {W, H}};
+  wall.material.young = young;
+  wall.material.poisson = 0.2;
+  wall.rigid = true;
+  wall.pivot = wall.load_point = {W + 0.5 * t, 0};
+  wall.mode[0] = wall.mode[1] = wall.mode[2] = Region::Mode::Fixed;
+  return wall;
 }
 
 } // namespace demfem::test
