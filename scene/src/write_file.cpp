@@ -12,8 +12,10 @@
 namespace demfem::scene {
 
 void write_file_atomic(const std::filesystem::path& path, std::string_view text) {
+  // one temporary per process: ranks of an MPI run (or study processes) that write the same file
+  // each rename their own complete copy, and the last rename wins
   std::filesystem::path tmp = path;
-  tmp += ".tmp";
+  tmp += fmt::format(".{}.tmp", ::getpid());
   const auto fail = [&](const char* what, int err, bool remove_tmp) {
     if (remove_tmp) {
       std::error_code ec;

@@ -1,6 +1,7 @@
 // Checked, atomic whole-file writes for every output that is not a streamed time series (issue
-// 13): the text goes to "<path>.tmp", is flushed to the disk and renamed over path, so a reader
-// sees either the old file or the complete new one. Any failure (a full disk, a file size limit,
+// 13): the text goes to "<path>.<pid>.tmp", is flushed to the disk and renamed over path, so a
+// reader sees either the old file or a complete new one, also when several processes (MPI ranks)
+// write the same file. Any failure (a full disk, a file size limit,
 // an unwritable directory) throws WriteError naming the file and the cause.
 #pragma once
 
