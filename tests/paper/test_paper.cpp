@@ -109,10 +109,27 @@ TEST(CaseFiles, AllPaperScenesLoad) {
     EXPECT_NO_THROW((void)scene::load_scene_file(case_file(f))) << f;
   }
   const auto pile = scene::load_scene_file(case_file("pile_penetration.toml"));
-  EXPECT_EQ(pile.variants.size(), 6u);
+  EXPECT_EQ(pile.variants.size(), 7u); // Table 4.1 rows + loose-case-1
   EXPECT_DOUBLE_EQ(pile.select("case-2").structure("pile")->width, 30.0);
   const auto rock = scene::load_scene_file(case_file("foundation_rocking.toml"));
-  EXPECT_EQ(rock.variants.size(), 5u); // Table 5.1 rows + 2-A-quick (the main job)
+  EXPECT_EQ(rock.variants.size(), 9u); // Table 5.1 rows + 2-A-quick (the main job) + 4 loose
+  // The loose variants (issue 14) change the packing only: random placement, porosity target
+  // 0.184; the loading of the row they repeat is unchanged, and their packing is their own.
+  for (const auto& [loose, dense] :
+       {std::pair{"loose-2-A", "2-A"}, std::pair{"loose-1-B", "1-B"}}) {
+    const auto l = rock.select(loose), d = rock.select(dense);
+    ASSERT_TRUE(l.soil.dem && d.soil.dem) << loose;
+    EXPECT_EQ(l.soil.dem->packing.placement, scene::Placement::Random) << loose;
+    EXPECT_EQ(d.soil.dem->packing.placement, scene::Placement::Lattice) << dense;
+    EXPECT_DOUBLE_EQ(l.soil.dem->packing.target_porosity.value_or(0.0), 0.184) << loose;
+    EXPECT_DOUBLE_EQ(l.structures.at(0).force_x.omega, d.structures.at(0).force_x.omega) << loose;
+    EXPECT_DOUBLE_EQ(l.structures.at(0).width, d.structures.at(0).width) << loose;
+    EXPECT_NE(dem::packing_key(l), dem::packing_key(d)) << loose;
+  }
+  const auto pl = pile.select("loose-case-1"), pd = pile.select("case-1");
+  EXPECT_EQ(pl.soil.dem->packing.placement, scene::Placement::Random);
+  EXPECT_DOUBLE_EQ(pl.soil.dem->packing.target_porosity.value_or(0.0), 0.184);
+  EXPECT_NE(dem::packing_key(pl), dem::packing_key(pd));
 }
 
 TEST(LoopArea, UnitSquare) {
