@@ -195,9 +195,12 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
 }
 
 #ifdef DEMFEM_TEST_CONTINUUM
-// The pile-penetration scene with the continuum solver (coarse: refinement 1): it runs, stops at
-// the small-strain validity limit with a note (exit 0), and writes the pile's probes under the
-// DEM's names. The pile's weight acts from t = 0 (released as in the DEM), so it settles at once.
+// The pile-penetration scene with the continuum solver (coarse: refinement 1; the continuum is
+// calibrated from the DEM bed, so this also runs the calibration): it runs, stops at the
+// small-strain validity limit with a note (exit 0), and writes the pile's probes under the DEM's
+// names. The pile's weight acts from t = 0 (released as in the DEM); with the calibrated φ ≈ 16.6°
+// its dead weight (9.4e6 N/m) exceeds the Terzaghi capacity of the 10 m tip ≈ 0.9 m below the
+// ground (≈ 4.4e6 N/m), so it plunges at once, as the DEM pile does.
 TEST(Cli, PileScenePlungesInTheContinuumAndStopsAtTheValidityLimit) {
   const fs::path out = demfem::test::scratch("pile");
   fs::remove_all(out);
@@ -212,18 +215,20 @@ TEST(Cli, PileScenePlungesInTheContinuumAndStopsAtTheValidityLimit) {
   std::getline(csv, header);
   EXPECT_NE(header.find("pile.settlement [m]"), std::string::npos) << header;
   int rows = 0;
-  double last = 0.0, at_half_second = 0.0;
+  double last = 0.0, at_half_second = 0.0, t_last = 0.0;
   while (std::getline(csv, line)) {
     const auto c1 = line.find(',');
     const double t = std::stod(line.substr(0, c1));
+    t_last = t;
     last = std::stod(line.substr(c1 + 1, line.find(',', c1 + 1) - c1 - 1));
     if (t <= 0.5 + 1e-9) at_half_second = last;
     ++rows;
   }
-  EXPECT_GT(rows, 50);
-  EXPECT_GT(at_half_second, 0.05); // under its own weight
-  EXPECT_GT(last, 1.0);            // stopped just past the 1 m limit
+  EXPECT_GT(rows, 10);
+  EXPECT_GT(at_half_second, 0.3); // plunging under its own weight (0.5 m at refinement 2)
+  EXPECT_GT(last, 1.0);           // stopped just past the 1 m limit …
   EXPECT_LT(last, 1.2);
+  EXPECT_LT(t_last, 2.0); // … within the first seconds (the hand-set φ = 25° held it to 3.85 s)
   fs::remove_all(out);
 }
 #endif
