@@ -7,6 +7,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <set>
 #include <signal.h>
 #include <sstream>
 #include <stdexcept>
@@ -24,6 +25,7 @@
 #include "demfem/compare/error_study.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/model_differences.hpp"
+#include "demfem/compare/processes.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/compare/study.hpp"
 #include "demfem/dem/pack.hpp"
@@ -101,6 +103,7 @@ struct RunArgs {
   int degree = -1;
   bool report_only = false; // compare: rewrite the report from the run directory's outputs
   bool force = false;       // run into a directory that holds another scene's results
+  int jobs = 1;             // run: variants at once, as separate processes
 };
 
 [[maybe_unused]] int not_built(const std::string& what, const std::string& issue_hint) {
@@ -551,6 +554,110 @@ int prepare_run_dir(const scene::Scene& s, const fs::path& out, const RunArgs& a
   return kOk;
 }
 
+// The last non-empty line of a child's console log (what it said when it stopped).
+std::string last_line(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+// run --jobs N (issue 12: the paper suite on 2 cores): the selected variants as separate
+// `demfem run` processes, N at once (each with --threads as given, 1 by default), so a machine
+// with N cores runs N variants where one run uses one core. First the packings and calibrations
+// the variants share are made once each (also N at once), so no two children build the same cache
+// entry; then the runs. Each child's console goes to <run dir>/console.txt; this process prints one
+// line per finished child and returns 0 only when every child succeeded (else the first failing
+// child's exit code).
+int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& a) {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) {
+    fmt::print(stderr, "demfem run --jobs: cannot find its own binary (/proc/self/exe): {}\n",
+               ec.message());
+    return kRunFailed;
+  }
+  const bool continuum = a.solver == "continuum";
+  std::vector<compare::ProcessTask> prep, runs;
+  std::vector<std::string> prep_label, run_label;
+  std::set<std::string> shared;
+  for (const scene::Scene* s : scenes) {
+    const fs::path out = run_dir_for(*s, a, scenes.size());
+    fs::create_directories(out, ec);
+    if (ec) {
+      fmt::print(stderr, "demfem: cannot create the run directory {}: {}\n", out.string(),
+                 ec.message());
+      return kRunFailed;
+    }
+    const auto with_variant = [&](std::vector<std::string> v) {
+      if (!s->variant.empty()) v.insert(v.end(), {"--variant", s->variant});
+      return v;
+    };
+    // calibrate = "dem" (resolved for both solvers) packs the bed too; else a DEM run's packing
+    const bool calibrated =
+        s->soil.continuum && s->soil.continuum->calibrate_dem && s->uses(scene::Solver::Continuum);
+    const bool packs = !continuum && s->soil.dem && s->soil.dem->particles.empty() &&
+                       !s->soil.dem->packing.cache.empty();
+    if (calibrated || packs) {
+      const std::string key = calibrated ? "calibration " + compare::calibration_key(*s, {})
+                                         : "packing " + dem::packing_key(*s);
+      if (shared.insert(key).second) {
+        prep.push_back({with_variant({exe.string(), calibrated ? "calibrate" : "pack", a.scene,
+                                      "--out", (calibrated ? out / "calibration" : out).string()}),
+                        out / (calibrated ? "calibrate.txt" : "pack.txt")});
+        prep_label.push_back(fmt::format("{} ({})", s->label(), key.substr(0, key.find(' '))));
+      }
+    }
+    std::vector<std::string> argv = {exe.string(), "run",       a.scene,
+                                     "--solver",   a.solver,    "--out",
+                                     out.string(), "--threads", std::to_string(a.threads)};
+    if (a.refinement >= 0) argv.insert(argv.end(), {"--refinement", std::to_string(a.refinement)});
+    if (a.degree >= 0) argv.insert(argv.end(), {"--degree", std::to_string(a.degree)});
+    if (a.force) argv.push_back("--force");
+    if (a.resume) argv.push_back("--resume");
+    runs.push_back({with_variant(argv), out / "console.txt"});
+    run_label.push_back(s->label());
+  }
+  int first_failure = kOk;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto stage = [&](const char* what, const std::vector<compare::ProcessTask>& tasks,
+                         const std::vector<std::string>& labels) {
+    std::size_t done = 0;
+    compare::run_processes(tasks, a.jobs, [&](std::size_t i, const compare::ProcessResult& r) {
+      ++done;
+      const double since =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (r.exit_code == 0) {
+        fmt::print(stderr,
+                   "demfem run --jobs {}: [{}/{}] {} {}: done in {:.1f} s ({:.0f} s in "
+                   "all)\n",
+                   a.jobs, done, tasks.size(), what, labels[i], r.wall, since);
+        return;
+      }
+      if (first_failure == kOk) first_failure = r.exit_code > 0 ? r.exit_code : kRunFailed;
+      fmt::print(stderr,
+                 "demfem run --jobs {}: [{}/{}] {} {}: FAILED (exit {}) after {:.1f} s: "
+                 "{} (console: {})\n",
+                 a.jobs, done, tasks.size(), what, labels[i], r.exit_code, r.wall,
+                 last_line(tasks[i].log), tasks[i].log.string());
+    });
+  };
+  if (!prep.empty()) {
+    fmt::print(stderr,
+               "demfem run --jobs {}: {} shared packing(s)/calibration(s) first, then {} "
+               "run(s)\n",
+               a.jobs, prep.size(), runs.size());
+    stage("prepare", prep, prep_label);
+    if (first_failure != kOk) return first_failure;
+  }
+  stage("run", runs, run_label);
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  fmt::print(stderr, "demfem run --jobs {}: {} run(s) in {:.1f} s{}\n", a.jobs, runs.size(), total,
+             first_failure == kOk ? "" : " — some FAILED (above)");
+  return first_failure;
+}
+
 int cmd_run(const RunArgs& a) {
   int rc = kOk;
   const auto file = load_or_report(a.scene, rc);
@@ -567,13 +674,15 @@ int cmd_run(const RunArgs& a) {
     return not_built("run --solver continuum",
                      "this binary was configured with -DDEMFEM_WITH_CONTINUUM=OFF");
 #endif
-  int worst = kOk;
-  for (const scene::Scene* s : scenes) {
+  for (const scene::Scene* s : scenes)
     if (!s->uses(solver)) {
       fmt::print(stderr, "demfem run: scene '{}' does not list \"{}\" in scene.solvers\n",
                  s->label(), a.solver);
       return kBadInput;
     }
+  if (a.jobs > 1 && scenes.size() > 1) return run_parallel(scenes, a);
+  int worst = kOk;
+  for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
     // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
     // the same directory record the same resolved scene
@@ -1180,6 +1289,12 @@ int main(int argc, char** argv) {
          "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
       ->default_val(1)
       ->check(CLI::NonNegativeNumber);
+  run->add_option("--jobs", ra.jobs,
+                  "With several variants: run N of them at once, as separate processes (shared "
+                  "packings and calibrations are made first); each child's console goes to "
+                  "<run dir>/console.txt")
+      ->default_val(1)
+      ->check(CLI::PositiveNumber);
   run->add_option("--refinement", ra.refinement,
                   "Continuum: global refinement level (overrides the scene)");
   run->add_option("--degree", ra.degree, "Continuum: polynomial degree (overrides the scene)");

@@ -8,16 +8,11 @@
 #include <vector>
 
 #include "demfem/compare/error_study.hpp"
+#include "demfem/compare/processes.hpp"
 
 namespace demfem::compare::study_detail {
 
-struct TaskResult {
-  int exit_code = -1; // -1: did not exit normally (or could not start)
-  double wall = 0.0;
-  double rss_mib = 0.0;
-  bool timed_out = false; // killed at its time limit
-  int rank = 0;           // the launcher rank that ran it
-};
+using TaskResult = ProcessResult; // demfem/compare/processes.hpp
 
 // A study under a launcher (`mpirun -np N`, srun): rank r of N runs the tasks t with t mod N = r,
 // writes their results into spread_directory(out) and reads the others' back, so every rank goes

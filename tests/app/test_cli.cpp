@@ -194,6 +194,84 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
   fs::remove(scene);
 }
 
+// run --jobs 2 (issue 12): the variants run as separate processes, two at once, with outputs
+// byte-identical to one-by-one runs; a failing variant makes the whole command fail and is named
+// with its exit code, while the others still finish.
+TEST(Cli, RunJobsRunsVariantsSideBySideWithTheSameResults) {
+  const std::string scene_text = R"(
+[scene]
+name = "jobs"
+solvers = ["dem"]
+duration = 0.05
+[domain]
+polygon = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]
+[soil.dem]
+count = 2
+radius = { equal = 0.05 }
+density = 2650
+contact = "cundall-rebound"
+kn = 1.0e6
+ks = 3.0e5
+mu_static = 0.5
+mu_dynamic = 0.2
+dt = 2.0e-5
+max_overlap = 0.5
+particles = [[-0.06, 0.0, 0.05, 0.4, 0.0, 0.0], [0.06, 0.0, 0.05, -0.4, 0.0, 0.0]]
+[load]
+gravity = 0.0
+[[probe]]
+kind = "energy"
+[output]
+interval = 0.01
+probe_interval = 0.0005
+figures = false
+[[variant]]
+name = "slow"
+set = { "soil.dem.particles" = [[-0.06, 0.0, 0.05, 0.2, 0.0, 0.0], [0.06, 0.0, 0.05, -0.2, 0.0, 0.0]] }
+[[variant]]
+name = "fast"
+set = { "soil.dem.particles" = [[-0.06, 0.0, 0.05, 0.8, 0.0, 0.0], [0.06, 0.0, 0.05, -0.8, 0.0, 0.0]] }
+[[variant]]
+name = "stiff"
+set = { "soil.dem.kn" = 4.0e6 }
+[[variant]]
+name = "breaks"
+set = { "soil.dem.max_overlap" = 1.0e-6 }
+)";
+  const fs::path scene = write_temp("jobs.toml", scene_text);
+  const fs::path par = demfem::test::scratch("jobs_par"), seq = demfem::test::scratch("jobs_seq");
+  fs::remove_all(par);
+  fs::remove_all(seq);
+  const std::string good = " --variant slow --variant fast --variant stiff";
+  const auto p = run("run " + scene.string() + good + " --jobs 2 --out " + par.string());
+  ASSERT_EQ(p.code, 0) << p.out;
+  EXPECT_NE(p.out.find("[3/3] run jobs/"), std::string::npos) << p.out;
+  const auto q = run("run " + scene.string() + good + " --out " + seq.string());
+  ASSERT_EQ(q.code, 0) << q.out;
+  const auto slurp = [](const fs::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  for (const char* v : {"slow", "fast", "stiff"}) {
+    EXPECT_TRUE(fs::exists(par / v / "console.txt")) << v;
+    const std::string a = slurp(par / v / "dem" / "energy.csv");
+    EXPECT_FALSE(a.empty()) << v;
+    EXPECT_EQ(a, slurp(seq / v / "dem" / "energy.csv")) << v;
+  }
+  EXPECT_NE(slurp(par / "slow" / "dem" / "energy.csv"), slurp(par / "fast" / "dem" / "energy.csv"));
+  // one variant fails at run time (overlap limit): exit 1, named, the others done
+  fs::remove_all(par);
+  const auto f = run("run " + scene.string() + " --all-variants --jobs 2 --out " + par.string());
+  EXPECT_EQ(f.code, 1) << f.out;
+  EXPECT_NE(f.out.find("jobs/breaks: FAILED (exit 1)"), std::string::npos) << f.out;
+  EXPECT_TRUE(fs::exists(par / "stiff" / "dem" / "energy.csv"));
+  fs::remove_all(par);
+  fs::remove_all(seq);
+  fs::remove(scene);
+}
+
 #ifdef DEMFEM_TEST_CONTINUUM
 // The pile-penetration scene with the continuum solver (coarse: refinement 1; the continuum is
 // calibrated from the DEM bed, so this also runs the calibration): it runs, stops at the

@@ -1,0 +1,34 @@
+// Separate `demfem` processes run side by side: the sweeps of `demfem study` and `demfem run
+// --jobs N` (several variants at once where one run cannot use two cores).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace demfem::compare {
+
+struct ProcessTask {
+  std::vector<std::string> argv; // argv[0]: the executable's path
+  std::filesystem::path log;     // stdout and stderr
+  double timeout = 0.0;          // [s]; 0 = none
+};
+
+struct ProcessResult {
+  int exit_code = -1; // -1: did not exit normally (or could not start)
+  double wall = 0.0;  // [s] from fork to reaping
+  double rss_mib = 0.0;
+  bool timed_out = false; // killed (SIGKILL) at its time limit
+  int rank = 0;           // the launcher rank that ran it (studies under mpirun)
+};
+
+// Runs `tasks` as child processes, at most `jobs` at once, in order; each child gets the
+// environment without an MPI launcher's variables (a singleton of its own). Wall time from fork to
+// reaping, peak resident set from wait4's rusage. `on_done(i, result)` is called as each one ends.
+std::vector<ProcessResult>
+run_processes(const std::vector<ProcessTask>& tasks, int jobs,
+              const std::function<void(std::size_t, const ProcessResult&)>& on_done = {});
+
+} // namespace demfem::compare
