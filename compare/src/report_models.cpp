@@ -573,7 +573,7 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
       if (!moving.empty())
         cont += fmt::format("{}{}: rigid bodies tied to the soil and seated (the soil carries "
                             "their weight, as the DEM bed does; continuum.structure_interface = "
-                            "\"tied\": a contact body is not seated yet)",
+                            "\"tied\"; \"contact\" makes them seated Coulomb contact bodies)",
                             cont.empty() ? "" : "; ", moving);
       matched = moving.empty();
       why = matched ? "Matched: zero-thickness contact with the same μ_s/μ_D, sliding and "

@@ -275,6 +275,20 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
     else
       cons.distribute_local_to_global(crhs, ld, rhs);
   }
+  // seating a contact body: its dead weight W = ρ A g on its master (seat_master; the nodes on
+  // its faces follow the master, so the soil's reactions on them sum to W at equilibrium)
+  for (std::size_t r = 0; r < seat_master.size(); ++r) {
+    const types::global_dof_index i = seat_master[r];
+    if (i == numbers::invalid_dof_index || !owned.is_element(i) || !pb.regions[r].dead_weight)
+      continue;
+    const auto id = static_cast<types::material_id>(r + 1);
+    const double W = rho[id] * geom[id].area * pb.gravity * gfactor * weight_factor(id);
+    const std::vector<types::global_dof_index> at{i};
+    res.add(at, std::vector<double>{W}); // f_ext = (0, −W): res = f_int − f_ext
+    dealii::Vector<double> load(1);
+    load(0) = -W; // rhs = −res
+    cons.distribute_local_to_global(load, at, rhs);
+  }
   if (matrix) K.compress(VectorOperation::add);
   rhs.compress(VectorOperation::add);
   res.compress(VectorOperation::add);

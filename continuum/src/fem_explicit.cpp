@@ -912,6 +912,13 @@ std::vector<Model::Impl::Explicit::Contact> Model::Impl::contact_state(std::size
   // (collective: each rank reads the reactions at its owned dofs, the sum gives every rank all)
   const auto nodes = contact_nodes();
   const auto& on_plane = nodes.at(plane);
+  // a node at a corner of a structure (on two of its faces) carries one reaction: it counts on
+  // the structure's first face only (as explicit_contact_setup keeps one contact per node)
+  std::set<types::global_dof_index> earlier;
+  const int region = pb.contacts.at(plane).region;
+  for (std::size_t k = 0; region >= 0 && k < plane; ++k)
+    if (pb.contacts[k].region == region)
+      for (const ContactNode& n : nodes[k]) earlier.insert(n.ix);
   std::vector<double> r(2 * on_plane.size(), 0.0);
   for (std::size_t k = 0; k < on_plane.size(); ++k) {
     const ContactNode& n = on_plane[k];
@@ -921,6 +928,7 @@ std::vector<Model::Impl::Explicit::Contact> Model::Impl::contact_state(std::size
   allreduce_sum(r, comm);
   for (std::size_t k = 0; k < on_plane.size(); ++k) {
     const ContactNode& n = on_plane[k];
+    if (earlier.count(n.ix)) continue;
     Explicit::Contact c = contact_at(n, plane);
     const double rx = r[2 * k], rz = r[2 * k + 1];
     c.fx = rx; // the plane's force on the soil: f_int − f_ext at a held dof

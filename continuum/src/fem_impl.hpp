@@ -211,6 +211,14 @@ struct Model::Impl {
   // their values, M/K0 are reassembled, the dynamic and explicit initialisations start over
   void reconstrain();
   std::vector<Seating> seated; // initialise_gravity's seating stage (Region::seat)
+  // Seating a structure in Coulomb contact (Region::seat with Region::contact; it has no dofs of
+  // its own): while seating_contact[r] is set, build_constraints makes the z dof of the soil node
+  // on its base nearest its pivot a master (seat_master[r]) that every other node on its base
+  // follows vertically (stuck to the body translating downwards; x held, as in the K0 state; nodes
+  // on its side faces on rollers), and assemble loads that master with the body's dead weight: one
+  // static solve finds where the soil carries it. seat_master[r] is invalid otherwise.
+  std::vector<char> seating_contact;
+  std::vector<types::global_dof_index> seat_master;
 
   void update_ghost() { u_ghost = u; }
 

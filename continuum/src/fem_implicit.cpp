@@ -310,21 +310,26 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
     // Seating (Region::seat): a structure held vertically but embedded in the soil starts resting
     // on it, as the DEM packing seats it (lowered until the bed carries its weight): its vertical
     // DoF is freed, its weight applied statically with the soil's own model, and the DoF fixed
-    // again where it settled; the other structures stay weightless until t = 0.
+    // again where it settled; the other structures stay weightless until t = 0. A structure in
+    // Coulomb contact (no dofs of its own) is seated through the soil nodes on its faces: they
+    // follow one master node vertically, stuck to the body (seat_master), which carries its weight.
     m.seated.clear();
     std::vector<std::size_t> seat;
     for (std::size_t r = 0; r < m.pb.regions.size(); ++r) {
       const Region& reg = m.pb.regions[r];
-      if (reg.seat && reg.rigid && !reg.contact && reg.dead_weight &&
-          reg.mode[1] == Region::Mode::Fixed)
+      if (reg.seat && reg.rigid && reg.dead_weight && reg.mode[1] == Region::Mode::Fixed)
         seat.push_back(r);
     }
     if (total.converged && !seat.empty()) {
       m.seating_mask.assign(m.pb.regions.size(), 0);
+      m.seating_contact.assign(m.pb.regions.size(), 0);
       std::vector<double> uz0;
       for (const std::size_t r : seat) {
         m.seating_mask[r] = 1;
-        m.pb.regions[r].mode[1] = Region::Mode::Free;
+        if (m.pb.regions[r].contact)
+          m.seating_contact[r] = 1;
+        else
+          m.pb.regions[r].mode[1] = Region::Mode::Free;
         uz0.push_back(region_motion(r).uz);
       }
       m.reconstrain();
@@ -334,23 +339,41 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       total.cuts += st.cuts;
       total.converged = st.converged;
       total.residual = st.residual;
+      m.update_ghost();
       for (std::size_t k = 0; k < seat.size(); ++k) {
         const std::size_t r = seat[k];
         Seating s;
         s.region = r;
-        s.settlement = -(region_motion(r).uz - uz0[k]);
-        s.soil_fz = soil_reaction(r).fz;
+        // a contact body's settlement: its master's (every node on its faces moved with it)
+        s.settlement = m.pb.regions[r].contact
+                           ? -Utilities::MPI::max(m.owned.is_element(m.seat_master[r])
+                                                      ? m.u(m.seat_master[r])
+                                                      : -1e300,
+                                                  m.comm)
+                           : -(region_motion(r).uz - uz0[k]);
         s.weight = m.rho[r + 1] * m.geom[r + 1].area * m.pb.gravity; // W = ρ A g per metre
         s.converged = st.converged;
-        m.seated.push_back(s);
-        m.log << "seated region '" << m.pb.regions[r].name << "': settlement " << s.settlement
-              << " m, soil reaction " << s.soil_fz << " N/m = " << s.soil_fz / s.weight
-              << " W (W = " << s.weight << " N/m), " << st.newton_iterations << " Newton its, "
-              << st.cuts << " cuts" << (st.converged ? "" : ", NOT CONVERGED") << "\n";
+        if (!m.pb.regions[r].contact) s.soil_fz = soil_reaction(r).fz;
         m.pb.regions[r].mode[1] = Region::Mode::Fixed;
+        m.seated.push_back(s);
       }
       m.seating_mask.clear();
+      m.seating_contact.clear();
+      const Vec u_seated(m.u);
       m.reconstrain();
+      // a contact body's soil force: the reactions of the constraints that now hold its face
+      // nodes where they settled (contact_state), from a residual without its weight on them
+      // (reconstrain put the held dofs back at 0: the seated displacements are restored first)
+      m.u = u_seated;
+      m.assemble(false, m.hom, false);
+      for (Seating& s : m.seated) {
+        if (m.pb.regions[s.region].contact) s.soil_fz = soil_reaction(s.region).fz;
+        m.log << "seated region '" << m.pb.regions[s.region].name << "': settlement "
+              << s.settlement << " m, soil reaction " << s.soil_fz << " N/m = "
+              << s.soil_fz / s.weight << " W (W = " << s.weight << " N/m), " << st.newton_iterations
+              << " Newton its, " << st.cuts << " cuts" << (st.converged ? "" : ", NOT CONVERGED")
+              << "\n";
+      }
     }
     m.sfactor = 1.0;
   } else {

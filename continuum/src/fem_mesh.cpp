@@ -342,6 +342,34 @@ void Model::Impl::build_constraints() {
     }
     for (auto m_ : R.master) relevant.add_index(m_);
   }
+  // a contact body being seated (seating_contact): the master, the z dof of the soil node on its
+  // base (soil below: outward normal +z) nearest its pivot (ties: the lower dof index, so that
+  // every rank picks the same one)
+  seat_master.assign(pb.regions.size(), numbers::invalid_dof_index);
+  if (std::find(seating_contact.begin(), seating_contact.end(), 1) != seating_contact.end()) {
+    const auto nodes = contact_nodes();
+    std::vector<double> best(pb.regions.size(), 1e300);
+    for (std::size_t k = 0; k < nodes.size(); ++k) {
+      const int reg = pb.contacts[k].region;
+      if (reg < 0 || !seating_contact[static_cast<std::size_t>(reg)]) continue;
+      const auto r = static_cast<std::size_t>(reg);
+      for (const ContactNode& c : nodes[k]) {
+        if (c.nz < 0.5) continue;
+        const double d = std::hypot(c.X[0] - pb.regions[r].pivot.x, c.X[1] - pb.regions[r].pivot.z);
+        if (d < best[r] - 1e-12 || (d <= best[r] + 1e-12 && c.iz < seat_master[r])) {
+          best[r] = std::min(best[r], d);
+          seat_master[r] = c.iz;
+        }
+      }
+    }
+    for (std::size_t r = 0; r < pb.regions.size(); ++r) {
+      if (!seating_contact[r]) continue;
+      if (seat_master[r] == numbers::invalid_dof_index)
+        throw std::runtime_error("structure '" + pb.regions[r].name +
+                                 "' in Coulomb contact cannot be seated: no soil below its base");
+      relevant.add_index(seat_master[r]);
+    }
+  }
   relevant.compress();
 
   // constraints: rigid bodies, box boundary conditions, patches, pure-shear kinematics,
@@ -388,8 +416,25 @@ void Model::Impl::build_constraints() {
     for (const ContactNode& c : cnodes[k]) {
       const bool normal_x = std::abs(c.nx) > 0.5;
       const bool stick = pb.contacts[k].mu_static > 0.0;
+      const int reg = pb.contacts[k].region;
+      const auto master =
+          reg >= 0 ? seat_master[static_cast<std::size_t>(reg)] : numbers::invalid_dof_index;
       for (const auto i : {c.ix, c.iz}) {
         if (!stick && (i == c.ix) != normal_x) continue;
+        if (master != numbers::invalid_dof_index && i == c.iz) {
+          // seating a contact body: a node on its base moves down with it (u_z = u_z of the
+          // master); one on a side face is on a roller (its z free): the sides take no friction
+          // while it settles, so that every face meets Coulomb's law when the run starts (a stuck
+          // side would hold up to ~1/4 of the weight at a shear/normal ratio above μ_s near the
+          // surface, and slide off at the first step)
+          if (std::abs(c.nz) > 0.5 && i != master && relevant.is_element(i) &&
+              !hom.is_constrained(i) && !in_rigid(i)) {
+            hom.add_line(i);
+            hom.add_entry(i, master, 1.0);
+            contact_roller[i] = 1;
+          }
+          continue;
+        }
         if (relevant.is_element(i) && !hom.is_constrained(i) && !in_rigid(i)) {
           hom.add_line(i);
           contact_roller[i] = 1;

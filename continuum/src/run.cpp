@@ -333,13 +333,15 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
     // contact with the soil instead of sharing its nodes: not meshed, each axis-aligned outline
     // edge a contact plane with the friction the DEM particles meet on it (dem_friction). One that
     // never moves (every DoF fixed, e.g. the retaining wall) always; a moving one (the rocking
-    // foundation) unless continuum.structure_interface = "tied". Not seated (as the fixed wall):
-    // the contact nodes hold the soil in the K0 state and the weight acts from t = 0.
+    // foundation) unless continuum.structure_interface = "tied". One that never moves is not
+    // seated (its contact nodes hold the soil in the K0 state); a moving one held vertically is
+    // seated as a tied one (Region::seat; the nodes on its faces follow it down until the soil
+    // carries its weight).
     const bool at_rest = s.dof_x == scene::DofMode::Fixed && s.dof_z == scene::DofMode::Fixed &&
                          s.dof_rotation == scene::DofMode::Fixed;
     if (co.interface == "coulomb" && (at_rest || co.structure_interface == "contact")) {
       r.contact = true;
-      r.seat = false;
+      if (at_rest) r.seat = false;
       if (!add_contact_planes(scene, "structure", s.name, s.outline, true, s.mu_static,
                               s.mu_dynamic, static_cast<int>(pb.regions.size()),
                               1e-9 * std::max(xmax - xmin, zmax - zmin), pb, message))

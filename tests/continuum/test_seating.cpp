@@ -2,9 +2,11 @@
 // held vertically (dof_z fixed), starts resting on the soil under its own weight.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fem.hpp"
@@ -130,4 +132,85 @@ TEST(ContinuumSeating, RockingBlockUnderGrowingCyclicLoadExplicitMatchesImplicit
   EXPECT_GT(peak, 1e-6); // it rocks
   EXPECT_LT(rms, 0.01 * peak);
   EXPECT_NEAR(peak_e, peak_i, 0.01 * peak);
+}
+
+namespace {
+// The block of block_problem in zero-thickness Coulomb contact with the soil (Region::contact,
+// continuum.structure_interface = "contact"): unmeshed, its base and both sides contact planes
+// with μ_s/μ_D = 0.5/0.2, x and z fixed, rotation free (the rocking foundation's modes).
+Problem contact_block_problem(bool seat) {
+  Problem pb = block_problem(seat, "explicit");
+  Region& r = pb.regions.front();
+  r.contact = true;
+  const Point a{kBx0, kHeight}, b{kBx0, kBz0}, c{kBx1, kBz0}, d{kBx1, kHeight};
+  // the outline's order, as run.cpp's add_contact_planes: base, right side, left side (a node at
+  // a corner keeps the first face's contact: the base's at both corners)
+  for (const auto& [p, q] : {std::pair{b, c}, std::pair{c, d}, std::pair{a, b}}) {
+    ContactPlane cp;
+    cp.name = "block";
+    cp.a = p;
+    cp.b = q;
+    cp.mu_static = 0.5;
+    cp.mu_dynamic = 0.2;
+    cp.region = 0;
+    pb.contacts.push_back(cp);
+  }
+  return pb;
+}
+} // namespace
+
+// A block in Coulomb contact is seated as the tied one: the nodes on its base stick to it while it
+// translates down under its weight (it has no dofs of its own; one base node is the master), those
+// on its sides are on rollers. The soil carries its weight W exactly (the contact reactions, within
+// 1e-4 W), all of it through the base. From that state the explicit run starts at rest: over 0.3 s
+// the soil's vertical force stays within 1 % of W and the block does not turn (< 1e-7 rad); with
+// stuck sides during seating (the first version) the sides slid at the first step and the force
+// dropped to 0.80 W. Not seated, the soil under it carries only the overburden (0.34 W).
+TEST(ContinuumSeating, ContactBlockIsSeatedAsTheTiedOneAndStartsAtRest) {
+  const double W = kRhoBlock * (kBx1 - kBx0) * (kHeight - kBz0) * kG;
+  Model tied(block_problem(true, "explicit"));
+  ASSERT_TRUE(tied.initialise_gravity(true, kK0, 1).converged) << tied.log();
+  ASSERT_EQ(tied.seating().size(), 1U);
+  Model m(contact_block_problem(true));
+  ASSERT_TRUE(m.initialise_gravity(true, kK0, 1).converged) << m.log();
+  ASSERT_EQ(m.seating().size(), 1U);
+  const Seating& s = m.seating().front();
+  const double fz0 = m.soil_reaction(0).fz;
+  std::printf("contact block seated: settlement %.6g m (tied %.6g m), soil Fz %.8g N/m = %.6f W "
+              "(seating log %.6f W)\n",
+              s.settlement, tied.seating().front().settlement, fz0, fz0 / W, s.soil_fz / W);
+  EXPECT_NEAR(s.weight, W, 1e-9 * W);
+  EXPECT_GT(s.settlement, 0.0);
+  // frictionless sides while it settles: the base alone carries W, so it settles more than the
+  // tied block, whose sides are bonded (measured: 0.003168 against 0.002690 m)
+  const double tied_settlement = tied.seating().front().settlement;
+  EXPECT_GT(s.settlement, 1.05 * tied_settlement);
+  EXPECT_LT(s.settlement, 1.5 * tied_settlement);
+  EXPECT_NEAR(fz0, W, 1e-4 * W);
+  EXPECT_NEAR(s.soil_fz, W, 1e-4 * W);
+  EXPECT_NEAR(m.contact_force(0).fz, W, 1e-4 * W); // the base
+  for (std::size_t k : {1U, 2U}) {                 // the sides: the K0 pressure, no shear
+    EXPECT_LT(std::abs(m.contact_force(k).fz), 1e-6 * W);
+    EXPECT_GT(m.contact_force(k).normal, 0.0);
+  }
+  EXPECT_EQ(m.region_motion(0).uz, 0.0);
+  double worst = 0.0, turn = 0.0;
+  while (m.time() < 0.3 - 1e-9) {
+    ASSERT_TRUE(m.dynamic_step(0.01).converged) << m.log();
+    worst = std::max(worst, std::abs(m.soil_reaction(0).fz - W));
+    turn = std::max(turn, std::abs(m.region_motion(0).rotation));
+  }
+  std::printf("  explicit run to 0.3 s: largest |Fz − W| %.3e W, largest rotation %.3e rad\n%s",
+              worst / W, turn, m.contact_body_summary().c_str());
+  EXPECT_LT(worst, 0.01 * W);
+  EXPECT_LT(turn, 1e-7);
+
+  Model off(contact_block_problem(false));
+  ASSERT_TRUE(off.initialise_gravity(true, kK0, 1).converged) << off.log();
+  EXPECT_TRUE(off.seating().empty());
+  const double overburden = kRhoSoil * kG * (kHeight - kBz0) * (kBx1 - kBx0);
+  const double fz_off = off.soil_reaction(0).fz;
+  std::printf("contact block not seated: soil Fz %.4f W (overburden %.4f W)\n", fz_off / W,
+              overburden / W);
+  EXPECT_NEAR(fz_off, overburden, 0.1 * overburden);
 }
