@@ -129,9 +129,10 @@ std::string packing_key(const scene::Scene& scene) {
     f.num(s.mu_static.value_or(-1.0));
     f.num(s.mu_dynamic.value_or(-1.0));
     if (carved(scene, s)) // embedded structures (carved()); others keep keys
-      f.str(s.dof_z == scene::DofMode::Fixed && s.dof_rotation == scene::DofMode::Free
-                ? "carved+seated+turned;boundary-history"
-                : "carved+seated;boundary-history");
+      f.str(s.dof_z != scene::DofMode::Fixed ? "carved+seated;boundary-history"
+            : s.dof_rotation == scene::DofMode::Free
+                ? "carved+seated+turned;boundary-history;rests-on-weight"
+                : "carved+seated;boundary-history;rests-on-weight");
   }
   return fmt::format("{:016x}", f.h);
 }
@@ -653,13 +654,15 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   // Walls, structures (fixed obstacles, unloaded; embedded ones only once carved) and the
   // temporary container: fill edges that do not face upwards and are not already a wall.
   // seat_dz, seat_rot: the structures' offsets so far; `lowered`: the one being seated (its z
-  // prescribed by `lowering`), or none; `turning`: the one left free to rotate, or none.
+  // prescribed by `lowering`), or none; `turning`: the one left free to rotate, or none;
+  // `resting`: the one left free to move vertically under its weight, or none.
   constexpr std::size_t none = ~std::size_t{0};
   auto add_boundaries = [&](Engine& en, bool with_embedded, const std::vector<double>& seat_dz,
                             const std::vector<double>& seat_rot,
                             std::size_t lowered = ~std::size_t{0},
                             const scene::TimeFunction& lowering = {},
-                            std::size_t turning = ~std::size_t{0}) {
+                            std::size_t turning = ~std::size_t{0},
+                            std::size_t resting = ~std::size_t{0}) {
     for (const auto& w : scene.walls) en.add_wall(w); // openings stay closed while depositing
     for (std::size_t k = 0; k < scene.structures.size(); ++k) {
       if (!with_embedded && carved(scene, scene.structures[k])) continue;
@@ -672,6 +675,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
         st.motion_z = lowering;
       }
       if (k == turning) st.dof_rotation = scene::DofMode::Free;
+      if (k == resting) st.dof_z = scene::DofMode::Free;
       en.add_structure(st);
     }
     const double tol = 1e-6 * std::max(fb.x1 - fb.x0, fb.z1 - fb.z0);
@@ -794,7 +798,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   // until the bed carries its weight, at most 2 r_max; the run uses the seated position
   // (PackResult::seat_dz).
   auto restart = [&](std::size_t lowered, const scene::TimeFunction& lowering,
-                     std::size_t turning = ~std::size_t{0}) {
+                     std::size_t turning = ~std::size_t{0}, std::size_t resting = ~std::size_t{0}) {
     Particles P = ep->particles();
     sort_by_id(P);
     // With the boundaries' history (the same walls, structures and container in the same order,
@@ -804,7 +808,7 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
     auto next = std::make_unique<Engine>(c_scene);
     for (std::size_t i = 0; i < P.size(); ++i) // id order: the history's ids stay valid
       next->add_particle(P.x[i], P.z[i], P.radius[i], P.vx[i], P.vz[i], P.omega[i]);
-    add_boundaries(*next, true, seat_dz, seat_rot, lowered, lowering, turning);
+    add_boundaries(*next, true, seat_dz, seat_rot, lowered, lowering, turning, resting);
     next->load_contact_history(history);
     next->set_dt(ep->dt());
     next->set_time(ep->time());
@@ -835,22 +839,29 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
     res.seat_dz[k] = dz;
     res.seat_load = st.soil_fz / weight;
     seat_dz[k] += dz;
-    // A structure the run leaves free to rotate settles with its rotation free too (no load), so
+    // Then it comes to rest on the bed under its weight: vertical DoF free (held, the bed relaxes
+    // under it while it settles: 2-A carried 1.01 W when the lowering stopped and 0.774 W at the
+    // run's t = 0, the rest on the fixed DoF, while the continuum is seated to carry W). A
+    // structure the run leaves free to rotate settles with its rotation free too (no load), so
     // the run starts in moment equilibrium: resting on the few highest particles under its base,
     // held fixed it would carry their unbalanced moment and tip in the run's first second
     // (foundation 2-A: −1.95e7 N·m, −2.2e-3 rad). Its pivot stays where seating left it.
     const bool turns = sk.dof_rotation == scene::DofMode::Free;
-    restart(none, {}, turns ? k : none);
+    restart(none, {}, turns ? k : none, k);
     const double t_relax = 20.0 * std::sqrt(4.0 * rmax / g);
     res.converged = settle(ep->time() + t_relax, ep->time() + d.packing.max_time, "pack (seat)") &&
                     res.converged;
+    const auto& rested = ep->structures()[k];
+    res.seat_dz[k] += rested.uz;
+    seat_dz[k] += rested.uz;
+    res.seat_load = rested.soil_fz / weight; // at rest on the bed, as the run starts
     if (turns) {
-      const double rot = ep->structures()[k].rot;
+      const double rot = rested.rot;
       res.seat_rot.resize(scene.structures.size(), 0.0);
       res.seat_rot[k] = rot;
       seat_rot[k] += rot;
-      restart(none, {}); // held at the rest rotation, as the run will place it
     }
+    restart(none, {}); // held where it came to rest, as the run will place it
   }
   res.time = ep->time();
   res.steps = steps_before + ep->stats().steps;

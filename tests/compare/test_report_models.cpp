@@ -124,7 +124,8 @@ TEST(ReportModels, CoulombInterfaceMatchesTheBoundaries) {
       << faces->continuum;
 
   s.structures[0].dof_rotation = scene::DofMode::Free;
-  const auto* in_contact = row(compare::model_differences(s, {}), "boundary: structure faces");
+  const auto moving_contact = compare::model_differences(s, {}); // (row points into it)
+  const auto* in_contact = row(moving_contact, "boundary: structure faces");
   ASSERT_NE(in_contact, nullptr);
   EXPECT_TRUE(in_contact->matched);
   s.continuum.structure_interface = "tied";

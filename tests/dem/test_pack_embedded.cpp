@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include "../scratch.hpp"
 
 #include "demfem/dem/engine.hpp"
@@ -54,10 +56,13 @@ TEST(PackEmbedded, FoundationIsCarvedSeatedAndCarriedByTheBed) {
   EXPECT_GT(r.carved, 0u);
   EXPECT_EQ(P.size() + r.carved, 300u);
   ASSERT_EQ(r.seat_dz.size(), 1u);
-  // Lowered, by less than one largest diameter, and stopped because the bed carries it.
+  // Lowered, by less than one largest diameter, until the bed carried it, then left to come to
+  // rest on the bed under its weight (vertical DoF free): at the end of the packing the bed
+  // carries W within 2 % (held where the lowering stopped, the bed relaxed under it to 0.77 W
+  // under foundation 2-A).
   EXPECT_LE(r.seat_dz[0], 0.0);
   EXPECT_GT(r.seat_dz[0], -2.0 * rmax);
-  EXPECT_GE(r.seat_load, 1.0);
+  EXPECT_NEAR(r.seat_load, 1.0, 0.02);
   // The footing is free to rotate in the run: it was seated free to rotate too.
   ASSERT_EQ(r.seat_rot.size(), 1u);
   EXPECT_LT(std::abs(r.seat_rot[0]), 0.05); // a small tilt, not a topple
@@ -86,7 +91,9 @@ TEST(PackEmbedded, FoundationIsCarvedSeatedAndCarriedByTheBed) {
   e.load_contact_history(r.contact_history); // as dem::run: with the footing's shear springs
   e.run_steps(1);
   const double weight = e.structures()[0].mass * s.load.gravity;
-  EXPECT_GT(e.structures()[0].soil_fz, 0.5 * weight);
+  std::printf("seated footing: seat_dz %.4g m, seat_load %.5f, first-step soil Fz %.5f W\n",
+              r.seat_dz[0], r.seat_load, e.structures()[0].soil_fz / weight);
+  EXPECT_NEAR(e.structures()[0].soil_fz, weight, 0.02 * weight);
   // and in moment equilibrium about its pivot: the bed's moment balances that of the weight
   // (centroid off the pivot's vertical by the seat rotation), within 2 % of W × half-width
   // (measured: 1e-13). Seated with its rotation held, a footing carries the bed's unbalanced

@@ -117,7 +117,7 @@ struct PackResult {
   // pivot] at which a seated structure the run leaves free to rotate came to rest on the bed; the
   // run places it so (scene::rotated), so it starts in moment equilibrium.
   std::vector<double> seat_rot;
-  double seat_load = 0.0; // the bed's reaction / the structure's weight when seating stopped
+  double seat_load = 0.0; // the bed's reaction / the structure's weight, at rest on it (packing end)
 };
 
 // Writes the packing's statistics and measure as JSON (beside a checkpoint, or into a run).
