@@ -112,7 +112,8 @@ TEST(CaseFiles, AllPaperScenesLoad) {
   EXPECT_EQ(pile.variants.size(), 7u); // Table 4.1 rows + loose-case-1
   EXPECT_DOUBLE_EQ(pile.select("case-2").structure("pile")->width, 30.0);
   const auto rock = scene::load_scene_file(case_file("foundation_rocking.toml"));
-  EXPECT_EQ(rock.variants.size(), 9u); // Table 5.1 rows + 2-A-quick (the main job) + 4 loose
+  // Table 5.1 rows + 2-A-quick (the main job) + 4 loose + 4 with the loads × 240 (K_n scale)
+  EXPECT_EQ(rock.variants.size(), 13u);
   // The loose variants (issue 14) change the packing only: random placement, porosity target
   // 0.184; the loading of the row they repeat is unchanged, and their packing is their own.
   for (const auto& [loose, dense] :
@@ -125,6 +126,19 @@ TEST(CaseFiles, AllPaperScenesLoad) {
     EXPECT_DOUBLE_EQ(l.structures.at(0).force_x.omega, d.structures.at(0).force_x.omega) << loose;
     EXPECT_DOUBLE_EQ(l.structures.at(0).width, d.structures.at(0).width) << loose;
     EXPECT_NE(dem::packing_key(l), dem::packing_key(d)) << loose;
+  }
+  // The kn-scaled variants (issue 14 item 2) change the load amplitude only, × K_n / 1.0e6 (the
+  // paper's K_n), and share the row's packing.
+  const double kn_scale = rock.base.soil.dem->kn / 1.0e6;
+  for (const auto& [scaled, row] :
+       {std::pair{"kn-scaled-1-A", "1-A"}, std::pair{"kn-scaled-1-B", "1-B"},
+        std::pair{"kn-scaled-2-A", "2-A"}, std::pair{"kn-scaled-2-B", "2-B"}}) {
+    const auto k = rock.select(scaled), r = rock.select(row);
+    EXPECT_DOUBLE_EQ(k.structures.at(0).force_x.amplitude,
+                     kn_scale * r.structures.at(0).force_x.amplitude)
+        << scaled;
+    EXPECT_DOUBLE_EQ(k.structures.at(0).force_x.omega, r.structures.at(0).force_x.omega) << scaled;
+    EXPECT_EQ(dem::packing_key(k), dem::packing_key(r)) << scaled;
   }
   const auto pl = pile.select("loose-case-1"), pd = pile.select("case-1");
   EXPECT_EQ(pl.soil.dem->packing.placement, scene::Placement::Random);
