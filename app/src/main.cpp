@@ -495,6 +495,11 @@ std::vector<std::string> scene_lines(const std::string& toml) {
 }
 
 void remove_outputs(const fs::path& out, const std::vector<std::string>& names) {
+  // Under an MPI launcher every rank runs this command; only the first clears (the others write
+  // nothing into the run directory): two ranks clearing at once made the slower one fail with
+  // "cannot clear …/continuum: No such file or directory" (exit 1) on a re-run into a used
+  // directory with mpirun -np 2.
+  if (compare::study_rank() != 0) return;
   for (const auto& n : names) {
     std::error_code ec;
     fs::remove_all(out / n, ec);
