@@ -127,6 +127,15 @@ scene::SceneFile load_or_report(const std::string& path, int& rc) {
 void setup_run_log(const fs::path& dir, bool append) {
   fs::create_directories(dir);
   auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+  if (compare::study_rank() != 0) {
+    // another MPI rank of the same run: the first rank writes log.txt (a second file sink on it
+    // truncated and interleaved it) and the console; this one reports warnings and errors only
+    console->set_level(spdlog::level::warn);
+    auto logger = std::make_shared<spdlog::logger>("demfem", console);
+    logger->set_level(spdlog::level::warn);
+    spdlog::set_default_logger(logger);
+    return;
+  }
   auto file =
       std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), !append);
   console->set_level(spdlog::level::info);
@@ -1466,6 +1475,10 @@ int main(int argc, char** argv) {
     return kBadInput;
   }
 
+  // Under an MPI launcher every rank runs the command: the console and log messages come from
+  // the first rank only (each line was printed once per rank; setup_run_log too); warnings and
+  // errors from all. `study` spreads its settings over the ranks, and each says what it runs.
+  if (compare::study_rank() != 0 && !*study) spdlog::set_level(spdlog::level::warn);
   try {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);
