@@ -339,7 +339,6 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       total.cuts += st.cuts;
       total.converged = st.converged;
       total.residual = st.residual;
-      m.update_ghost();
       for (std::size_t k = 0; k < seat.size(); ++k) {
         const std::size_t r = seat[k];
         Seating s;
@@ -357,6 +356,9 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
         m.pb.regions[r].mode[1] = Region::Mode::Fixed;
         m.seated.push_back(s);
       }
+      const bool contact_seated =
+          std::find(m.seating_contact.begin(), m.seating_contact.end(), 1) !=
+          m.seating_contact.end();
       m.seating_mask.clear();
       m.seating_contact.clear();
       const Vec u_seated(m.u);
@@ -364,8 +366,10 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       // a contact body's soil force: the reactions of the constraints that now hold its face
       // nodes where they settled (contact_state), from a residual without its weight on them
       // (reconstrain put the held dofs back at 0: the seated displacements are restored first)
-      m.u = u_seated;
-      m.assemble(false, m.hom, false);
+      if (contact_seated) {
+        m.u = u_seated;
+        m.assemble(false, m.hom, false);
+      }
       for (Seating& s : m.seated) {
         if (m.pb.regions[s.region].contact) s.soil_fz = soil_reaction(s.region).fz;
         m.log << "seated region '" << m.pb.regions[s.region].name << "': settlement "
