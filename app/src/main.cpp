@@ -22,6 +22,7 @@
 #include <spdlog/spdlog.h>
 
 #include "demfem/compare/calibrate.hpp"
+#include "demfem/compare/ensemble.hpp"
 #include "demfem/compare/error_study.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/model_differences.hpp"
@@ -104,6 +105,10 @@ struct RunArgs {
   bool report_only = false; // compare: rewrite the report from the run directory's outputs
   bool force = false;       // run into a directory that holds another scene's results
   int jobs = 1;             // run: variants at once, as separate processes
+  // --seed: scene.seed (the packing's radii and placement) for every chosen scene, overriding the
+  // file; -1 = the file's. --seeds (compare): a seed ensemble, one comparison per seed (issue 9).
+  long long seed = -1;
+  std::vector<long long> seeds;
 };
 
 [[maybe_unused]] int not_built(const std::string& what, const std::string& issue_hint) {
@@ -143,6 +148,23 @@ void setup_run_log(const fs::path& dir, bool append) {
   logger->set_level(spdlog::level::debug);
   logger->flush_on(spdlog::level::info);
   spdlog::set_default_logger(logger);
+}
+
+// load_or_report with --seed applied to the base scene and every variant.
+scene::SceneFile load_for(const RunArgs& a, int& rc) {
+  auto f = load_or_report(a.scene, rc);
+  if (rc == kOk && a.seed >= 0) {
+    f.base.info.seed = static_cast<unsigned long>(a.seed);
+    for (auto& v : f.variants) v.info.seed = static_cast<unsigned long>(a.seed);
+  }
+  return f;
+}
+
+// A default output directory for a --seed run: its own seed-N subdirectory (so realisations do
+// not share a run directory); an explicit --out is used as given.
+fs::path with_seed_dir(fs::path out, const RunArgs& a) {
+  if (a.seed >= 0 && a.out.empty()) out /= fmt::format("seed-{}", a.seed);
+  return out;
 }
 
 std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& a, int& rc) {
@@ -334,7 +356,7 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
   fs::path out = a.out.empty() ? fs::path("runs") / s.info.name : fs::path(a.out);
   if (count > 1 || (!s.variant.empty() && a.out.empty()))
     out /= s.variant.empty() ? "base" : s.variant;
-  return out;
+  return with_seed_dir(out, a);
 }
 
 // Creates the run directory, writes scene.resolved.toml and opens log.txt. Returns kOk, or
@@ -366,7 +388,7 @@ struct CalibrateArgs {
 };
 int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
   int rc = kOk;
-  const auto file = load_or_report(a.scene, rc);
+  const auto file = load_for(a, rc);
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
@@ -375,6 +397,7 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
         a.out.empty() ? fs::path("runs") / s->info.name / "calibration" : fs::path(a.out);
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
+    out = with_seed_dir(out, a);
     compare::CalibrateOptions o;
     o.out_dir = out;
     o.particles = ca.particles;
@@ -460,6 +483,7 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
   if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
   if (a.refinement >= 0) c += fmt::format(" --refinement {}", a.refinement);
   if (a.degree >= 1) c += fmt::format(" --degree {}", a.degree);
+  if (a.seed >= 0) c += fmt::format(" --seed {}", a.seed);
   return c;
 }
 
@@ -617,9 +641,10 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
       const std::string key = calibrated ? "calibration " + compare::calibration_key(*s, {})
                                          : "packing " + dem::packing_key(*s);
       if (shared.insert(key).second) {
-        prep.push_back({with_variant({exe.string(), calibrated ? "calibrate" : "pack", a.scene,
-                                      "--out", (calibrated ? out / "calibration" : out).string()}),
-                        out / (calibrated ? "calibrate.txt" : "pack.txt")});
+        auto pargv = with_variant({exe.string(), calibrated ? "calibrate" : "pack", a.scene,
+                                   "--out", (calibrated ? out / "calibration" : out).string()});
+        if (a.seed >= 0) pargv.insert(pargv.end(), {"--seed", std::to_string(a.seed)});
+        prep.push_back({pargv, out / (calibrated ? "calibrate.txt" : "pack.txt")});
         prep_label.push_back(fmt::format("{} ({})", s->label(), key.substr(0, key.find(' '))));
       }
     }
@@ -630,6 +655,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     if (a.degree >= 0) argv.insert(argv.end(), {"--degree", std::to_string(a.degree)});
     if (a.force) argv.push_back("--force");
     if (a.resume) argv.push_back("--resume");
+    if (a.seed >= 0) argv.insert(argv.end(), {"--seed", std::to_string(a.seed)});
     runs.push_back({with_variant(argv), out / "console.txt"});
     run_label.push_back(s->label());
   }
@@ -674,7 +700,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
 
 int cmd_run(const RunArgs& a) {
   int rc = kOk;
-  const auto file = load_or_report(a.scene, rc);
+  const auto file = load_for(a, rc);
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
@@ -727,10 +753,13 @@ int cmd_run(const RunArgs& a) {
   return worst;
 }
 
+int compare_ensemble(const RunArgs& a);
+
 // Both solvers on the same scene, then the comparison report.
 int cmd_compare(const RunArgs& a) {
+  if (!a.seeds.empty()) return compare_ensemble(a);
   int rc = kOk;
-  const auto file = load_or_report(a.scene, rc);
+  const auto file = load_for(a, rc);
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
@@ -806,10 +835,74 @@ int cmd_compare(const RunArgs& a) {
   return worst;
 }
 
+// compare --seeds (issue 9): one comparison per packing seed into <run dir>/seed-N (each a
+// complete `demfem compare --seed N`, the continuum calibrated from that seed's bed where the
+// scene calibrates), then ensemble.json and ensemble.html in the run directory: per metric, each
+// solver's range over the realisations and in how many the DEM's exceeds the continuum's. With
+// --report-only every member's report is rebuilt, then the ensemble.
+int compare_ensemble(const RunArgs& a) {
+  if (a.seed >= 0) {
+    fmt::print(stderr, "demfem compare: --seed and --seeds exclude each other (--seeds runs one "
+                       "comparison per seed)\n");
+    return kBadInput;
+  }
+  const std::set<long long> distinct(a.seeds.begin(), a.seeds.end());
+  if (distinct.size() != a.seeds.size() || *distinct.begin() < 0) {
+    fmt::print(stderr,
+               "demfem compare: --seeds {}: give distinct non-negative seeds, e.g. "
+               "--seeds 41,101,202\n",
+               fmt::join(a.seeds, ","));
+    return kBadInput;
+  }
+  int rc = kOk;
+  const auto file = load_for(a, rc);
+  if (rc != kOk) return rc;
+  const auto scenes = pick(file, a, rc);
+  if (rc != kOk) return rc;
+  int worst = kOk;
+  for (const scene::Scene* s : scenes) {
+    const fs::path dir = run_dir_for(*s, a, scenes.size());
+    std::vector<compare::EnsembleMember> members;
+    for (const long long seed : a.seeds) {
+      RunArgs m = a;
+      m.seeds.clear();
+      m.seed = seed;
+      m.all_variants = false;
+      m.variants.clear();
+      if (!s->variant.empty()) m.variants.push_back(s->variant);
+      m.out = (dir / fmt::format("seed-{}", seed)).string();
+      spdlog::info("{}: realisation {} of {} (seed {}) → {}", s->label(), members.size() + 1,
+                   a.seeds.size(), seed, m.out);
+      const int r = cmd_compare(m);
+      if (r == kBadInput || r == kInterrupted) return r;
+      if (r != kOk) worst = r;
+      members.push_back({static_cast<unsigned long long>(seed), m.out});
+    }
+    auto e = compare::summarise_ensemble(members);
+    const std::string command = reproduce_command(*s, dir, a) +
+                                fmt::format(" --seeds {}", fmt::join(a.seeds, ",")) +
+                                (a.report_only ? " --report-only" : "");
+    try {
+      const auto files = compare::write_ensemble(
+          dir, e,
+          fmt::format("demfem seed ensemble: {} ({} realisations)", s->label(), e.members.size()),
+          command);
+      spdlog::info("{}: ensemble of {} realisation(s): {} ({} quantities), {}", s->label(),
+                   e.members.size(), files.html.string(), e.rows.size(), files.json.string());
+    } catch (const std::exception& ex) {
+      spdlog::error("{}: ensemble: {}", s->label(), ex.what());
+      worst = kRunFailed;
+    }
+    for (const auto& why : e.missing) spdlog::error("{}: ensemble: left out {}", s->label(), why);
+    if (e.members.size() != members.size()) worst = kRunFailed;
+  }
+  return worst;
+}
+
 // `demfem pack`: deposit (or find in the cache) the packing of each chosen scene (issue 4).
 int cmd_pack(const RunArgs& a) {
   int rc = kOk;
-  const auto file = load_or_report(a.scene, rc);
+  const auto file = load_for(a, rc);
   if (rc != kOk) return rc;
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
@@ -822,6 +915,7 @@ int cmd_pack(const RunArgs& a) {
     fs::path out = a.out.empty() ? fs::path("runs") / s->info.name : fs::path(a.out);
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
+    out = with_seed_dir(out, a);
     app::ProgressReporter reporter;
     try {
       const auto r = dem::pack_or_load(*s, out, [&](const scene::Progress& p) { reporter(p); });
@@ -1298,6 +1392,10 @@ int main(int argc, char** argv) {
   run->add_flag("--resume", ra.resume, "Continue from the last checkpoint in the run directory");
   run->add_flag("--force", ra.force,
                 "Run into a directory that holds another scene's results, clearing them first");
+  run->add_option("--seed", ra.seed,
+                  "Packing seed (scene.seed) instead of the file's; default directory gains "
+                  "seed-N")
+      ->check(CLI::NonNegativeNumber);
   run->add_option(
          "--threads", ra.threads,
          "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
@@ -1344,6 +1442,13 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   compare->add_option("--refinement", ra.refinement, "Continuum: refinement level");
   compare->add_option("--degree", ra.degree, "Continuum: polynomial degree");
+  compare->add_option("--seed", ra.seed, "Packing seed (scene.seed) instead of the file's")
+      ->check(CLI::NonNegativeNumber);
+  compare
+      ->add_option("--seeds", ra.seeds,
+                   "Seed ensemble: one comparison per packing seed into <out>/seed-N, then "
+                   "ensemble.html and ensemble.json (e.g. --seeds 41,101,202)")
+      ->delimiter(',');
   compare->footer(kExitCodes);
   std::string study_kind;
   double study_duration = 0.0;
@@ -1450,6 +1555,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(50, 100000));
   calibrate->add_flag("!--no-cyclic", ca.cyclic, "Skip the cyclic tests (G/G0, damping)");
   calibrate->add_flag("--force", ca.force, "Recompute even when the calibration is cached");
+  calibrate->add_option("--seed", ra.seed, "Packing seed (scene.seed) instead of the file's")
+      ->check(CLI::NonNegativeNumber);
   calibrate->footer(kExitCodes);
   auto* pack = app.add_subcommand("pack", "Deposit the scene's particles and save the packing "
                                           "(reused from the cache when it exists).");
@@ -1459,6 +1566,8 @@ int main(int argc, char** argv) {
   pack->add_option("--out", ra.out,
                    "Run directory (default runs/<scene>[/<variant>]); the "
                    "packing goes to packing.cache or <out>/packing");
+  pack->add_option("--seed", ra.seed, "Packing seed (scene.seed) instead of the file's")
+      ->check(CLI::NonNegativeNumber);
   pack->footer(kExitCodes);
 
   install_stop_signals();
