@@ -77,7 +77,8 @@ struct StructQ {
 // dem/src/run.cpp and continuum/src/run.cpp write the same columns). Each appears once.
 constexpr StructQ kWallQ[] = {
     {"thrust", "thrust", "N",
-     "normal soil force on the wall, |F·n| with n the wall chord's normal (walls.csv)"},
+     "normal soil force on the wall, F·n with n the wall chord's normal out of the soil: > 0 "
+     "pressing, < 0 pulling (walls.csv)"},
     {"reaction_z", "vertical soil force", "N",
      "vertical soil force on the wall (wall friction for a vertical wall; walls.csv)"},
 };

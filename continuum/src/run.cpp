@@ -541,8 +541,9 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
     // (counter-clockwise), <s>.moment [N·m] (soil about the pivot), <s>.force_x/_z [N] (force of
     // the soil on the structure), <s>.applied_moment [N·m] (external loads about the pivot),
     // <s>.displacement_x [m]; continuum only: <s>.applied_force_x/_z [N] (the load histories).
-    // walls.csv: <w>.thrust [N] = |F·n| with n the normal of the chord from the first to the last
-    // outline vertex (DEM's chord_normal), <w>.reaction_x/_z [N] = F (soil force on the wall).
+    // walls.csv: <w>.thrust [N] = F·n with n the normal of the chord from the first to the last
+    // outline vertex pointing out of the soil (scene::thrust_normal, as the DEM): > 0 when the soil
+    // presses on the wall, < 0 in tension; <w>.reaction_x/_z [N] = F (soil force on the wall).
     // pressure_<w>.csv: <w>.binK [Pa], normal soil pressure on the structure per z bin between
     // the outline's lowest and highest vertex.
     std::vector<std::size_t> thrust;                   // structure indices
@@ -654,17 +655,9 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       if (wfile.is_open()) {
         wfile << fmt::format("{:.6g}", t);
         for (auto k : thrust) {
-          const auto& o = scene.structures[k].outline;
-          double dx = o.back().x - o.front().x, dz = o.back().z - o.front().z;
-          if (std::hypot(dx, dz) == 0.0 && o.size() > 2) { // closed outline: its first edge
-            dx = o[1].x - o[0].x;
-            dz = o[1].z - o[0].z;
-          }
-          const double l = std::hypot(dx, dz);
-          const double nx = l > 0 ? dz / l : 1.0, nz = l > 0 ? -dx / l : 0.0;
-          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}",
-                               std::abs(react[k].fx * nx + react[k].fz * nz), react[k].fx,
-                               react[k].fz);
+          const auto n = scene::thrust_normal(scene.structures[k].outline, scene.domain);
+          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}", react[k].fx * n.x + react[k].fz * n.z,
+                               react[k].fx, react[k].fz);
         }
         wfile << "\n";
       }

@@ -10,7 +10,8 @@
 //                         <s>.moment [N·m] (soil reaction about the pivot), <s>.force_x [N],
 //                         <s>.force_z [N] (soil reaction), <s>.applied_moment [N·m] (external
 //                         loads about the pivot), <s>.displacement_x [m]
-//   walls.csv             <w>.thrust [N] (reaction normal to the wall's chord), <w>.reaction_x,
+//   walls.csv             <w>.thrust [N] (reaction normal to the wall's chord, signed: > 0 when
+//                         the soil presses on it; scene::thrust_normal), <w>.reaction_x,
 //                         <w>.reaction_z [N]; for walls with record = true, structures of kind
 //                         wall or with record "thrust", and wall-thrust probe targets
 //   pressure_<t>.csv      pressure-profile probe: normal contact force per unit area on the
@@ -58,18 +59,6 @@ struct ThrustTarget {
   std::string name;
   int boundary = -1;
 };
-
-// Unit normal of a boundary's chord (first → last vertex), used to split its reaction.
-std::pair<double, double> chord_normal(const std::vector<scene::Vec2>& v) {
-  if (v.size() < 2) return {1.0, 0.0};
-  double dx = v.back().x - v.front().x, dz = v.back().z - v.front().z;
-  if (v.size() > 2 && std::hypot(dx, dz) == 0.0) { // closed outline: use its first edge
-    dx = v[1].x - v[0].x;
-    dz = v[1].z - v[0].z;
-  }
-  const double l = std::hypot(dx, dz);
-  return l > 0.0 ? std::pair{dz / l, -dx / l} : std::pair{1.0, 0.0};
-}
 
 // Energy budget at the end of a run: printed (spdlog, info) and written to energy_budget.json.
 // Closure error = |ΔE_total| / (|gravity work| + |external work|), ΔE_total the change of
@@ -499,9 +488,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       for (const auto& th : thrust) {
         const auto& B = forces.boundaries()[static_cast<std::size_t>(th.boundary)];
         e.boundary_vertices(th.boundary, verts);
-        const auto [nx, nz] = chord_normal(verts);
+        const auto n = scene::thrust_normal(verts, scene.domain);
         row.insert(row.end(),
-                   {std::abs(B.reaction_x * nx + B.reaction_z * nz), B.reaction_x, B.reaction_z});
+                   {B.reaction_x * n.x + B.reaction_z * n.z, B.reaction_x, B.reaction_z});
       }
       wall_csv->append(row);
     }

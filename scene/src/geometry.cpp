@@ -77,6 +77,21 @@ Vec2 centroid(const Polygon& p) {
   return {cx / (6.0 * a), cz / (6.0 * a)};
 }
 
+Vec2 thrust_normal(const std::vector<Vec2>& outline, const Polygon& domain) {
+  if (outline.size() < 2) return {1.0, 0.0};
+  Vec2 a = outline.front(), b = outline.back();
+  if (outline.size() > 2 && a.x == b.x && a.z == b.z) b = outline[1]; // closed: its first edge
+  const double dx = b.x - a.x, dz = b.z - a.z, l = std::hypot(dx, dz);
+  if (!(l > 0.0)) return {1.0, 0.0};
+  Vec2 n{dz / l, -dx / l}; // right-hand normal of the chord
+  if (domain.size() >= 3) {
+    const Vec2 c = centroid(domain);
+    const double side = (0.5 * (a.x + b.x) - c.x) * n.x + (0.5 * (a.z + b.z) - c.z) * n.z;
+    if (side < 0.0) n = {-n.x, -n.z}; // point away from the soil
+  }
+  return n;
+}
+
 Bounds bounds(const std::vector<Vec2>& p) {
   Bounds b;
   if (p.empty()) return b;

@@ -350,3 +350,27 @@ TEST(SceneLoad, StructureInterfaceValues) {
   EXPECT_EQ(ok.base.continuum.structure_interface, "tied");
   EXPECT_EQ(parse_scene(kValid, "test.toml").base.continuum.structure_interface, "contact");
 }
+
+// scene::thrust_normal: the chord's normal, pointing out of the soil (away from the domain's
+// centroid) whichever way the wall was drawn; without a domain, the chord's right-hand normal.
+TEST(SceneGeometry, ThrustNormalPointsOutOfTheSoil) {
+  using demfem::scene::Polygon;
+  using demfem::scene::thrust_normal;
+  const Polygon box = {{0, 0}, {8, 0}, {8, 5}, {0, 5}};
+  auto expect = [](demfem::scene::Vec2 n, double x, double z) {
+    EXPECT_NEAR(n.x, x, 1e-15);
+    EXPECT_NEAR(n.z, z, 1e-15);
+  };
+  expect(thrust_normal({{8, 0}, {8, 5}}, box), 1, 0);  // right wall, drawn upwards
+  expect(thrust_normal({{8, 5}, {8, 0}}, box), 1, 0);  // … and downwards
+  expect(thrust_normal({{0, 5}, {0, 0}}, box), -1, 0); // left wall
+  expect(thrust_normal({{0, 0}, {0, 5}}, box), -1, 0);
+  expect(thrust_normal({{8, 0}, {0, 0}}, box), 0, -1); // base
+  expect(thrust_normal({{0, 0}, {8, 0}}, box), 0, -1);
+  // a wall structure's outline (x = 8 … 8.2): its chord (8.2, 5) → (8.2, 0), normal still +x
+  expect(thrust_normal({{8.2, 5}, {8, 5}, {8, 0}, {8.2, 0}}, box), 1, 0);
+  expect(thrust_normal({{8, 5}, {8, 0}}, {}), -1, 0);  // no domain: right-hand normal
+  const auto d = thrust_normal({{8, 0}, {9, 1}}, box); // inclined: unit length
+  EXPECT_NEAR(std::hypot(d.x, d.z), 1.0, 1e-15);
+  EXPECT_GT(d.x, 0.0);
+}

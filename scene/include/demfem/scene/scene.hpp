@@ -341,6 +341,13 @@ struct Bounds {
 // load point (the engine's convention for a structure's rotation).
 [[nodiscard]] Structure rotated(Structure st, double rot);
 [[nodiscard]] Vec2 centroid(const Polygon& p);
+// Unit normal for a wall's or structure's thrust (walls.csv <w>.thrust = F·n, F the soil force on
+// it): perpendicular to the chord from the first to the last vertex of `outline` (a closed outline:
+// its first edge), oriented out of the soil, from the domain's centroid towards the chord's
+// midpoint, so the thrust is > 0 when the soil presses on the wall and < 0 when it pulls (a tied
+// continuum in tension), whichever way the wall was drawn. Without a domain (or with the centroid on
+// the chord's line) the chord's right-hand normal (dz, −dx)/l.
+[[nodiscard]] Vec2 thrust_normal(const std::vector<Vec2>& outline, const Polygon& domain);
 
 template <std::size_t N>
 [[nodiscard]] const char* keyword(const std::array<const char*, N>& names, auto e) {
