@@ -112,8 +112,15 @@ TEST(CaseFiles, AllPaperScenesLoad) {
   EXPECT_EQ(pile.variants.size(), 7u); // Table 4.1 rows + loose-case-1
   EXPECT_DOUBLE_EQ(pile.select("case-2").structure("pile")->width, 30.0);
   const auto rock = scene::load_scene_file(case_file("foundation_rocking.toml"));
-  // Table 5.1 rows + 2-A-quick (the main job) + 4 loose + 4 with the loads × 240 (K_n scale)
-  EXPECT_EQ(rock.variants.size(), 13u);
+  // Table 5.1 rows + 2-A-quick (the main job) + 4 loose + 4 with the loads × 240 (K_n scale) +
+  // 2-A-unloaded (the control: no load, 2-A's packing)
+  EXPECT_EQ(rock.variants.size(), 14u);
+  {
+    const auto u = rock.select("2-A-unloaded"), a = rock.select("2-A");
+    EXPECT_EQ(u.structures.at(0).force_x(7.3), 0.0);
+    EXPECT_NE(a.structures.at(0).force_x(7.3), 0.0);
+    EXPECT_EQ(dem::packing_key(u), dem::packing_key(a));
+  }
   // The loose variants (issue 14) change the packing only: random placement, porosity target
   // 0.184; the loading of the row they repeat is unchanged, and their packing is their own.
   for (const auto& [loose, dense] :
