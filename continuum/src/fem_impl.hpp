@@ -8,6 +8,8 @@
 // Only these files include it (deal.II's flags, C++17).
 #pragma once
 
+#include <limits>
+
 #include "constitutive.hpp"
 #include "fem.hpp"
 
@@ -110,6 +112,10 @@ struct Model::Impl {
     std::function<double()> target; // empty: 0 (slaves of a rigid body)
   };
   std::map<types::global_dof_index, Line> lines;
+  // prescribed_rates: the constraints giving the constrained dofs' velocity and acceleration at
+  // time rate_t (rebuilt when the time changes)
+  AffineConstraints<double> rate_v, rate_a;
+  double rate_t = std::numeric_limits<double>::quiet_NaN(), rate_dt = 0.0;
   struct Rigid {
     types::global_dof_index master[3] = {0, 0, 0};      // A_x, A_z, B_c
     double T[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}; // q = (ux, uz, θ) = T m
@@ -241,8 +247,12 @@ struct Model::Impl {
   // γa)
   double dt_ = 0.0;
   void newmark_va(Vec& vel, Vec& accel) const;
+  // The constrained dofs' velocity and acceleration from their targets' time derivatives (the
+  // prescribed motion) and the constraint relations; the free dofs' are left as they are.
+  void prescribed_rates(Vec& vel, Vec& accel);
 
-  // Add the inertia and Rayleigh damping forces M(a + αv) + βK0 v (C = αM + βK0, Rayleigh).
+  // Add the inertia and Rayleigh damping forces M(a + αv) + βK0 v (C = αM + βK0, Rayleigh), cell by
+  // cell on the full vectors (the prescribed dofs' coupling included), and the dashpots.
   void add_dynamic(bool matrix);
 
   int solve_linear(bool symmetric);

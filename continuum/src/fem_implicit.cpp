@@ -15,21 +15,134 @@ void Model::Impl::newmark_va(Vec& vel, Vec& accel) const {
   vel.add(dt_ * g, accel);
 }
 
+// Newmark's inertia and Rayleigh damping, M (a + α v) + β K0 v, added to the residual cell by cell
+// on the full local vectors: the constrained dofs' acceleration and velocity (a structure moved by
+// its motion_x/z/rotation, the nodes tied to it) reach the free soil through the consistent mass
+// and β K0 coupling, folded onto the masters by `hom` like the internal force. Multiplying the
+// matrices condensed with the homogeneous constraints instead dropped that coupling, Cᵀ M a_g
+// (issue 10). `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
+// the inertia. The tangent keeps the condensed a₀ M + a₁ (α M + β K0): the prescribed motion does
+// not depend on the free dofs.
+// Newmark's recurrence a₁ = a₀(u₁ − u₀) − a₂ v₀ − a₃ a₀ applied to a prescribed displacement is the
+// trapezoidal rule run backwards: its alternating error is never damped (|R(∞)| = 1) and grows
+// with every step's truncation error (u = A(t − sin ωt/ω), ω Δt = 0.03: 2× the true amplitude
+// after 200 steps). The prescribed motion is known, so its rates are taken from it: v = g′(t),
+// a = (g′(t + Δt/2) − g′(t − Δt/2))/Δt (an acceleration averaged over one step, so a kink of g,
+// e.g. a ramp's start, is one step's impulse rather than a spike), g′ by central differences with
+// h = 1e-4 Δt; the slaves of a rigid body follow their masters' rates through the same relations.
+void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
+  if (lines.empty() || !(dt_ > 0.0)) return;
+  if (!(rate_t == t && rate_dt == dt_)) {
+    const double t0 = t, h = 1e-4 * dt_;
+    const auto rate = [&](const std::function<double()>& g, double at) {
+      t = at + h;
+      const double gp = g();
+      t = at - h;
+      const double gm = g();
+      return (gp - gm) / (2.0 * h);
+    };
+    rate_v.clear();
+    rate_a.clear();
+    rate_v.reinit(relevant);
+    rate_a.reinit(relevant);
+    for (types::global_dof_index i : relevant) {
+      if (!hom.is_constrained(i)) continue;
+      rate_v.add_line(i);
+      rate_a.add_line(i);
+      const auto it = lines.find(i);
+      const auto* entries = hom.get_constraint_entries(i);
+      if (it == lines.end()) { // box/periodic: homogeneous, as in hom
+        if (entries)
+          for (const auto& e : *entries) {
+            rate_v.add_entry(i, e.first, e.second);
+            rate_a.add_entry(i, e.first, e.second);
+          }
+        continue;
+      }
+      for (const auto& e : it->second.entries) { // raw line: chains resolved by close()
+        rate_v.add_entry(i, e.first, e.second);
+        rate_a.add_entry(i, e.first, e.second);
+      }
+      if (it->second.target) {
+        rate_v.set_inhomogeneity(i, rate(it->second.target, t0));
+        rate_a.set_inhomogeneity(i, (rate(it->second.target, t0 + 0.5 * dt_) -
+                                     rate(it->second.target, t0 - 0.5 * dt_)) /
+                                        dt_);
+      }
+    }
+    t = t0;
+    rate_v.close();
+    rate_a.close();
+    rate_t = t;
+    rate_dt = dt_;
+  }
+  rate_v.distribute(vel);
+  rate_a.distribute(accel);
+}
+
 void Model::Impl::add_dynamic(bool matrix) {
-  Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm), tmp2(owned, comm);
+  Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm);
   newmark_va(vel, accel);
+  prescribed_rates(vel, accel);
   tmp = accel;
   tmp.add(pb.rayleigh_alpha, vel);
-  M.vmult(tmp2, tmp);
-  K0.vmult(tmp, vel);
-  tmp2.add(pb.rayleigh_beta, tmp);
-  if (has_cabs) {
-    Cabs.vmult(tmp, vel);
-    tmp2 += tmp;
+  Vec xg(owned, relevant, comm), vg(owned, relevant, comm);
+  xg = tmp; // a + α v
+  vg = vel;
+  const bool beta = pb.rayleigh_beta != 0.0;
+  FEValues<2> fv(mapping, fe, quad,
+                 update_values | update_gradients | update_quadrature_points | update_JxW_values);
+  const unsigned n = fe.n_dofs_per_cell();
+  std::vector<types::global_dof_index> ld(n);
+  dealii::Vector<double> xe(n), ve(n), fe_(n), crhs(n);
+  std::vector<mc::Vec3> epsv;
+  CellB cb;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned()) continue;
+    fv.reinit(cell);
+    cell->get_dof_values(xg, xe);
+    const auto id = cell->material_id();
+    const double r = rho[id];
+    fe_ = 0;
+    for (unsigned q = 0; q < nq(); ++q) {
+      double xq[2] = {0.0, 0.0}; // (a + α v) at the point
+      for (unsigned j = 0; j < n; ++j)
+        xq[fe.system_to_component_index(j).first] += fv.shape_value(j, q) * xe(j);
+      const double w = r * fv.JxW(q);
+      // consistent mass: (M x)_i = ∫ ρ N_i x_{c(i)} dA
+      for (unsigned i = 0; i < n; ++i)
+        fe_(i) += fv.shape_value(i, q) * xq[fe.system_to_component_index(i).first] * w;
+    }
+    if (beta) { // β K0 v = β ∫ Bᵀ D ε(v) dA (B-bar rows, elastic D)
+      cell->get_dof_values(vg, ve);
+      cell_b(fv, cb);
+      cell_strain(cb, ve, epsv);
+      const auto D = mc::elastic_tangent(mat[id]);
+      for (unsigned q = 0; q < nq(); ++q) {
+        double sig[3] = {0, 0, 0};
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) sig[a] += D[a][b] * epsv[q][b];
+        const double w = pb.rayleigh_beta * fv.JxW(q);
+        for (unsigned i = 0; i < n; ++i) {
+          const auto& Bi = cb(i, q);
+          fe_(i) += (Bi[0] * sig[0] + Bi[1] * sig[1] + Bi[2] * sig[2]) * w;
+        }
+      }
+    }
+    cell->get_dof_indices(ld);
+    res.add(ld, fe_);
+    for (unsigned i = 0; i < n; ++i) crhs(i) = -fe_(i);
+    hom.distribute_local_to_global(crhs, ld, rhs);
   }
-  res += tmp2;
-  hom.set_zero(tmp2);
-  rhs -= tmp2;
+  res.compress(VectorOperation::add);
+  rhs.compress(VectorOperation::add);
+  if (has_cabs) { // Lysmer dashpots: on unconstrained boundary components only (condensed)
+    Vec cv(owned, comm);
+    Cabs.vmult(cv, vel);
+    res += cv;
+    hom.set_zero(cv);
+    rhs -= cv;
+  }
   if (matrix) {
     const double b = pb.newmark_beta, g = pb.newmark_gamma;
     const double a0 = 1.0 / (b * dt_ * dt_), a1 = g / (b * dt_);
@@ -262,6 +375,7 @@ StepStats Model::Impl::dynamic_to(double dt, int depth) {
   StepStats st = newton(true);
   if (st.converged) {
     newmark_va(v, acc);
+    prescribed_rates(v, acc);
     a_n = acc;
     commit();
     return st;
@@ -445,6 +559,9 @@ StepStats Model::dynamic_step(double dt) {
     m.solve_linear(true);
     m.hom.distribute(m.du);
     m.a_n = m.du;
+    m.dt_ = dt; // the prescribed motion's rates at t (prescribed_rates)
+    m.prescribed_rates(m.v, m.a_n);
+    m.v_n = m.v;
     m.dyn_init = true;
   }
   return m.dynamic_to(dt, 0);
