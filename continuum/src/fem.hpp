@@ -168,7 +168,7 @@ struct Problem {
   // Coulomb contact planes (ContactPlane; explicit integrator only). Their nodes ignore the box
   // boundary conditions in the explicit run.
   std::vector<ContactPlane> contacts;
-  std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct
+  std::string linear_solver = "direct"; // cg-amg | gmres-amg | direct (= the scene default)
   double newton_tolerance = 1e-8;
   int newton_max_iterations = 25;
   // diagnostics, written to the model's log (run.cpp sets them from DEMFEM_NEWTON_TRACE and

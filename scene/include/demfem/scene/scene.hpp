@@ -185,7 +185,9 @@ struct ContinuumOptions {
   // (otherwise `calibrate = "dem"` sets both from the DEM's small-strain damping ratio)
   bool rayleigh_stated = false;
   bool absorbing = false;               // Lysmer dashpots on the sides and base
-  std::string linear_solver = "cg-amg"; // cg-amg | gmres-amg | direct
+  // cg-amg | gmres-amg | direct. One default with continuum::fem::Problem's (a test checks):
+  // MUMPS, robust on the near-singular tangents of yielding soil; cg-amg for large meshes
+  std::string linear_solver = "direct";
   // Soil–structure/boundary interface: tied (shared nodes; base fixed, sides on rollers),
   // frictional (a one-cell Mohr–Coulomb layer at the structures), coulomb (explicit only:
   // zero-thickness Coulomb contact with the DEM's walls and fixed structures, with their μ;
