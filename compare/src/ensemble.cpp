@@ -21,6 +21,9 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Two magnitudes within 0.1 % of each other are equal (e.g. a weight both models carry by
+// construction): neither solver's is the larger.
+constexpr double kEqual = 1e-3;
 
 double number(const nlohmann::json& j) {
   return j.is_number() ? j.get<double>() : kNaN;
@@ -43,12 +46,17 @@ void finish(EnsemblePart& p) {
   p.dem_stat = stat_of(p.dem);
   p.continuum_stat = stat_of(p.continuum);
   std::vector<double> ratio;
-  p.dem_larger = p.both = 0;
+  p.dem_larger = p.continuum_larger = p.both = 0;
   for (std::size_t k = 0; k < p.dem.size(); ++k) {
     const double d = p.dem[k], c = p.continuum[k];
     if (!std::isfinite(d) || !std::isfinite(c)) continue;
     ++p.both;
-    if (std::abs(d) > std::abs(c)) ++p.dem_larger;
+    const double ad = std::abs(d), ac = std::abs(c);
+    if (std::abs(ad - ac) <= kEqual * std::max(ad, ac)) continue; // equal: neither is larger
+    if (ad > ac)
+      ++p.dem_larger;
+    else
+      ++p.continuum_larger;
     if (c != 0.0) ratio.push_back(std::abs(d) / std::abs(c));
   }
   p.ratio = stat_of(ratio);
@@ -70,23 +78,27 @@ std::string spread(const EnsembleStat& s) {
   return fmt::format(" (×{:.3g} across realisations)", s.max / s.min);
 }
 
+// What the ensemble decides about one part.
+std::string decision(const EnsemblePart& p) {
+  if (p.both == 0) return "not measured by both";
+  if (p.dem_larger == 0 && p.continuum_larger == 0)
+    return p.both < 2 ? "equal (within 0.1 %)" : "equal (within 0.1 %) in every realisation";
+  if (p.both < 2) return "one realisation: its spread is unknown";
+  if (p.dem_larger == p.both) return "the DEM's is larger in every realisation";
+  if (p.continuum_larger == p.both) return "the continuum's is larger in every realisation";
+  return "which is larger depends on the realisation: not decided";
+}
+
 // One part in plain words: both ranges, in how many realisations the DEM's is larger, and what
 // that decides.
 std::string part_words(const char* what, const EnsemblePart& p) {
   if (p.both == 0) return fmt::format("{}: no realisation has both values", what);
-  std::string w = fmt::format("{}: DEM {}{}, continuum {}{}; |DEM| > |continuum| in {} of {}", what,
-                              range(p.dem_stat), spread(p.dem_stat), range(p.continuum_stat),
-                              spread(p.continuum_stat), p.dem_larger, p.both);
+  std::string w =
+      fmt::format("{}: DEM {}{}, continuum {}{}; |DEM| > |continuum| in {} of {}, < in {}", what,
+                  range(p.dem_stat), spread(p.dem_stat), range(p.continuum_stat),
+                  spread(p.continuum_stat), p.dem_larger, p.both, p.continuum_larger);
   if (p.ratio.count > 0) w += fmt::format(" (|DEM|/|continuum| {})", range(p.ratio));
-  if (p.both < 2)
-    w += " — one realisation: its spread is unknown";
-  else if (p.dem_larger == p.both)
-    w += " — the DEM's is larger in every realisation";
-  else if (p.dem_larger == 0)
-    w += " — the continuum's is larger in every realisation";
-  else
-    w += " — which is larger depends on the realisation: not decided";
-  return w;
+  return w + " — " + decision(p);
 }
 
 nlohmann::json part_json(const EnsemblePart& p) {
@@ -108,6 +120,8 @@ nlohmann::json part_json(const EnsemblePart& p) {
           {"continuum_stats", st(p.continuum_stat)},
           {"abs_ratio_dem_over_continuum", st(p.ratio)},
           {"dem_larger", p.dem_larger},
+          {"continuum_larger", p.continuum_larger},
+          {"decision", decision(p)},
           {"with_both", p.both}};
 }
 
@@ -172,10 +186,11 @@ Ensemble summarise_ensemble(const std::vector<EnsembleMember>& members) {
     // The parts some realisation measured in both solvers (the dynamic ones first).
     for (const auto& [name, part] :
          {std::pair<const char*, const EnsemblePart*>{"oscillation amplitude", &row.amplitude},
-          {"mean increment", &row.increment},
-          {"static value", &row.static_part}})
+          {"mean increment", &row.increment}})
       if (part->both > 0)
         row.verdict += (row.verdict.empty() ? "" : "; ") + part_words(name, *part);
+    if (row.verdict.empty() && row.static_part.both > 0) // no loading part: the value at rest
+      row.verdict = part_words("static value", row.static_part);
     if (row.verdict.empty()) row.verdict = "no realisation has this quantity from both solvers";
   }
   return e;
@@ -276,7 +291,7 @@ EnsembleFiles write_ensemble(const fs::path& dir, Ensemble& e, const std::string
   h += "<h2 id=\"summary\">Summary over the realisations</h2><table><tr><th class=\"l\">quantity "
        "[unit]</th><th class=\"l\">part</th><th>DEM min … max</th><th>DEM median</th>"
        "<th>continuum min … max</th><th>continuum median</th><th>|DEM|/|continuum|</th>"
-       "<th>|DEM| larger in (bold: decided)</th></tr>\n";
+       "<th>|DEM| larger in</th><th class=\"l\">decision (bold: decided)</th></tr>\n";
   for (const auto& r : e.rows)
     for (const auto& [name, p] :
          {std::pair<const char*, const EnsemblePart*>{"static", &r.static_part},
@@ -284,13 +299,14 @@ EnsembleFiles write_ensemble(const fs::path& dir, Ensemble& e, const std::string
           {"oscillation amplitude (late)", &r.amplitude}}) {
       // bold: the same solver's value is the larger in every realisation (decided)
       const char* cls =
-          p->both >= 2 && (p->dem_larger == p->both || p->dem_larger == 0) ? "dec" : "";
+          p->both >= 2 && (p->dem_larger == p->both || p->continuum_larger == p->both) ? "dec" : "";
       h += fmt::format("<tr><td class=\"l\">{} [{}]</td><td class=\"l\">{}</td><td>{}</td>"
-                       "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{} of "
-                       "{}</td></tr>\n",
+                       "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} of {}</td><td "
+                       "class=\"l {}\">{}</td></tr>\n",
                        html_escape(r.quantity), html_escape(r.unit), name, range(p->dem_stat),
                        g3(p->dem_stat.median), range(p->continuum_stat),
-                       g3(p->continuum_stat.median), range(p->ratio), cls, p->dem_larger, p->both);
+                       g3(p->continuum_stat.median), range(p->ratio), p->dem_larger, p->both, cls,
+                       decision(*p));
     }
   h += "</table>\n<h2>Verdicts</h2><ul>\n";
   for (const auto& r : e.rows)

@@ -27,8 +27,9 @@ struct EnsemblePart {
   std::vector<double> dem, continuum;
   EnsembleStat dem_stat, continuum_stat;
   EnsembleStat ratio; // |DEM| / |continuum| where both are finite and the continuum's is ≠ 0
-  int dem_larger = 0; // members where |DEM| > |continuum|
-  int both = 0;       // members with both values finite
+  int dem_larger = 0; // members where |DEM| > |continuum| (by more than 0.1 %)
+  int continuum_larger = 0; // members where |continuum| > |DEM| (by more than 0.1 %)
+  int both = 0;             // members with both values finite
 };
 
 struct EnsembleRow {
