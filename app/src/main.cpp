@@ -879,9 +879,9 @@ int compare_ensemble(const RunArgs& a) {
       members.push_back({static_cast<unsigned long long>(seed), m.out});
     }
     auto e = compare::summarise_ensemble(members);
-    const std::string command = reproduce_command(*s, dir, a) +
-                                fmt::format(" --seeds {}", fmt::join(a.seeds, ",")) +
-                                (a.report_only ? " --report-only" : "");
+    // the command that runs the ensemble (--report-only rebuilds it: not the way to reproduce it)
+    const std::string command =
+        reproduce_command(*s, dir, a) + fmt::format(" --seeds {}", fmt::join(a.seeds, ","));
     try {
       const auto files = compare::write_ensemble(
           dir, e,

@@ -52,12 +52,12 @@ void finish(EnsemblePart& p) {
     if (!std::isfinite(d) || !std::isfinite(c)) continue;
     ++p.both;
     const double ad = std::abs(d), ac = std::abs(c);
+    if (c != 0.0) ratio.push_back(ad / ac);
     if (std::abs(ad - ac) <= kEqual * std::max(ad, ac)) continue; // equal: neither is larger
     if (ad > ac)
       ++p.dem_larger;
     else
       ++p.continuum_larger;
-    if (c != 0.0) ratio.push_back(std::abs(d) / std::abs(c));
   }
   p.ratio = stat_of(ratio);
 }

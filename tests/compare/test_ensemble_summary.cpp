@@ -52,6 +52,7 @@ TEST(EnsembleSummary, CountsDecidesAndTreatsNearEqualAsEqual) {
   // static: 1e-5 apart, equal in every realisation (neither larger)
   EXPECT_EQ(r.static_part.dem_larger, 0);
   EXPECT_EQ(r.static_part.continuum_larger, 0);
+  EXPECT_NEAR(r.static_part.ratio.min, 1.0, 1e-4); // equal, and still a ratio
   // mean increment: the DEM never measured it: no realisation has both, not in the verdict
   EXPECT_EQ(r.increment.both, 0);
   EXPECT_EQ(r.verdict.find("mean increment"), std::string::npos) << r.verdict;
