@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
 #include "helpers.hpp"
 
@@ -226,4 +227,68 @@ TEST(ContinuumExplicit, ShakenWallExplicitMatchesImplicit) {
               rms, 100 * rms / P0, pe, pi, 100 * (pe - pi) / pi);
   EXPECT_LT(rms, 0.05 * P0);
   EXPECT_NEAR(pe, pi, 0.05 * pi);
+}
+
+// Slow loading (issue 10, verification): a rigid rough strip footing pushed slowly into weightless
+// undrained clay (φ = 0, cohesion c) with the explicit integrator reaches the Prandtl pressure
+// (2 + π)c (Prandtl 1920) within 5 %, as the implicit, displacement-controlled
+// ContinuumStatic.StripFootingUndrainedBearingCapacity does on the same mesh. Half model (x ≥ 0,
+// roller at the symmetry line); the footing, B/2 wide, is a rigid region on the surface with its
+// vertical motion prescribed: 0.03 B in T = 2 s (≈ 40 shear-wave transits of the 5 B deep box),
+// starting and ending at rest (u = −s(t/T − sin(2πt/T)/2π)), FLAC-style local damping 0.8.
+// Measured: q/c = 5.2305 (+1.7 %), 6,118 dofs, ≈ 22 s of CPU.
+TEST(ContinuumExplicit, SlowlyLoadedFootingReachesPrandtl) {
+  const double B = 1.0, c = 1.0e4, s = 0.03 * B, T = 2.0, tf = 0.25 * B;
+  Problem pb;
+  pb.integrator = "explicit";
+  pb.degree = 2;
+  pb.mesh.x0 = 0.0;
+  pb.mesh.z0 = -5.0 * B;
+  pb.mesh.dx = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
+  pb.mesh.dz = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
+  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
+  pb.mesh.dz.push_back(tf); // the footing's layer above the surface
+  pb.mesh.refinement = 0;
+  pb.mesh.domain = {{0, -5.0 * B}, {5.0 * B, -5.0 * B}, {5.0 * B, 0}, {0, 0}};
+  pb.soil.young = 1.0e7;
+  pb.soil.poisson = 0.3;
+  pb.soil.plastic = true;
+  pb.soil.friction = 0.0;
+  pb.soil.dilation = 0.0;
+  pb.soil.cohesion = c;
+  pb.gravity = 0.0;
+  pb.local_damping = 0.8;
+  Region f;
+  f.name = "footing";
+  f.outline = {{0, 0}, {0.5 * B, 0}, {0.5 * B, tf}, {0, tf}};
+  f.material.young = 1e12;
+  f.material.poisson = 0.2;
+  f.material.plastic = false;
+  f.rigid = true;
+  f.dead_weight = false;
+  f.pivot = {0, 0};
+  f.load_point = f.pivot;
+  f.mode[0] = f.mode[2] = Region::Mode::Fixed;
+  f.mode[1] = Region::Mode::Prescribed;
+  f.motion[1] = demfem::scene::TimeFunction::sum(
+      {demfem::scene::TimeFunction::ramp(-s / T),
+       demfem::scene::TimeFunction::sine(s / (2.0 * M_PI), 1.0 / T)});
+  pb.regions.push_back(f);
+  Model m(pb);
+  const auto t0 = std::chrono::steady_clock::now();
+  int steps = 0;
+  while (m.time() < T - 1e-12) {
+    ASSERT_TRUE(m.dynamic_step(std::min(0.05, T - m.time())).converged) << m.log();
+    ++steps;
+    if (steps % 10 == 0)
+      std::printf("  t=%.2f s settlement/B=%.4f q/c=%.4f\n", m.time(), -m.region_motion(0).uz / B,
+                  m.soil_reaction(0).fz / (0.5 * B) / c);
+  }
+  const double q = m.soil_reaction(0).fz / (0.5 * B); // the soil pushes the footing up
+  const double exact = (2.0 + M_PI) * c;
+  std::printf("explicit footing: dofs=%zu settlement/B=%.4f q/c=%.4f (exact %.4f) rel.err=%.3e "
+              "wall=%.1fs\n",
+              m.n_dofs(), -m.region_motion(0).uz / B, q / c, exact / c, (q - exact) / exact,
+              seconds_since(t0));
+  EXPECT_NEAR(q, exact, 0.05 * exact);
 }
