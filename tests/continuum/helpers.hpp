@@ -1,9 +1,11 @@
 // Shared by the continuum tests: the acceleration of a sampled motion, a fixed rigid wall.
 #pragma once
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
+#include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
 
 namespace demfem::test {
@@ -46,6 +48,26 @@ inline demfem::continuum::fem::Region fixed_rigid_wall(double W, double t, doubl
   wall.pivot = wall.load_point = {W + 0.5 * t, 0};
   wall.mode[0] = wall.mode[1] = wall.mode[2] = Region::Mode::Fixed;
   return wall;
+}
+
+// The strip-footing problems' half space (x ≥ 0, the symmetry line at x = 0, surface z = 0):
+// weightless undrained clay (φ = ψ = 0, cohesion c, E = 10 MPa, ν = 0.3) 5 B deep and wide, cells
+// of B/16 under the footing growing by `growth` away from it (the Prandtl (2 + π)c tests).
+inline demfem::continuum::fem::Problem undrained_half_space(double B, double c, double growth) {
+  demfem::continuum::fem::Problem pb;
+  pb.mesh.x0 = 0.0;
+  pb.mesh.z0 = -5.0 * B;
+  pb.mesh.dx = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
+  pb.mesh.dz = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
+  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
+  pb.soil.young = 1.0e7;
+  pb.soil.poisson = 0.3;
+  pb.soil.plastic = true;
+  pb.soil.friction = 0.0;
+  pb.soil.dilation = 0.0;
+  pb.soil.cohesion = c;
+  pb.gravity = 0.0;
+  return pb;
 }
 
 } // namespace demfem::test

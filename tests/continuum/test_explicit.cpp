@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <vector>
 
-#include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
 #include "helpers.hpp"
 
@@ -239,24 +238,12 @@ TEST(ContinuumExplicit, ShakenWallExplicitMatchesImplicit) {
 // Measured: q/c = 5.2305 (+1.7 %), 6,118 dofs, ≈ 22 s of CPU.
 TEST(ContinuumExplicit, SlowlyLoadedFootingReachesPrandtl) {
   const double B = 1.0, c = 1.0e4, s = 0.03 * B, T = 2.0, tf = 0.25 * B;
-  Problem pb;
+  Problem pb = demfem::test::undrained_half_space(B, c, 1.3);
   pb.integrator = "explicit";
   pb.degree = 2;
-  pb.mesh.x0 = 0.0;
-  pb.mesh.z0 = -5.0 * B;
-  pb.mesh.dx = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
-  pb.mesh.dz = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, 1.3);
-  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
   pb.mesh.dz.push_back(tf); // the footing's layer above the surface
   pb.mesh.refinement = 0;
   pb.mesh.domain = {{0, -5.0 * B}, {5.0 * B, -5.0 * B}, {5.0 * B, 0}, {0, 0}};
-  pb.soil.young = 1.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = 0.0;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = c;
-  pb.gravity = 0.0;
   pb.local_damping = 0.8;
   Region f;
   f.name = "footing";

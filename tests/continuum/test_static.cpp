@@ -9,6 +9,7 @@
 
 #include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
+#include "helpers.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -90,22 +91,10 @@ TEST(ContinuumStatic, FlamantStripLoad) {
 // (Prandtl 1920).
 namespace {
 double footing_limit_pressure(int degree, int refinement, double growth) {
-  Problem pb;
   const double B = 1.0, c = 1.0e4;
+  Problem pb = demfem::test::undrained_half_space(B, c, growth);
   pb.degree = degree;
-  pb.mesh.x0 = 0.0;
-  pb.mesh.z0 = -5.0 * B;
-  pb.mesh.dx = graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
-  pb.mesh.dz = graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
-  std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
   pb.mesh.refinement = refinement;
-  pb.soil.young = 1.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = 0.0;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = c;
-  pb.gravity = 0.0;
   Patch footing;
   footing.name = "footing";
   footing.a = {0.0, 0.0};
