@@ -210,3 +210,32 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_NE(slurp(out / "study" / "study.html").find("most resolved"), std::string::npos);
 }
 #endif
+
+#ifdef DEMFEM_TEST_CONTINUUM
+// A scene with continuum.interface = "coulomb" (explicit only): the implicit knob is skipped and
+// listed with its reason, not run into a refusal (the implicit runs used to exit 2 each).
+TEST(StudyErrorVsTime, CoulombSceneSkipsTheImplicitKnobWithItsReason) {
+  const fs::path out = demfem::test::scratch("evt_coulomb");
+  const fs::path scene = out / "tiny.toml";
+  fs::create_directories(out);
+  std::string text = tiny_wall(out / "packings");
+  const std::string key = "integrator = \"explicit\"\n";
+  text.replace(text.find(key), key.size(), key + "interface = \"coulomb\"\n");
+  std::ofstream(scene) << text;
+  const std::string cmd = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
+                          " --solver continuum --repeats 1 --jobs 2 --refinements 0,1 --degrees 1 "
+                          "--integrators explicit,implicit --duration 0.5 --out " +
+                          (out / "study").string() + " > " + (out / "log").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out / "log");
+  const auto j = nlohmann::json::parse(slurp(out / "study" / "study.json"));
+  for (const auto& p : j.at("points")) {
+    EXPECT_EQ(p.at("name").get<std::string>().find("implicit"), std::string::npos) << p.dump();
+    EXPECT_TRUE(p.at("ok").get<bool>()) << p.dump();
+  }
+  bool listed = false;
+  for (const auto& n : j.at("notes"))
+    listed = listed || n.get<std::string>().find("mesh-q1-implicit skipped: continuum.interface "
+                                                 "= \"coulomb\"") != std::string::npos;
+  EXPECT_TRUE(listed) << j.at("notes").dump();
+}
+#endif
