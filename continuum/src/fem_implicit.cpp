@@ -15,14 +15,6 @@ void Model::Impl::newmark_va(Vec& vel, Vec& accel) const {
   vel.add(dt_ * g, accel);
 }
 
-// Newmark's inertia and Rayleigh damping, M (a + α v) + β K0 v, added to the residual cell by cell
-// on the full local vectors: the constrained dofs' acceleration and velocity (a structure moved by
-// its motion_x/z/rotation, the nodes tied to it) reach the free soil through the consistent mass
-// and β K0 coupling, folded onto the masters by `hom` like the internal force. Multiplying the
-// matrices condensed with the homogeneous constraints instead dropped that coupling, Cᵀ M a_g
-// (issue 10). `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
-// the inertia. The tangent keeps the condensed a₀ M + a₁ (α M + β K0): the prescribed motion does
-// not depend on the free dofs.
 // Newmark's recurrence a₁ = a₀(u₁ − u₀) − a₂ v₀ − a₃ a₀ applied to a prescribed displacement is the
 // trapezoidal rule run backwards: its alternating error is never damped (|R(∞)| = 1) and grows
 // with every step's truncation error (u = A(t − sin ωt/ω), ω Δt = 0.03: 2× the true amplitude
@@ -50,9 +42,8 @@ void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
       rate_v.add_line(i);
       rate_a.add_line(i);
       const auto it = lines.find(i);
-      const auto* entries = hom.get_constraint_entries(i);
       if (it == lines.end()) { // box/periodic: homogeneous, as in hom
-        if (entries)
+        if (const auto* entries = hom.get_constraint_entries(i))
           for (const auto& e : *entries) {
             rate_v.add_entry(i, e.first, e.second);
             rate_a.add_entry(i, e.first, e.second);
@@ -65,9 +56,9 @@ void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
       }
       if (it->second.target) {
         rate_v.set_inhomogeneity(i, rate(it->second.target, t0));
-        rate_a.set_inhomogeneity(i, (rate(it->second.target, t0 + 0.5 * dt_) -
-                                     rate(it->second.target, t0 - 0.5 * dt_)) /
-                                        dt_);
+        rate_a.set_inhomogeneity(
+            i, (rate(it->second.target, t0 + 0.5 * dt_) - rate(it->second.target, t0 - 0.5 * dt_)) /
+                   dt_);
       }
     }
     t = t0;
@@ -80,6 +71,14 @@ void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
   rate_a.distribute(accel);
 }
 
+// Newmark's inertia and Rayleigh damping, M (a + α v) + β K0 v, added to the residual cell by cell
+// on the full local vectors: the constrained dofs' acceleration and velocity (a structure moved by
+// its motion_x/z/rotation, the nodes tied to it) reach the free soil through the consistent mass
+// and β K0 coupling, folded onto the masters by `hom` like the internal force. Multiplying the
+// matrices condensed with the homogeneous constraints instead dropped that coupling, Cᵀ M a_g
+// (issue 10). `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
+// the inertia. The tangent keeps the condensed a₀ M + a₁ (α M + β K0): the prescribed motion does
+// not depend on the free dofs.
 void Model::Impl::add_dynamic(bool matrix) {
   Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm);
   newmark_va(vel, accel);
@@ -458,21 +457,19 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
         Seating s;
         s.region = r;
         // a contact body's settlement: its master's (every node on its faces moved with it)
-        s.settlement = m.pb.regions[r].contact
-                           ? -Utilities::MPI::max(m.owned.is_element(m.seat_master[r])
-                                                      ? m.u(m.seat_master[r])
-                                                      : -1e300,
-                                                  m.comm)
-                           : -(region_motion(r).uz - uz0[k]);
+        s.settlement =
+            m.pb.regions[r].contact
+                ? -Utilities::MPI::max(
+                      m.owned.is_element(m.seat_master[r]) ? m.u(m.seat_master[r]) : -1e300, m.comm)
+                : -(region_motion(r).uz - uz0[k]);
         s.weight = m.rho[r + 1] * m.geom[r + 1].area * m.pb.gravity; // W = ρ A g per metre
         s.converged = st.converged;
         if (!m.pb.regions[r].contact) s.soil_fz = soil_reaction(r).fz;
         m.pb.regions[r].mode[1] = Region::Mode::Fixed;
         m.seated.push_back(s);
       }
-      const bool contact_seated =
-          std::find(m.seating_contact.begin(), m.seating_contact.end(), 1) !=
-          m.seating_contact.end();
+      const bool contact_seated = std::find(m.seating_contact.begin(), m.seating_contact.end(),
+                                            1) != m.seating_contact.end();
       m.seating_mask.clear();
       m.seating_contact.clear();
       const Vec u_seated(m.u);
@@ -487,10 +484,10 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       for (Seating& s : m.seated) {
         if (m.pb.regions[s.region].contact) s.soil_fz = soil_reaction(s.region).fz;
         m.log << "seated region '" << m.pb.regions[s.region].name << "': settlement "
-              << s.settlement << " m, soil reaction " << s.soil_fz << " N/m = "
-              << s.soil_fz / s.weight << " W (W = " << s.weight << " N/m), " << st.newton_iterations
-              << " Newton its, " << st.cuts << " cuts" << (st.converged ? "" : ", NOT CONVERGED")
-              << "\n";
+              << s.settlement << " m, soil reaction " << s.soil_fz
+              << " N/m = " << s.soil_fz / s.weight << " W (W = " << s.weight << " N/m), "
+              << st.newton_iterations << " Newton its, " << st.cuts << " cuts"
+              << (st.converged ? "" : ", NOT CONVERGED") << "\n";
       }
     }
     m.sfactor = 1.0;
