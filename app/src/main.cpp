@@ -1064,10 +1064,39 @@ int cmd_check(const std::string& path, bool quiet, bool resolved) {
 
 // `demfem study error-vs-time SCENE` (issue 11 item 1): resolution sweeps, each run a separate
 // `demfem` process; SCENE = "flamant" is the built-in Flamant strip load (continuum).
+// A comma-separated list of positive multipliers, or "none" (empty: the knob is off). Throws
+// CLI::ValidationError naming the option and the offending entry.
+std::vector<double> parse_factor_list(const std::string& text, const std::string& option) {
+  if (text == "none") return {};
+  std::vector<double> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t end = std::min(text.find(',', pos), text.size());
+    const std::string item = text.substr(pos, end - pos);
+    double v = NAN;
+    std::size_t used = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (item.empty() || used != item.size() || !(v > 0.0) || !std::isfinite(v))
+      throw CLI::ValidationError(option, fmt::format("'{}' in '{}' is not a positive number "
+                                                     "(give a comma-separated list, e.g. 1,4, "
+                                                     "or none)",
+                                                     item, text));
+    out.push_back(v);
+    pos = end + 1;
+  }
+  return out;
+}
+
 struct ErrorStudyArgs {
   int jobs = 1;
   int repeats = 3;
   std::vector<double> dt_fractions, kn_factors;
+  std::vector<double> size_factors, near_factors; // empty: the defaults
+  bool size_given = false, near_given = false;    // "none" given: the knob is off
   std::vector<int> refinements, degrees;
   std::string solver = "both";          // scenes without a closed form: dem | continuum | both
   std::vector<std::string> integrators; // continuum: explicit, implicit
@@ -1088,6 +1117,8 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   o.repeats = ea.repeats;
   if (!ea.dt_fractions.empty()) o.dt_fractions = o.scene_dt_fractions = ea.dt_fractions;
   if (!ea.kn_factors.empty()) o.kn_factors = o.scene_kn_factors = ea.kn_factors;
+  if (ea.size_given) o.scene_size_factors = ea.size_factors;
+  if (ea.near_given) o.scene_near_factors = ea.near_factors;
   if (!ea.refinements.empty()) o.refinements = o.scene_refinements = ea.refinements;
   if (!ea.degrees.empty()) o.degrees = o.scene_degrees = ea.degrees;
   o.solvers = ea.solver;
@@ -1095,6 +1126,8 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   o.max_run_seconds = ea.max_run_seconds;
   o.kn_same_packing = ea.kn_packing != "deposit";
   if (ea.duration > 0.0) o.duration = ea.duration;
+  app::ProgressReporter reporter;
+  o.progress = [&](const scene::Progress& p) { reporter(p); };
   if (path == "flamant") {
 #ifndef DEMFEM_WITH_CONTINUUM
     fmt::print(stderr, "demfem study error-vs-time flamant: the continuum solver is not in this "
@@ -1353,6 +1386,15 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
         add(continuum::stiff_structure_case(1.0e6, degree));
         // the scene's own continuum (calibrated moduli) for the explicit step guard
         const scene::Scene sc = with_calibration(sc0, out);
+        // ν → 0.5 on the scene's own mesh and seating: the seated settlement without B-bar
+        // against the B-bar row (no closed form there: the built-in rows above carry it)
+        for (const double nu : {0.49, 0.499}) {
+          const double wb = add(continuum::scene_locking_case(sc, nu, true));
+          const double wn = add(continuum::scene_locking_case(sc, nu, false));
+          if (std::isfinite(wb) && std::isfinite(wn) && wb != 0.0)
+            rows.back().measure +=
+                fmt::format("; settlement {:.4f} × the B-bar run's (locking)", wn / wb);
+        }
         add(continuum::explicit_step_case(sc, 1.5));
         for (const double f : {0.9, 1.1}) add(continuum::bearing_capacity_case(f, degree));
         return rows;
@@ -1521,6 +1563,22 @@ int main(int argc, char** argv) {
                    "scenes without a closed form 0.3,1,3)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
+  study->add_option_function<std::string>(
+      "--size-factors",
+      [&ea](const std::string& v) {
+        ea.size_given = true;
+        ea.size_factors = parse_factor_list(v, "--size-factors");
+      },
+      "error-vs-time on a packed scene, DEM: particle count multipliers at fixed geometry "
+      "(count × f, radii / √f, each its own packing; default 1,4; none = off)");
+  study->add_option_function<std::string>(
+      "--near-factors",
+      [&ea](const std::string& v) {
+        ea.near_given = true;
+        ea.near_factors = parse_factor_list(v, "--near-factors");
+      },
+      "error-vs-time on a scene with a graded continuum mesh: mesh_size_near multipliers at "
+      "the scene's refinement (default 2,1,0.5; none = off)");
   study
       ->add_option("--refinements", ea.refinements,
                    "error-vs-time, continuum: refinement levels (flamant default 1,2,3,4; a "

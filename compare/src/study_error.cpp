@@ -633,9 +633,15 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
   std::vector<std::pair<double, double>> fr;
   for (const auto& k : knobs) {
     // scenes without a closed form mix both solvers' knobs: the DEM's are named as such
-    const bool dem_knob = !st.reference_runs.empty() && (k == "dt" || k == "kn");
-    Series s{
-        dem_knob ? (k == "dt" ? "DEM Δt" : "DEM K_n") : k, {}, {}, "linespoints", "pt 7 ps 1.2"};
+    const bool dem_knob = !st.reference_runs.empty() && (k == "dt" || k == "kn" || k == "size");
+    Series s{dem_knob ? (k == "dt"   ? "DEM Δt"
+                         : k == "kn" ? "DEM K_n"
+                                     : "DEM particle size")
+                      : k,
+             {},
+             {},
+             "linespoints",
+             "pt 7 ps 1.2"};
     for (const auto& p : st.points) {
       if (p.knob != k || !p.ok) continue;
       const auto e = p.errors.find(st.primary_metric);
@@ -681,8 +687,13 @@ std::optional<Figure> convergence_figure(const ErrorStudy& st,
                                          const std::string& against, const std::string& stem,
                                          const fs::path& dir) {
   PlotSpec ps;
-  ps.title = fmt::format("{}: convergence in {}", st.scene, against == "dt" ? "Δt" : "h");
-  ps.xlabel = against == "dt" ? "Δt [s]" : "smallest cell h [m]";
+  ps.title = fmt::format("{}: convergence in {}", st.scene,
+                         against == "dt"  ? "Δt"
+                         : against == "r" ? "particle size"
+                                          : "h");
+  ps.xlabel = against == "dt"  ? "Δt [s]"
+              : against == "r" ? "mean particle radius [m]"
+                               : "smallest cell h [m]";
   ps.ylabel = "relative error";
   ps.log_x = ps.log_y = true;
   for (const auto& k : knobs)
@@ -730,7 +741,9 @@ std::optional<Figure> convergence_figure(const ErrorStudy& st,
                 fmt::format("Error against {}: the slope of each fitted line is the convergence "
                             "order (least squares in log–log over the points it spans); points "
                             "without a line are at round-off or outside the fitted range.",
-                            against == "dt" ? "the time step" : "the cell size")};
+                            against == "dt"  ? "the time step"
+                            : against == "r" ? "the particle size"
+                                             : "the cell size")};
 }
 
 } // namespace
@@ -861,11 +874,13 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
                         st.expected_order, st.expected_order_note)
           : st.expected_order_note + ".";
   md += fmt::format("\n{}\n\n## Fitted orders\n\nLeast squares of log error against log "
-                    "abscissa (Δt, h or solver wall time). {}\n\n| knob | metric | against | "
+                    "abscissa (Δt, h, mean particle radius r or solver wall time). {}\n\n| knob | "
+                    "metric | against | "
                     "order | points | range |\n|---|---|---|---|---|---|\n",
                     timing, expected);
   html += fmt::format("<p>{}</p><h2>Fitted orders</h2><p>Least squares of log error against "
-                      "log abscissa (Δt, h or solver wall time). {}</p><table><tr><th>knob</th>"
+                      "log abscissa (Δt, h, mean particle radius r or solver wall time). "
+                      "{}</p><table><tr><th>knob</th>"
                       "<th>metric</th><th>against</th><th>order</th><th>points</th><th>range"
                       "</th></tr>\n",
                       html_escape(timing), html_escape(expected));

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/metrics.hpp"
@@ -75,6 +76,17 @@ std::map<std::string, double> measure(const fs::path& run, const scene::Scene& s
     }
   }
   return out;
+}
+
+// Mean radius of a distribution [m] (uniform: the midpoint; table: frequency-weighted).
+double mean_radius(const scene::RadiusDistribution& r) {
+  if (r.kind != scene::RadiusDistribution::Kind::Table) return 0.5 * (r.min + r.max);
+  double sw = 0.0, swr = 0.0;
+  for (const auto& [rad, w] : r.table) {
+    sw += w;
+    swr += w * rad;
+  }
+  return sw > 0.0 ? swr / sw : 0.0;
 }
 
 std::string dir_name(std::string n) {
@@ -152,7 +164,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
         p.dofs = js.value("dofs", std::size_t{0});
         if (sv == scene::Solver::Dem) {
           p.dt = js.value("dt", p.dt);
-          p.x = p.dt;
+          if (p.knob != "size") p.x = p.dt; // the size points' abscissa is the mean radius
         } else {
           p.dt = js.value("dt", 0.0);
           p.x = js.value("h_min", 0.0);
@@ -175,7 +187,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     fs::create_directories(pk_dir);
     std::string base_pk;
     if (base.soil.dem->particles.empty()) {
-      const auto pr = dem::pack_or_load(base, o.out_dir);
+      const auto pr = dem::pack_or_load(base, o.out_dir, o.progress);
       base_pk = dem::packing_path(base, o.out_dir).string();
       st.closed_form["dem_porosity"] = pr.measure.porosity;
       st.notes.push_back(fmt::format(
@@ -217,8 +229,10 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       if (d.particles.empty() && o.kn_same_packing) {
         same_packing(s);
       } else if (d.particles.empty()) {
-        // deposited with this K_n (the packing key includes K_n), before the timed run
-        const auto pr = dem::pack_or_load(s, o.out_dir);
+        // deposited with this K_n (the packing key includes K_n), before the timed run, into a
+        // cache the run reads (without one it would deposit again into its own directory)
+        if (d.packing.cache.empty()) d.packing.cache = fs::absolute(pk_dir).string();
+        const auto pr = dem::pack_or_load(s, o.out_dir, o.progress);
         porosity = pr.measure.porosity;
       }
       const auto b = dem::scene_critical_step(s);
@@ -243,6 +257,57 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
             "(the packing cache key includes K_n), so a K_n point changes the bed as well as the "
             "contact stiffness; each point's porosity is in its results");
     }
+    // Particle size at fixed geometry (issue 11): count × f and every radius / √f keep the
+    // solid area, so the same domain holds the same bed of smaller disks; in 2D the assembly's
+    // stiffness scales with K_n / thickness, not with the radius (e.g. the regular disk array's
+    // elastic moduli, Rothenburg & Bathurst 1989), so K_n, K_s and the thickness stay.
+    std::vector<double> sf = o.scene_size_factors;
+    std::sort(sf.begin(), sf.end()); // few large disks (cheap) first
+    sf.erase(std::unique(sf.begin(), sf.end()), sf.end());
+    if (!sf.empty() && !base.soil.dem->particles.empty()) {
+      st.notes.push_back("particle size at fixed geometry (N × f): not applicable, the scene "
+                         "lists its particles");
+    } else if (!sf.empty()) {
+      std::vector<Job> size_jobs;
+      for (const double f : sf) {
+        scene::Scene s = base;
+        s.output.vtk = false;
+        auto& d = *s.soil.dem;
+        const double c = f * d.count;
+        if (!(c >= 1.0) || !(c <= 1.0e8) || std::abs(c - std::round(c)) > 1e-9 * c)
+          throw std::runtime_error(fmt::format(
+              "{}: size factor {:g} gives {:g} particles (count {}); use a factor that makes "
+              "a whole count",
+              base.label(), f, c, d.count));
+        d.count = static_cast<int>(std::lround(c));
+        const double k = 1.0 / std::sqrt(f);
+        d.radius.min *= k;
+        d.radius.max *= k;
+        for (auto& [r, w] : d.radius.table) r *= k;
+        d.dt = 0.0; // automatic: Δt ∝ √m_min ∝ r_min
+        // deposited before the timed run, into the study's cache (the key includes count and radii)
+        if (d.packing.cache.empty()) d.packing.cache = fs::absolute(pk_dir).string();
+        const auto pr = dem::pack_or_load(s, o.out_dir, o.progress);
+        const auto b = dem::scene_critical_step(s);
+        auto j = job_for("dem", "size", fmt::format("dem-size-x{:g}", f), f, s);
+        j.point.dt = b ? d.dt_safety * b->dt : 0.0;
+        j.point.x = mean_radius(d.radius);
+        j.point.results["porosity"] = pr.measure.porosity;
+        j.point.results["count"] = d.count;
+        size_jobs.push_back(std::move(j));
+      }
+      groups.push_back(std::move(size_jobs));
+      st.notes.push_back(fmt::format(
+          "DEM particle size points: count × f and radii / √f at fixed geometry (f = {}), K_n, "
+          "K_s and thickness kept, automatic Δt, each f with its own deposited packing; errors "
+          "against the finest (f = {:g}). Each packing is another realisation, so a size point's "
+          "error is the size effect and the realisation's scatter together (`demfem compare "
+          "--seeds` measures the scatter alone){}",
+          fmt::join(sf, ", "), sf.back(),
+          base.soil.dem->sphere_mass ? "; particle_mass = \"sphere\": m ∝ r³, so the bed's "
+                                       "mass per area falls as 1/√f"
+                                     : ""));
+    }
   }
 
   // ---- continuum: refinement × degree × integrator ----
@@ -257,6 +322,28 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       integ = {base.continuum.integrator,
                base.continuum.integrator == "explicit" ? "implicit" : "explicit"};
     const double period = load_period(base);
+    // one continuum run of the sweep: refinement r, degree p, integrator `in`, graded mesh `near`
+    const auto cont_scene = [&](int r, int p, const std::string& in, double near) {
+      scene::Scene s = base;
+      // the surface comes from the .vtu snapshots: at least 8 per loading period (the metric
+      // split's amplitude needs 4), else 20 over the run
+      s.output.vtk = true;
+      s.output.interval =
+          std::min(s.output.interval, period > 0.0 ? period / 8.0 : s.info.duration / 20.0);
+      s.continuum.refinement = r;
+      s.continuum.degree = p;
+      s.continuum.integrator = in;
+      s.continuum.mesh_size_near = near;
+      s.continuum.dt_line = s.continuum.dt_column = 0;
+      if (in == "explicit") {
+        s.continuum.dt = 0.0; // automatic: the stable step
+      } else if (!(base.continuum.integrator == "implicit" && base.continuum.dt > 0.0)) {
+        // Newmark average acceleration: 40 steps per loading period (period error (ωΔt)²/12 ≈
+        // 0.2 %, Hughes 1987 §9.3), else the probe interval
+        s.continuum.dt = period > 0.0 ? period / 40.0 : s.output.probe_interval;
+      }
+      return s;
+    };
     for (const auto& in : integ) {
       if (in == "implicit" && base.continuum.interface == "coulomb") {
         // not a resolution of the same model: implicit needs another boundary model
@@ -271,28 +358,37 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       for (const int p : o.scene_degrees) {
         std::vector<Job> js;
         for (const int r : refs) {
-          scene::Scene s = base;
-          // the surface comes from the .vtu snapshots: at least 8 per loading period (the
-          // metric split's amplitude needs 4), else 20 over the run
-          s.output.vtk = true;
-          s.output.interval =
-              std::min(s.output.interval, period > 0.0 ? period / 8.0 : s.info.duration / 20.0);
-          s.continuum.refinement = r;
-          s.continuum.degree = p;
-          s.continuum.integrator = in;
-          s.continuum.dt_line = s.continuum.dt_column = 0;
-          if (in == "explicit") {
-            s.continuum.dt = 0.0; // automatic: the stable step
-          } else if (!(base.continuum.integrator == "implicit" && base.continuum.dt > 0.0)) {
-            // Newmark average acceleration: 40 steps per loading period (period error
-            // (ωΔt)²/12 ≈ 0.2 %, Hughes 1987 §9.3), else the probe interval
-            s.continuum.dt = period > 0.0 ? period / 40.0 : s.output.probe_interval;
-          }
           const std::string knob = fmt::format("mesh-q{}-{}", p, in);
-          js.push_back(job_for("continuum", knob, fmt::format("cont-q{}-r{}-{}", p, r, in), r, s));
+          js.push_back(job_for("continuum", knob, fmt::format("cont-q{}-r{}-{}", p, r, in), r,
+                               cont_scene(r, p, in, base.continuum.mesh_size_near)));
         }
         groups.push_back(std::move(js));
       }
+    }
+    // The graded mesh's cells next to the structures (issue 11: mesh_size_near), at the scene's
+    // refinement, degree and integrator; coarse to fine.
+    std::vector<double> nf = o.scene_near_factors;
+    std::sort(nf.rbegin(), nf.rend());
+    nf.erase(std::unique(nf.begin(), nf.end()), nf.end());
+    const double near = base.continuum.mesh_size_near;
+    if (!nf.empty() && !(near > 0.0)) {
+      st.notes.push_back(
+          "mesh_size_near points: not applicable, the scene's continuum mesh is "
+          "uniform (continuum.mesh_size_near = 0); the refinement points resolve it");
+    } else if (!nf.empty()) {
+      std::vector<Job> js;
+      const auto& c = base.continuum;
+      for (const double f : nf)
+        js.push_back(job_for(
+            "continuum", "mesh-near",
+            fmt::format("cont-near-x{:g}-q{}-r{}-{}", f, c.degree, c.refinement, c.integrator), f,
+            cont_scene(c.refinement, c.degree, c.integrator, f * near)));
+      groups.push_back(std::move(js));
+      st.notes.push_back(fmt::format(
+          "continuum mesh_size_near points: the scene's {:g} m × {} at refinement {}, degree {}, "
+          "{} (cells next to the structures {:g} m / 2^refinement, graded by {:g} per cell away "
+          "from them)",
+          near, fmt::join(nf, ", "), c.refinement, c.degree, c.integrator, near, c.mesh_grading));
     }
   }
 
@@ -327,11 +423,17 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   st.points = std::move(done);
 
   // ---- references: the most resolved run of each solver ----
+  // (the DEM particle size points have their own: the most particles, "dem-size")
+  const auto ref_key = [](const ErrorPoint& p) {
+    return p.solver == "dem" && p.knob == "size" ? std::string("dem-size") : p.solver;
+  };
   std::map<std::string, const ErrorPoint*> ref;
   for (const auto& p : st.points) {
     if (!p.ok) continue;
-    const ErrorPoint*& r = ref[p.solver];
-    if (p.solver == "dem") {
+    const ErrorPoint*& r = ref[ref_key(p)];
+    if (p.knob == "size") {
+      if (!r || p.value > r->value) r = &p;
+    } else if (p.solver == "dem") {
       // the finest Δt at the scene's K_n (the kn ×1 point when no Δt point ran)
       const bool cand = p.knob == "dt" || (p.knob == "kn" && p.value == 1.0);
       if (!cand) continue;
@@ -348,9 +450,14 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   for (const auto& [solver, r] : ref) {
     if (!r) continue;
     st.reference_runs[solver] = r->name;
-    refs_text += fmt::format("{}{}: {} ({})", refs_text.empty() ? "" : "; ", solver, r->name,
-                             solver == "dem" ? fmt::format("Δt = {:.3g} s", r->dt)
-                                             : fmt::format("{} dofs, h = {:.3g} m", r->dofs, r->x));
+    refs_text += fmt::format(
+        "{}{}: {} ({})", refs_text.empty() ? "" : "; ",
+        solver == "dem-size" ? "DEM particle size" : solver, r->name,
+        solver == "dem-size"
+            ? fmt::format("{:g} particles, mean radius {:.3g} m",
+                          r->results.count("count") ? r->results.at("count") : 0.0, r->x)
+        : solver == "dem" ? fmt::format("Δt = {:.3g} s", r->dt)
+                          : fmt::format("{} dofs, h = {:.3g} m", r->dofs, r->x));
   }
   st.reference = fmt::format(
       "no closed form: each run is measured against the most resolved run of the same solver's "
@@ -365,14 +472,15 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     const fs::path rd = o.out_dir / "runs" / dir_name(r->name) / "rep-0";
     scene::Scene s = base;
     try {
-      (void)measure(rd, s, solver == "dem" ? scene::Solver::Dem : scene::Solver::Continuum,
+      (void)measure(rd, s,
+                    solver.starts_with("dem") ? scene::Solver::Dem : scene::Solver::Continuum,
                     &st.metric_descriptions);
     } catch (const std::exception&) {
     }
   }
   for (auto& p : st.points) {
     if (!p.ok) continue;
-    const auto it = ref.find(p.solver);
+    const auto it = ref.find(ref_key(p));
     if (it == ref.end() || !it->second) continue;
     const ErrorPoint& r = *it->second;
     for (const auto& [name, v] : p.results) {
@@ -409,7 +517,8 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     if (std::find(all.begin(), all.end(), p.knob) == all.end()) all.push_back(p.knob);
   }
   for (const auto& k : all) {
-    const std::string against = k == "dt" ? "dt" : k == "kn" ? "" : "h";
+    // DEM size: against the mean radius ("r", the point's x)
+    const std::string against = k == "dt" ? "dt" : k == "kn" ? "" : k == "size" ? "r" : "h";
     if (!against.empty()) add_fit(st, k, st.primary_metric, against, 0.0);
     add_fit(st, k, st.primary_metric, "wall", 0.0);
   }
@@ -420,8 +529,10 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   for (const auto& k : dem_knobs)
     st.wall_groups.push_back({{k},
                               "error_vs_wall_dem_" + k,
-                              k == "dt" ? "DEM, Δt as a fraction of the critical step"
-                                        : "DEM, K_n scaling with the automatic Δt",
+                              k == "dt"   ? "DEM, Δt as a fraction of the critical step"
+                              : k == "kn" ? "DEM, K_n scaling with the automatic Δt"
+                                          : "DEM, particle size at fixed geometry (count × f, "
+                                            "against the most particles)",
                               ""});
   if (!cont_knobs.empty())
     st.wall_groups.push_back(
@@ -431,6 +542,8 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
         {all, "error_vs_wall_both", "both solvers, each against its own most resolved run", ""});
   if (std::find(dem_knobs.begin(), dem_knobs.end(), "dt") != dem_knobs.end())
     st.convergence_groups.push_back({{"dt"}, "convergence_dt", "", "dt"});
+  if (std::find(dem_knobs.begin(), dem_knobs.end(), "size") != dem_knobs.end())
+    st.convergence_groups.push_back({{"size"}, "convergence_size", "", "r"});
   if (!cont_knobs.empty()) st.convergence_groups.push_back({cont_knobs, "convergence_h", "", "h"});
   return st;
 }

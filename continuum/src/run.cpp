@@ -496,6 +496,8 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       summary.message = "gravity initialisation did not converge\n" + m.log();
       return summary;
     }
+    summary.setup_newton_iterations = g.newton_iterations;
+    summary.setup_residual = g.residual;
     for (const fem::Seating& st : m.seating())
       summary.seated.emplace_back(pb.regions[st.region].name, st.settlement);
     for (const fem::Seating& st : m.seating())

@@ -191,7 +191,8 @@ StabilityCase bearing_capacity_case(double factor, int degree) {
       c.outcome = "stopped";
       c.cause = fmt::format(
           "no equilibrium at q = {:.4f} × (2 + π)c (load step {} of {}): Newton did not converge "
-          "after 8 step cuts (residual {:.3e}); the last completed load step was q = {:.4f} × (2 + π)c",
+          "after 8 step cuts (residual {:.3e}); the last completed load step was q = {:.4f} × (2 + "
+          "π)c",
           lam * factor, k, steps, st.residual, reached);
       break;
     }
@@ -204,6 +205,76 @@ StabilityCase bearing_capacity_case(double factor, int degree) {
   c.measure = fmt::format("largest pressure in equilibrium {:.4f} × (2 + π)c = {:.4g} Pa (Prandtl "
                           "1920); centre settlement there {:.3e} m",
                           reached, reached * limit, settle);
+  return c;
+}
+
+StabilityCase scene_locking_case(const scene::Scene& scene, double nu, bool bbar) {
+  StabilityCase c;
+  c.name = fmt::format("scene-nu-{:g}{}", nu, bbar ? "-bbar" : "-no-bbar");
+  c.description = fmt::format("the scene's continuum (its mesh, structures, seating) at ν = {:g}, "
+                              "{} B-bar: static stage, then explicit steps",
+                              nu, bbar ? "with" : "without");
+  const auto t0 = Clock::now();
+  if (!scene.soil.continuum) {
+    c.outcome = "not applicable";
+    c.cause = "the scene has no [soil.continuum]";
+    return c;
+  }
+  scene::Scene s = scene;
+  s.continuum.integrator = "explicit";
+  s.continuum.dt = 0.0; // automatic: the stable step at this ν
+  s.continuum.dt_line = s.continuum.dt_column = 0;
+  s.output.vtk = false;
+  s.output.figures = false;
+  const auto own = stable_step(s);
+  s.soil.continuum->poisson = nu;
+  s.continuum.bbar = bbar;
+  const auto lim = stable_step(s);
+  if (!lim) {
+    c.outcome = "not applicable";
+    c.cause = "the scene's continuum cannot be meshed";
+    return c;
+  }
+  // ten steps at the stable step of this ν: the explicit update runs, bounded in time
+  s.info.duration = 10.0 * lim->dt;
+  const std::filesystem::path out =
+      std::filesystem::temp_directory_path() /
+      fmt::format("demfem-stability-nu-{}", Clock::now().time_since_epoch().count());
+  try {
+    RunOptions o;
+    o.out_dir = out;
+    const auto r = run(s, o);
+    c.outcome = r.ok ? "completed" : "stopped";
+    c.cause = r.ok ? "" : r.message;
+    c.load_steps = static_cast<int>(r.substeps > 0 ? r.substeps : r.steps);
+    c.dofs = r.dofs;
+    c.newton_iterations = r.setup_newton_iterations;
+    c.residuals = {r.setup_residual}; // the static stage's (the explicit steps have none)
+    std::string seated;
+    for (const auto& [name, w] : r.seated) {
+      seated += fmt::format("{}{} seated {:.4e} m", seated.empty() ? "" : ", ", name, w);
+      if (c.value == 0.0) c.value = w;
+    }
+    c.measure = fmt::format(
+        "{}; explicit stable step {:.3e} s{}, {} dofs",
+        seated.empty() ? std::string("no seated structure (nothing to lock against at rest)")
+                       : seated,
+        lim->dt,
+        own && own->dt > 0.0 ? fmt::format(" = {:.3f} × the scene's (ν = {:g})", lim->dt / own->dt,
+                                           scene.soil.continuum->poisson)
+                             : std::string(),
+        r.dofs);
+  } catch (const scene::SceneError& e) {
+    c.outcome = "refused";
+    c.cause = e.diagnostics().empty() ? e.what() : e.diagnostics().front().format();
+  } catch (const std::exception& e) {
+    c.outcome = "stopped";
+    c.cause = e.what();
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(out, ec);
+  c.bound = lim->dt;
+  c.wall_seconds = since(t0);
   return c;
 }
 

@@ -4,9 +4,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
+#include <sys/wait.h>
 #include <unistd.h>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -181,15 +184,17 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_EQ(j.at("solver"), "both");
   EXPECT_EQ(j.at("reference_runs").at("dem"), "dem-dt-1/4");
   EXPECT_EQ(j.at("reference_runs").at("continuum"), "cont-q1-r1-explicit");
+  // particle size at fixed geometry (default factors 1, 4): against the most particles
+  EXPECT_EQ(j.at("reference_runs").at("dem-size"), "dem-size-x4");
   EXPECT_NE(j.at("reference").get<std::string>().find("most resolved"), std::string::npos);
   const std::string primary = j.at("primary_metric");
   EXPECT_EQ(primary.rfind("wall.thrust.", 0), 0u) << primary;
   EXPECT_TRUE(j.at("metrics").contains("wall.thrust.static")) << j.at("metrics").dump();
-  ASSERT_EQ(j.at("points").size(), 5u);
+  ASSERT_EQ(j.at("points").size(), 7u);
   for (const auto& p : j.at("points")) {
     EXPECT_TRUE(p.at("ok").get<bool>()) << p.dump();
     const std::string name = p.at("name");
-    const bool ref = name == "dem-dt-1/4" || name == "cont-q1-r1-explicit";
+    const bool ref = name == "dem-dt-1/4" || name == "cont-q1-r1-explicit" || name == "dem-size-x4";
     // every other run has the primary error, a finite non-negative number
     if (!ref) {
       ASSERT_TRUE(p.at("errors").contains(primary)) << p.dump();
@@ -199,13 +204,35 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
     }
     EXPECT_GT(p.at("wall_median").get<double>(), 0.0);
   }
-  bool same_packing = false;
-  for (const auto& n : j.at("notes"))
-    same_packing =
-        same_packing || n.get<std::string>().find("scene's packing") != std::string::npos;
+  // The size points: 150 disks of mean radius 0.025 m and 600 of 0.0125 m in the same box. The
+  // same solid area makes the same bed, so the at-rest thrust (≈ ½K0γH²) stays within 30 %; radii
+  // halved without 4× the count would make a bed of half the height, a quarter of the thrust.
+  std::map<std::string, nlohmann::json> pts;
+  for (const auto& p : j.at("points")) pts[p.at("name")] = p;
+  ASSERT_TRUE(pts.count("dem-size-x1") && pts.count("dem-size-x4")) << j.at("points").dump();
+  const auto& s1 = pts["dem-size-x1"];
+  const auto& s4 = pts["dem-size-x4"];
+  EXPECT_EQ(s1.at("knob"), "size");
+  EXPECT_EQ(s1.at("results").at("count").get<double>(), 150.0);
+  EXPECT_EQ(s4.at("results").at("count").get<double>(), 600.0);
+  EXPECT_NEAR(s1.at("x").get<double>(), 0.025, 1e-12);
+  EXPECT_NEAR(s4.at("x").get<double>(), 0.0125, 1e-12);
+  EXPECT_LT(s4.at("dt").get<double>(), 0.6 * s1.at("dt").get<double>()); // automatic: Δt ∝ r
+  ASSERT_TRUE(s1.at("errors").contains("wall.thrust.static")) << s1.dump();
+  EXPECT_LT(s1.at("errors").at("wall.thrust.static").get<double>(), 0.3) << s1.dump();
+  bool same_packing = false, size_note = false, near_note = false;
+  for (const auto& n : j.at("notes")) {
+    const std::string t = n;
+    same_packing = same_packing || t.find("scene's packing") != std::string::npos;
+    size_note = size_note || t.find("DEM particle size points") != std::string::npos;
+    near_note = near_note || t.find("mesh_size_near points: not applicable") != std::string::npos;
+  }
   EXPECT_TRUE(same_packing) << j.at("notes").dump();
+  EXPECT_TRUE(size_note) << j.at("notes").dump();
+  EXPECT_TRUE(near_note) << j.at("notes").dump(); // the tiny scene's mesh is uniform
   for (const char* f :
-       {"error_vs_wall_dem_dt.png", "error_vs_wall_continuum.png", "error_vs_wall_both.png"})
+       {"error_vs_wall_dem_dt.png", "error_vs_wall_dem_size.png", "convergence_size.png",
+        "error_vs_wall_continuum.png", "error_vs_wall_both.png"})
     EXPECT_TRUE(fs::exists(out / "study" / "figures" / f)) << f;
   EXPECT_NE(slurp(out / "study" / "study.html").find("most resolved"), std::string::npos);
 }
@@ -237,5 +264,50 @@ TEST(StudyErrorVsTime, CoulombSceneSkipsTheImplicitKnobWithItsReason) {
     listed = listed || n.get<std::string>().find("mesh-q1-implicit skipped: continuum.interface "
                                                  "= \"coulomb\"") != std::string::npos;
   EXPECT_TRUE(listed) << j.at("notes").dump();
+}
+
+// Issue 11: a graded continuum mesh (mesh_size_near > 0) is swept in mesh_size_near at the
+// scene's refinement; the finest is the continuum's reference (the most dofs).
+TEST(StudyErrorVsTime, GradedMeshSweepsItsNearCellSize) {
+  const fs::path out = demfem::test::scratch("evt_near");
+  const fs::path scene = out / "tiny.toml";
+  fs::create_directories(out);
+  std::string text = tiny_wall(out / "packings");
+  const std::string key = "integrator = \"explicit\"\n";
+  text.replace(text.find(key), key.size(), key + "mesh_size_near = 0.05\n");
+  std::ofstream(scene) << text;
+  const std::string cmd = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
+                          " --solver continuum --repeats 1 --jobs 2 --refinements 0 --degrees 1 "
+                          "--integrators explicit --near-factors 2,1 --duration 0.5 --out " +
+                          (out / "study").string() + " > " + (out / "log").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out / "log");
+  const auto j = nlohmann::json::parse(slurp(out / "study" / "study.json"));
+  std::vector<nlohmann::json> near;
+  for (const auto& p : j.at("points")) {
+    EXPECT_TRUE(p.at("ok").get<bool>()) << p.dump();
+    if (p.at("knob") == "mesh-near") near.push_back(p);
+  }
+  ASSERT_EQ(near.size(), 2u) << j.at("points").dump();
+  EXPECT_EQ(near[0].at("name"), "cont-near-x2-q1-r1-explicit"); // coarse first
+  EXPECT_EQ(near[1].at("name"), "cont-near-x1-q1-r1-explicit");
+  EXPECT_GT(near[1].at("dofs").get<std::size_t>(), near[0].at("dofs").get<std::size_t>());
+  EXPECT_EQ(j.at("reference_runs").at("continuum"), "cont-near-x1-q1-r1-explicit");
+  EXPECT_TRUE(near[0].at("errors").contains(j.at("primary_metric").get<std::string>()))
+      << near[0].dump();
+  bool noted = false;
+  for (const auto& n : j.at("notes"))
+    noted = noted || n.get<std::string>().find("the scene's 0.05 m × 2, 1 at refinement 1") !=
+                         std::string::npos;
+  EXPECT_TRUE(noted) << j.at("notes").dump();
+
+  // a malformed list is refused before anything runs, naming the option and the entry
+  const std::string bad = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
+                          " --near-factors 2,x --out " + (out / "bad").string() + " > " +
+                          (out / "bad.log").string() + " 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(bad.c_str())), 2);
+  const std::string log = slurp(out / "bad.log");
+  EXPECT_NE(log.find("--near-factors"), std::string::npos) << log;
+  EXPECT_NE(log.find("'x'"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(out / "bad" / "study.json"));
 }
 #endif

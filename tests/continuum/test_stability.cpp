@@ -58,6 +58,36 @@ TEST(ContinuumStability, ExplicitStepAboveCriticalIsRefused) {
   EXPECT_GT(c.value, c.bound);
 }
 
+// ν → 0.5 on a scene's own mesh (issue 11: the stability rows on the scene, not only built-in
+// problems): a footing held vertically and embedded 1 m is seated under its weight by the static
+// stage; at ν = 0.499 on Q1 cells the run without B-bar locks: the footing sinks less than with
+// B-bar. Both runs complete their explicit steps, at a stable step well below the scene's own ν's
+// (the P-wave speed grows as ν → 0.5).
+TEST(ContinuumStability, SceneNearIncompressibleSeatingLocksWithoutBbar) {
+  auto file = demfem::scene::load_scene_file(DEMFEM_SOURCE_DIR
+                                             "/cases/verification/continuum_footing_load.toml");
+  auto s = file.base;
+  ASSERT_EQ(s.structures.size(), 1u);
+  s.structures[0].dof_z = demfem::scene::DofMode::Fixed; // held vertically: seated
+  s.continuum.degree = 1;
+  const auto with = scene_locking_case(s, 0.499, true);
+  const auto without = scene_locking_case(s, 0.499, false);
+  print(with);
+  print(without);
+  ASSERT_EQ(with.outcome, "completed") << with.cause;
+  ASSERT_EQ(without.outcome, "completed") << without.cause;
+  ASSERT_GT(with.value, 0.0) << with.measure; // the footing's seated settlement [m]
+  ASSERT_GT(without.value, 0.0) << without.measure;
+  EXPECT_LT(without.value / with.value, 0.9) << "no locking without B-bar";
+  EXPECT_NE(with.measure.find("footing seated"), std::string::npos) << with.measure;
+  EXPECT_NE(with.measure.find("× the scene's (ν = 0.3)"), std::string::npos) << with.measure;
+  EXPECT_GT(with.newton_iterations, 0);
+  ASSERT_EQ(with.residuals.size(), 1u);
+  EXPECT_LT(with.residuals[0], 1e-6);
+  EXPECT_GT(with.load_steps, 0);
+  EXPECT_GT(with.bound, 0.0);
+}
+
 // A load near the Prandtl limit (2 + π)c: at 0.9 × the run completes every load step.
 TEST(ContinuumStability, LoadNearPrandtlLimitCompletes) {
   const auto near = bearing_capacity_case(0.9, 2);

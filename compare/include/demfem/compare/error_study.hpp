@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::compare {
@@ -42,22 +43,32 @@ struct ErrorStudyOptions {
   // K_n points on the scene's packing (true) or each on its own, deposited with its K_n (false:
   // the packing key includes K_n; costs a deposition per factor)
   bool kn_same_packing = true;
+  // DEM, packed scenes: particle count multipliers at fixed geometry (count × f, every radius
+  // / √f: the same solid area, so the same bed; each factor deposits its own packing)
+  std::vector<double> scene_size_factors = {1.0, 4.0};
   // continuum: refinements (empty: the scene's refinement − 2 … the scene's), degrees, and
   // integrators (empty: the scene's, then the other)
   std::vector<int> scene_refinements;
   std::vector<int> scene_degrees = {1, 2};
   std::vector<std::string> integrators;
+  // continuum, graded meshes (mesh_size_near > 0): mesh_size_near multipliers at the scene's
+  // refinement, degree and integrator (the cells next to the structures, coarse to fine)
+  std::vector<double> scene_near_factors = {2.0, 1.0, 0.5};
   // A run longer than this is stopped (its setting and every finer one of the same knob are
   // then skipped and listed with the reason); 0 = no limit [s]
   double max_run_seconds = 300.0;
+  // progress of the work done in the study's own process (depositing the size points' packings)
+  scene::ProgressFn progress;
 };
 
 struct ErrorPoint {
   std::string solver = "dem"; // "dem" or "continuum"
-  std::string knob;           // "dt", "kn", "mesh-q1", "mesh-q2"
-  std::string name;           // e.g. "dt-1/64"
-  double value = 0;           // the knob's setting (Δt fraction, K_n factor, refinement)
-  double x = 0;  // convergence abscissa: Δt [s] (DEM), smallest cell h [m] (continuum)
+  std::string knob; // "dt", "kn", "size", "mesh-q1", "mesh-q2", "mesh-q2-explicit", "mesh-near"
+  std::string name; // e.g. "dt-1/64"
+  // the knob's setting (Δt fraction, K_n factor, count factor, refinement, mesh_size_near factor)
+  double value = 0;
+  // convergence abscissa: Δt [s] (DEM), mean radius [m] (DEM size), smallest cell h [m] (continuum)
+  double x = 0;
   double dt = 0; // DEM step [s]
   std::size_t dofs = 0;
   std::map<std::string, double> errors;  // metric → relative error (≥ 0)

@@ -36,6 +36,10 @@ struct RunSummary {
   long long substeps = 0;          // explicit: central-difference steps taken
   double h_min = 0.0, h_max = 0.0; // cell sizes [m] (coarse grid steps / 2^refinement)
   std::vector<std::pair<std::string, double>> seated; // (structure, settlement [m]) when seated
+  // the static stage before t = 0 (gravity, K0 state, seating): Newton iterations in all and
+  // the final relative residual
+  int setup_newton_iterations = 0;
+  double setup_residual = 0.0;
   bool root = true; // this process is MPI rank 0 (writes the run's shared records)
 };
 

@@ -43,6 +43,14 @@ struct StabilityCase {
 // factor it reached (step cuts exhausted).
 [[nodiscard]] StabilityCase bearing_capacity_case(double factor, int degree);
 
+// The scene's own continuum (its mesh, structures and seating; apply a calibration first) at
+// Poisson ratio `nu`, with or without B-bar, run through its static stage (K0 state and the
+// seating of its structures: Newton on the scene's mesh) and a few explicit steps at the stable
+// step of that ν. Measures each seated structure's settlement (locking: smaller without B-bar;
+// no closed form, the B-bar row is the reference) and the stable step's shrinkage against the
+// scene's own ν (the P-wave speed grows as ν → 0.5).
+[[nodiscard]] StabilityCase scene_locking_case(const scene::Scene& scene, double nu, bool bbar);
+
 // The scene's continuum with the explicit integrator at continuum.dt = factor × its stable step
 // (the scene's moduli: apply a calibration first): above 1 it must be refused before any
 // computation, at continuum.dt, with the stable step and how it was obtained.
