@@ -47,6 +47,17 @@ std::string quote(const std::string& s) {
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
   return out + "'";
 }
+// A title: single-quoted as above, or double-quoted with "\n" escapes when it has line breaks
+// (a single-quoted gnuplot string cannot hold one).
+std::string quote_title(const std::string& s) {
+  if (s.find('\n') == std::string::npos) return quote(s);
+  std::string out = "\"";
+  for (char c : s)
+    out += c == '\n'               ? std::string("\\n")
+           : c == '"' || c == '\\' ? std::string("\\") + c
+                                   : std::string(1, c);
+  return out + "\"";
+}
 bool run_gnuplot(const fs::path& script, std::string* error) {
   const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote(script.string()),
                                       quote((script.string() + ".log")));
@@ -114,7 +125,7 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
   std::string body;
   body +=
       fmt::format("set title {} noenhanced\nset xlabel {} noenhanced\nset ylabel {} noenhanced\n",
-                  quote(spec.title), quote(spec.xlabel), quote(spec.ylabel));
+                  quote_title(spec.title), quote(spec.xlabel), quote(spec.ylabel));
   body += "set grid lc rgb '#dddddd'\nset key outside right top noenhanced\n";
   if (spec.equal_axes) body += "set size ratio -1\n";
   if (spec.log_x) body += "set logscale x\nset format x '%.0e'\n";

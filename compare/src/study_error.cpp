@@ -625,7 +625,7 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
                                   const std::string& stem, const std::string& what,
                                   const fs::path& dir) {
   PlotSpec ps;
-  ps.title = fmt::format("{}: {} error against wall time ({})", st.scene, st.primary_metric, what);
+  ps.title = fmt::format("{}: {} error against wall time\n({})", st.scene, st.primary_metric, what);
   ps.xlabel = "solver wall time per run, median of repeats [s]";
   ps.ylabel = fmt::format("relative error ({})", st.primary_metric);
   ps.log_x = ps.log_y = true;

@@ -387,8 +387,11 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       st.notes.push_back(fmt::format(
           "continuum mesh_size_near points: the scene's {:g} m × {} at refinement {}, degree {}, "
           "{} (cells next to the structures {:g} m / 2^refinement, graded by {:g} per cell away "
-          "from them)",
-          near, fmt::join(nf, ", "), c.refinement, c.degree, c.integrator, near, c.mesh_grading));
+          "from them){}",
+          near, fmt::join(nf, ", "), c.refinement, c.degree, c.integrator, near, c.mesh_grading,
+          std::find(nf.begin(), nf.end(), 1.0) != nf.end()
+              ? "; × 1 is the scene's own mesh, run again under this knob (its own timing)"
+              : ""));
     }
   }
 
