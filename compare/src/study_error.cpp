@@ -612,6 +612,17 @@ ErrorStudy flamant_error_study(const ErrorStudyOptions& o) {
 
 namespace {
 
+// A knob's name in figure legends: scenes without a closed form mix both solvers' knobs, so the
+// DEM's and the continuum's time step are named as such.
+std::string knob_label(const ErrorStudy& st, const std::string& k) {
+  if (st.reference_runs.empty()) return k;
+  if (k == "dt") return "DEM Δt";
+  if (k == "kn") return "DEM K_n";
+  if (k == "size") return "DEM particle size";
+  if (k == "cont-dt") return "continuum Δt";
+  return k;
+}
+
 std::string fmt_order(double v) {
   return std::isfinite(v) ? fmt::format("{:.2f}", v) : "–";
 }
@@ -633,15 +644,7 @@ std::optional<Figure> wall_figure(const ErrorStudy& st, const std::vector<std::s
   std::vector<std::pair<double, double>> fr;
   for (const auto& k : knobs) {
     // scenes without a closed form mix both solvers' knobs: the DEM's are named as such
-    const bool dem_knob = !st.reference_runs.empty() && (k == "dt" || k == "kn" || k == "size");
-    Series s{dem_knob ? (k == "dt"   ? "DEM Δt"
-                         : k == "kn" ? "DEM K_n"
-                                     : "DEM particle size")
-                      : k,
-             {},
-             {},
-             "linespoints",
-             "pt 7 ps 1.2"};
+    Series s{knob_label(st, k), {}, {}, "linespoints", "pt 7 ps 1.2"};
     for (const auto& p : st.points) {
       if (p.knob != k || !p.ok) continue;
       const auto e = p.errors.find(st.primary_metric);
@@ -700,7 +703,7 @@ std::optional<Figure> convergence_figure(const ErrorStudy& st,
     for (const auto& [metric, desc] : st.metric_descriptions) {
       // scenes without a closed form: the primary metric only (the others are in the tables)
       if (!st.reference_runs.empty() && metric != st.primary_metric) continue;
-      Series s{fmt::format("{} {}", k, metric), {}, {}, "points", "pt 7 ps 1.2"};
+      Series s{fmt::format("{} {}", knob_label(st, k), metric), {}, {}, "points", "pt 7 ps 1.2"};
       for (const auto& p : st.points) {
         if (p.knob != k || !p.ok) continue;
         const auto e = p.errors.find(metric);
@@ -723,7 +726,7 @@ std::optional<Figure> convergence_figure(const ErrorStudy& st,
         if (n < 2) continue;
         const double a = (sy - f.order * sx) / n;
         Series line{
-            fmt::format("fit {} {}: order {}", k, metric, fmt_order(f.order)),
+            fmt::format("fit {} {}: order {}", knob_label(st, k), metric, fmt_order(f.order)),
             {f.x_min, f.x_max},
             {std::exp(a + f.order * std::log(f.x_min)), std::exp(a + f.order * std::log(f.x_max))},
             "lines",

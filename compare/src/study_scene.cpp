@@ -167,7 +167,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
           if (p.knob != "size") p.x = p.dt; // the size points' abscissa is the mean radius
         } else {
           p.dt = js.value("dt", 0.0);
-          p.x = js.value("h_min", 0.0);
+          p.x = p.knob == "cont-dt" ? p.dt : js.value("h_min", 0.0);
         }
       }
       if (p.results.empty() || (p.results.size() == 1 && p.results.count("porosity")))
@@ -393,6 +393,36 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
               ? "; × 1 is the scene's own mesh, run again under this knob (its own timing)"
               : ""));
     }
+    // The continuum's time step (issue 11), at the scene's degree and integrator on the sweep's
+    // coarsest mesh (cheap; the time error at a fixed mesh), smallest step first as reference.
+    std::vector<double> tf = o.scene_cont_dt_factors;
+    std::sort(tf.rbegin(), tf.rend());
+    tf.erase(std::unique(tf.begin(), tf.end()), tf.end());
+    const auto& c = base.continuum;
+    if (!tf.empty() && !refs.empty()) {
+      std::vector<Job> js;
+      const int r = refs.front();
+      for (const double f : tf) {
+        scene::Scene s = cont_scene(r, c.degree, c.integrator, c.mesh_size_near);
+        if (c.integrator == "explicit")
+          s.continuum.explicit_safety = c.explicit_safety * f; // automatic step × f
+        else
+          s.continuum.dt *= f;
+        js.push_back(job_for("continuum", "cont-dt",
+                             fmt::format("cont-dt-x{:g}-q{}-r{}-{}", f, c.degree, r, c.integrator),
+                             f, s));
+      }
+      groups.push_back(std::move(js));
+      st.notes.push_back(fmt::format(
+          "continuum Δt points: {} × {} at refinement {}, degree {}, {}; errors against the "
+          "smallest step (reference_runs.continuum-dt), the time discretisation error on that "
+          "mesh",
+          c.integrator == "explicit"
+              ? fmt::format("the automatic step (explicit_safety {:g} of the critical step)",
+                            c.explicit_safety)
+              : std::string("the Newmark step"),
+          fmt::join(tf, ", "), r, c.degree, c.integrator));
+    }
   }
 
   // ---- run: wave k = the k-th (coarse to fine) setting of every knob; a knob whose run hit the
@@ -428,7 +458,9 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   // ---- references: the most resolved run of each solver ----
   // (the DEM particle size points have their own: the most particles, "dem-size")
   const auto ref_key = [](const ErrorPoint& p) {
-    return p.solver == "dem" && p.knob == "size" ? std::string("dem-size") : p.solver;
+    return p.knob == "size"      ? std::string("dem-size")
+           : p.knob == "cont-dt" ? std::string("continuum-dt")
+                                 : p.solver;
   };
   std::map<std::string, const ErrorPoint*> ref;
   for (const auto& p : st.points) {
@@ -436,6 +468,8 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     const ErrorPoint*& r = ref[ref_key(p)];
     if (p.knob == "size") {
       if (!r || p.value > r->value) r = &p;
+    } else if (p.knob == "cont-dt") {
+      if (!r || p.value < r->value) r = &p; // the smallest step
     } else if (p.solver == "dem") {
       // the finest Δt at the scene's K_n (the kn ×1 point when no Δt point ran)
       const bool cand = p.knob == "dt" || (p.knob == "kn" && p.value == 1.0);
@@ -455,12 +489,16 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     st.reference_runs[solver] = r->name;
     refs_text += fmt::format(
         "{}{}: {} ({})", refs_text.empty() ? "" : "; ",
-        solver == "dem-size" ? "DEM particle size" : solver, r->name,
+        solver == "dem-size"       ? "DEM particle size"
+        : solver == "continuum-dt" ? "continuum Δt"
+                                   : solver,
+        r->name,
         solver == "dem-size"
             ? fmt::format("{:g} particles, mean radius {:.3g} m",
                           r->results.count("count") ? r->results.at("count") : 0.0, r->x)
-        : solver == "dem" ? fmt::format("Δt = {:.3g} s", r->dt)
-                          : fmt::format("{} dofs, h = {:.3g} m", r->dofs, r->x));
+        : solver == "dem" || solver == "continuum-dt"
+            ? fmt::format("Δt = {:.3g} s", r->dt)
+            : fmt::format("{} dofs, h = {:.3g} m", r->dofs, r->x));
   }
   st.reference = fmt::format(
       "no closed form: each run is measured against the most resolved run of the same solver's "
@@ -521,13 +559,22 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   }
   for (const auto& k : all) {
     // DEM size: against the mean radius ("r", the point's x)
-    const std::string against = k == "dt" ? "dt" : k == "kn" ? "" : k == "size" ? "r" : "h";
+    const std::string against = k == "dt" || k == "cont-dt" ? "dt"
+                                : k == "kn"                 ? ""
+                                : k == "size"               ? "r"
+                                                            : "h";
     if (!against.empty()) add_fit(st, k, st.primary_metric, against, 0.0);
     add_fit(st, k, st.primary_metric, "wall", 0.0);
   }
+  // the continuum's meshes share one reference (the most dofs); its Δt points have their own
+  std::vector<std::string> mesh_knobs;
+  for (const auto& k : cont_knobs)
+    if (k != "cont-dt") mesh_knobs.push_back(k);
+  const bool cont_dt = mesh_knobs.size() != cont_knobs.size();
   std::vector<std::vector<std::string>> front_groups;
   for (const auto& k : dem_knobs) front_groups.push_back({k});
-  if (!cont_knobs.empty()) front_groups.push_back(cont_knobs);
+  if (!mesh_knobs.empty()) front_groups.push_back(mesh_knobs);
+  if (cont_dt) front_groups.push_back({"cont-dt"});
   mark_fronts(st, front_groups);
   for (const auto& k : dem_knobs)
     st.wall_groups.push_back({{k},
@@ -537,9 +584,14 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
                                           : "DEM, particle size at fixed geometry (count × f, "
                                             "against the most particles)",
                               ""});
-  if (!cont_knobs.empty())
+  if (!mesh_knobs.empty())
     st.wall_groups.push_back(
-        {cont_knobs, "error_vs_wall_continuum", "continuum, refinement × degree × integrator", ""});
+        {mesh_knobs, "error_vs_wall_continuum", "continuum, refinement × degree × integrator", ""});
+  if (cont_dt)
+    st.wall_groups.push_back({{"cont-dt"},
+                              "error_vs_wall_continuum_dt",
+                              "continuum, Δt as a fraction of the automatic step",
+                              ""});
   if (!dem_knobs.empty() && !cont_knobs.empty())
     st.wall_groups.push_back(
         {all, "error_vs_wall_both", "both solvers, each against its own most resolved run", ""});
@@ -547,7 +599,8 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
     st.convergence_groups.push_back({{"dt"}, "convergence_dt", "", "dt"});
   if (std::find(dem_knobs.begin(), dem_knobs.end(), "size") != dem_knobs.end())
     st.convergence_groups.push_back({{"size"}, "convergence_size", "", "r"});
-  if (!cont_knobs.empty()) st.convergence_groups.push_back({cont_knobs, "convergence_h", "", "h"});
+  if (!mesh_knobs.empty()) st.convergence_groups.push_back({mesh_knobs, "convergence_h", "", "h"});
+  if (cont_dt) st.convergence_groups.push_back({{"cont-dt"}, "convergence_continuum_dt", "", "dt"});
   return st;
 }
 

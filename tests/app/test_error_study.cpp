@@ -186,15 +186,18 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_EQ(j.at("reference_runs").at("continuum"), "cont-q1-r1-explicit");
   // particle size at fixed geometry (default factors 1, 4): against the most particles
   EXPECT_EQ(j.at("reference_runs").at("dem-size"), "dem-size-x4");
+  // continuum Δt (default 1, 0.5, 0.25 × the automatic step on the coarsest mesh): the smallest
+  EXPECT_EQ(j.at("reference_runs").at("continuum-dt"), "cont-dt-x0.25-q1-r0-explicit");
   EXPECT_NE(j.at("reference").get<std::string>().find("most resolved"), std::string::npos);
   const std::string primary = j.at("primary_metric");
   EXPECT_EQ(primary.rfind("wall.thrust.", 0), 0u) << primary;
   EXPECT_TRUE(j.at("metrics").contains("wall.thrust.static")) << j.at("metrics").dump();
-  ASSERT_EQ(j.at("points").size(), 7u);
+  ASSERT_EQ(j.at("points").size(), 10u);
   for (const auto& p : j.at("points")) {
     EXPECT_TRUE(p.at("ok").get<bool>()) << p.dump();
     const std::string name = p.at("name");
-    const bool ref = name == "dem-dt-1/4" || name == "cont-q1-r1-explicit" || name == "dem-size-x4";
+    const bool ref = name == "dem-dt-1/4" || name == "cont-q1-r1-explicit" ||
+                     name == "dem-size-x4" || name == "cont-dt-x0.25-q1-r0-explicit";
     // every other run has the primary error, a finite non-negative number
     if (!ref) {
       ASSERT_TRUE(p.at("errors").contains(primary)) << p.dump();
@@ -220,6 +223,15 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_LT(s4.at("dt").get<double>(), 0.6 * s1.at("dt").get<double>()); // automatic: Δt ∝ r
   ASSERT_TRUE(s1.at("errors").contains("wall.thrust.static")) << s1.dump();
   EXPECT_LT(s1.at("errors").at("wall.thrust.static").get<double>(), 0.3) << s1.dump();
+  // the continuum Δt points: steps in the ratios asked for, the step as their abscissa
+  ASSERT_TRUE(pts.count("cont-dt-x1-q1-r0-explicit") && pts.count("cont-dt-x0.5-q1-r0-explicit"))
+      << j.at("points").dump();
+  const auto& c1 = pts["cont-dt-x1-q1-r0-explicit"];
+  const auto& c5 = pts["cont-dt-x0.5-q1-r0-explicit"];
+  EXPECT_EQ(c1.at("knob"), "cont-dt");
+  EXPECT_NEAR(c5.at("dt").get<double>() / c1.at("dt").get<double>(), 0.5, 1e-9);
+  EXPECT_EQ(c1.at("x").get<double>(), c1.at("dt").get<double>());
+  EXPECT_TRUE(c1.at("errors").contains(primary)) << c1.dump();
   bool same_packing = false, size_note = false, near_note = false;
   for (const auto& n : j.at("notes")) {
     const std::string t = n;
@@ -232,7 +244,8 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_TRUE(near_note) << j.at("notes").dump(); // the tiny scene's mesh is uniform
   for (const char* f :
        {"error_vs_wall_dem_dt.png", "error_vs_wall_dem_size.png", "convergence_size.png",
-        "error_vs_wall_continuum.png", "error_vs_wall_both.png"})
+        "error_vs_wall_continuum.png", "error_vs_wall_continuum_dt.png",
+        "convergence_continuum_dt.png", "error_vs_wall_both.png"})
     EXPECT_TRUE(fs::exists(out / "study" / "figures" / f)) << f;
   EXPECT_NE(slurp(out / "study" / "study.html").find("most resolved"), std::string::npos);
 }
@@ -251,7 +264,8 @@ TEST(StudyErrorVsTime, CoulombSceneSkipsTheImplicitKnobWithItsReason) {
   std::ofstream(scene) << text;
   const std::string cmd = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
                           " --solver continuum --repeats 1 --jobs 2 --refinements 0,1 --degrees 1 "
-                          "--integrators explicit,implicit --duration 0.5 --out " +
+                          "--integrators explicit,implicit --continuum-dt-factors none "
+                          "--duration 0.5 --out " +
                           (out / "study").string() + " > " + (out / "log").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out / "log");
   const auto j = nlohmann::json::parse(slurp(out / "study" / "study.json"));
@@ -278,7 +292,8 @@ TEST(StudyErrorVsTime, GradedMeshSweepsItsNearCellSize) {
   std::ofstream(scene) << text;
   const std::string cmd = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
                           " --solver continuum --repeats 1 --jobs 2 --refinements 0 --degrees 1 "
-                          "--integrators explicit --near-factors 2,1 --duration 0.5 --out " +
+                          "--integrators explicit --near-factors 2,1 --continuum-dt-factors none "
+                          "--duration 0.5 --out " +
                           (out / "study").string() + " > " + (out / "log").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(out / "log");
   const auto j = nlohmann::json::parse(slurp(out / "study" / "study.json"));

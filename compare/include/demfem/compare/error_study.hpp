@@ -54,6 +54,9 @@ struct ErrorStudyOptions {
   // continuum, graded meshes (mesh_size_near > 0): mesh_size_near multipliers at the scene's
   // refinement, degree and integrator (the cells next to the structures, coarse to fine)
   std::vector<double> scene_near_factors = {2.0, 1.0, 0.5};
+  // continuum: time step multipliers at the scene's degree and integrator on the sweep's
+  // coarsest refinement (explicit: explicit_safety × f; implicit: the sweep's Newmark step × f)
+  std::vector<double> scene_cont_dt_factors = {1.0, 0.5, 0.25};
   // A run longer than this is stopped (its setting and every finer one of the same knob are
   // then skipped and listed with the reason); 0 = no limit [s]
   double max_run_seconds = 300.0;
@@ -63,11 +66,14 @@ struct ErrorStudyOptions {
 
 struct ErrorPoint {
   std::string solver = "dem"; // "dem" or "continuum"
-  std::string knob; // "dt", "kn", "size", "mesh-q1", "mesh-q2", "mesh-q2-explicit", "mesh-near"
+  // "dt", "kn", "size", "mesh-q1", "mesh-q2", "mesh-q2-explicit", "mesh-near", "cont-dt"
+  std::string knob;
   std::string name; // e.g. "dt-1/64"
-  // the knob's setting (Δt fraction, K_n factor, count factor, refinement, mesh_size_near factor)
+  // the knob's setting (Δt fraction, K_n factor, count factor, refinement, mesh_size_near or
+  // continuum Δt factor)
   double value = 0;
-  // convergence abscissa: Δt [s] (DEM), mean radius [m] (DEM size), smallest cell h [m] (continuum)
+  // convergence abscissa: Δt [s] (DEM, continuum Δt), mean radius [m] (DEM size), smallest cell
+  // h [m] (continuum meshes)
   double x = 0;
   double dt = 0; // DEM step [s]
   std::size_t dofs = 0;
