@@ -1193,6 +1193,18 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
                  path, why);
       return kBadInput;
     }
+    // the particle size knob needs whole counts: refused before anything is written
+    if (!closed && ea.solver != "continuum" && s->soil.dem && s->soil.dem->particles.empty())
+      for (const double f : o.scene_size_factors) {
+        const double c = f * s->soil.dem->count;
+        if (!(c >= 1.0) || std::abs(c - std::round(c)) > 1e-9 * c) {
+          fmt::print(stderr,
+                     "{}: error: --size-factors {:g} gives {:g} particles (soil.dem.count = {}); "
+                     "valid: factors that make a whole count of at least 1 (e.g. 1,4)\n",
+                     path, f, c, s->soil.dem->count);
+          return kBadInput;
+        }
+      }
     fs::path out =
         a.out.empty() ? fs::path("runs") / s->info.name / "study-error-vs-time" : fs::path(a.out);
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))

@@ -324,5 +324,14 @@ TEST(StudyErrorVsTime, GradedMeshSweepsItsNearCellSize) {
   EXPECT_NE(log.find("--near-factors"), std::string::npos) << log;
   EXPECT_NE(log.find("'x'"), std::string::npos) << log;
   EXPECT_FALSE(fs::exists(out / "bad" / "study.json"));
+
+  // a particle size factor that does not make a whole count (150 × 0.33) is refused up front
+  const std::string odd = std::string(DEMFEM_BINARY) + " study error-vs-time " + scene.string() +
+                          " --size-factors 1,0.33 --out " + (out / "odd").string() + " > " +
+                          (out / "odd.log").string() + " 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(odd.c_str())), 2);
+  const std::string odd_log = slurp(out / "odd.log");
+  EXPECT_NE(odd_log.find("--size-factors 0.33 gives 49.5 particles"), std::string::npos) << odd_log;
+  EXPECT_FALSE(fs::exists(out / "odd"));
 }
 #endif
