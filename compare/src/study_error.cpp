@@ -866,16 +866,21 @@ void write_error_study(const ErrorStudy& st, const fs::path& dir) {
   }
   html += "</ul>";
   const std::string timing = fmt::format(
-      "Each run is a separate demfem process, repeated {} times ({} at once). Solver wall time: "
+      "Each run is a separate demfem process, {} ({} at once). Solver wall time: "
       "the solver's own timer, the cost the knob controls (the figures, fronts and wall-time "
       "fits use its median). Process wall time: start to exit, adding the start-up. Peak "
       "memory: the largest resident set of the process (getrusage).",
-      st.repeats, st.jobs);
+      st.repeats == 1 ? std::string("run once") : fmt::format("repeated {} times", st.repeats),
+      st.jobs);
   const std::string expected =
       st.expected_order > 0.0
           ? fmt::format("Expected order of the `{}` error: {:g} ({}).", st.primary_metric,
                         st.expected_order, st.expected_order_note)
-          : st.expected_order_note + ".";
+          : (st.expected_order_note.empty()
+                 ? std::string()
+                 : static_cast<char>(
+                       std::toupper(static_cast<unsigned char>(st.expected_order_note[0]))) +
+                       st.expected_order_note.substr(1) + ".");
   md += fmt::format("\n{}\n\n## Fitted orders\n\nLeast squares of log error against log "
                     "abscissa (Δt, h, mean particle radius r or solver wall time). {}\n\n| knob | "
                     "metric | against | "
