@@ -221,6 +221,14 @@ TEST(StudyErrorVsTime, TwoSolverSceneAgainstMostResolvedRun) {
   EXPECT_NEAR(s1.at("x").get<double>(), 0.025, 1e-12);
   EXPECT_NEAR(s4.at("x").get<double>(), 0.0125, 1e-12);
   EXPECT_LT(s4.at("dt").get<double>(), 0.6 * s1.at("dt").get<double>()); // automatic: Δt ∝ r
+  // the damped deposition falls √f times slower: × 4 gets twice the scene's 10 s to land
+  for (const auto& [point, want] :
+       {std::pair{"dem-size-x1", 10.0}, std::pair{"dem-size-x4", 20.0}}) {
+    const std::string toml = slurp(out / "study" / "runs" / point / "scene.toml");
+    const auto at = toml.find("max_time = ");
+    ASSERT_NE(at, std::string::npos) << toml;
+    EXPECT_DOUBLE_EQ(std::stod(toml.substr(at + 11)), want) << point;
+  }
   ASSERT_TRUE(s1.at("errors").contains("wall.thrust.static")) << s1.dump();
   EXPECT_LT(s1.at("errors").at("wall.thrust.static").get<double>(), 0.3) << s1.dump();
   // the continuum Δt points: steps in the ratios asked for, the step as their abscissa
