@@ -299,6 +299,15 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
         j.point.x = mean_radius(d.radius);
         j.point.results["porosity"] = pr.measure.porosity;
         j.point.results["count"] = d.count;
+        if (!pr.converged)
+          st.notes.push_back(fmt::format(
+              "dem-size-x{:g}: its packing stopped at packing.max_time = {:g} s without meeting "
+              "the deposition's stop criterion (kinetic energy {:.2g} of the released, checked "
+              "only after the top particles' damped fall time); if its coordination or "
+              "porosity differs from the other sizes' (packing record {}), the bed may not "
+              "have landed: raise soil.dem.packing.max_time",
+              f, d.packing.max_time, pr.ke_ratio,
+              dem::packing_path(s, o.out_dir).replace_extension(".json").string()));
         size_jobs.push_back(std::move(j));
       }
       groups.push_back(std::move(size_jobs));
