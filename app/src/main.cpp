@@ -1095,8 +1095,8 @@ struct ErrorStudyArgs {
   int jobs = 1;
   int repeats = 3;
   std::vector<double> dt_fractions, kn_factors;
-  std::vector<double> size_factors, near_factors, cont_dt_factors; // given lists ("none": off)
-  bool size_given = false, near_given = false, cont_dt_given = false;
+  // given multiplier lists (empty: "none", the knob off); absent: the defaults
+  std::optional<std::vector<double>> size_factors, near_factors, cont_dt_factors;
   std::vector<int> refinements, degrees;
   std::string solver = "both";          // scenes without a closed form: dem | continuum | both
   std::vector<std::string> integrators; // continuum: explicit, implicit
@@ -1117,9 +1117,9 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   o.repeats = ea.repeats;
   if (!ea.dt_fractions.empty()) o.dt_fractions = o.scene_dt_fractions = ea.dt_fractions;
   if (!ea.kn_factors.empty()) o.kn_factors = o.scene_kn_factors = ea.kn_factors;
-  if (ea.size_given) o.scene_size_factors = ea.size_factors;
-  if (ea.near_given) o.scene_near_factors = ea.near_factors;
-  if (ea.cont_dt_given) o.scene_cont_dt_factors = ea.cont_dt_factors;
+  if (ea.size_factors) o.scene_size_factors = *ea.size_factors;
+  if (ea.near_factors) o.scene_near_factors = *ea.near_factors;
+  if (ea.cont_dt_factors) o.scene_cont_dt_factors = *ea.cont_dt_factors;
   if (!ea.refinements.empty()) o.refinements = o.scene_refinements = ea.refinements;
   if (!ea.degrees.empty()) o.degrees = o.scene_degrees = ea.degrees;
   o.solvers = ea.solver;
@@ -1576,31 +1576,22 @@ int main(int argc, char** argv) {
                    "scenes without a closed form 0.3,1,3)")
       ->delimiter(',')
       ->check(CLI::PositiveNumber);
-  study->add_option_function<std::string>(
-      "--size-factors",
-      [&ea](const std::string& v) {
-        ea.size_given = true;
-        ea.size_factors = parse_factor_list(v, "--size-factors");
-      },
-      "error-vs-time on a packed scene, DEM: particle count multipliers at fixed geometry "
-      "(count × f, radii / √f, each its own packing; default 1,4; none = off)");
-  study->add_option_function<std::string>(
-      "--near-factors",
-      [&ea](const std::string& v) {
-        ea.near_given = true;
-        ea.near_factors = parse_factor_list(v, "--near-factors");
-      },
-      "error-vs-time on a scene with a graded continuum mesh: mesh_size_near multipliers at "
-      "the scene's refinement (default 2,1,0.5; none = off)");
-  study->add_option_function<std::string>(
-      "--continuum-dt-factors",
-      [&ea](const std::string& v) {
-        ea.cont_dt_given = true;
-        ea.cont_dt_factors = parse_factor_list(v, "--continuum-dt-factors");
-      },
-      "error-vs-time on a scene, continuum: time step multipliers on the sweep's coarsest "
-      "mesh (explicit: of the automatic step; implicit: of the Newmark step; default "
-      "1,0.5,0.25; none = off)");
+  // multiplier lists that also take "none" (the knob off); absent: the study's defaults
+  const auto factor_list = [&study](const char* name, std::optional<std::vector<double>>& to,
+                                    const std::string& help) {
+    study->add_option_function<std::string>(
+        name, [&to, name](const std::string& v) { to = parse_factor_list(v, name); }, help);
+  };
+  factor_list("--size-factors", ea.size_factors,
+              "error-vs-time on a packed scene, DEM: particle count multipliers at fixed "
+              "geometry (count × f, radii / √f, each its own packing; default 1,4; none = off)");
+  factor_list("--near-factors", ea.near_factors,
+              "error-vs-time on a scene with a graded continuum mesh: mesh_size_near multipliers "
+              "at the scene's refinement (default 2,1,0.5; none = off)");
+  factor_list("--continuum-dt-factors", ea.cont_dt_factors,
+              "error-vs-time on a scene, continuum: time step multipliers on the sweep's coarsest "
+              "mesh (explicit: of the automatic step; implicit: of the Newmark step; default "
+              "1,0.5,0.25; none = off)");
   study
       ->add_option("--refinements", ea.refinements,
                    "error-vs-time, continuum: refinement levels (flamant default 1,2,3,4; a "
