@@ -7,13 +7,17 @@
 // distance ≤ r_i + r_j) / N, wall contacts excluded, averaged over `zn` samples taken every
 // steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
 // Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
+//        [kernel=simd|portable|scalar]
 // adaptive=0: the full team of `threads` always (no adaptive team, EngineConfig::adaptive_threads);
 // adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
+#include <string>
 #include <vector>
 
 #include "demfem/dem/engine.hpp"
@@ -42,9 +46,9 @@ double coordination(const demfem::dem::Engine& e, std::vector<demfem::dem::Conta
 int main(int argc, char** argv) {
   using namespace demfem;
   if (argc < 2) {
-    std::fprintf(
-        stderr,
-        "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1]\n");
+    std::fprintf(stderr,
+                 "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1] "
+                 "[kernel=simd|portable|scalar]\n");
     return 2;
   }
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
@@ -62,6 +66,17 @@ int main(int argc, char** argv) {
   if (argc > 5 && std::atof(argv[5]) > 0.0) cfg.skin_factor = std::atof(argv[5]);
   const int adaptive = argc > 6 ? std::atoi(argv[6]) : 1;
   cfg.adaptive_threads = adaptive > 0;
+  // 7th argument: the pair kernel of cundall-rebound (simd, portable, scalar; default simd)
+  const std::string kernel = argc > 7 ? argv[7] : "simd";
+  if (kernel == "portable")
+    cfg.pair_kernel = dem::EngineConfig::PairKernel::portable;
+  else if (kernel == "scalar")
+    cfg.pair_kernel = dem::EngineConfig::PairKernel::scalar;
+  else if (kernel != "simd") {
+    std::fprintf(stderr, "bench_dem_race: kernel must be simd, portable or scalar, not '%s'\n",
+                 kernel.c_str());
+    return 2;
+  }
   dem::Engine e(cfg);
   for (const auto& q : sc.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
   for (const auto& w : sc.walls) e.add_wall(w);
@@ -88,6 +103,16 @@ int main(int argc, char** argv) {
               "contacts_per_particle=%.3f\n",
               n, e.threads_in_use(), steps, t, static_cast<double>(n) * steps / t,
               nz > 0 ? zsum / nz : 0.0);
+  // A checksum of the final state's bits: equal checksums mean bit-identical runs (kernels).
+  std::uint64_t sum = 0;
+  for (const auto* v : {&e.particles().x, &e.particles().z, &e.particles().vx, &e.particles().vz,
+                        &e.particles().omega})
+    for (const double d : *v) {
+      std::uint64_t u = 0;
+      std::memcpy(&u, &d, sizeof u);
+      sum = sum * 1099511628211ull + u;
+    }
+  std::fprintf(stderr, "# state checksum %016llx\n", static_cast<unsigned long long>(sum));
   const auto m = e.memory_use();
   std::fprintf(stderr,
                "# rebuilds %lld, reorders %lld, pair entries/particle %.2f, rebuild+check %.3f s, "

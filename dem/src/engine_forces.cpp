@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <variant>
 
 #include <fmt/format.h>
@@ -12,6 +13,7 @@
 #endif
 
 #include "engine_internal.hpp"
+#include "pair_kernel.hpp"
 
 namespace demfem::dem {
 
@@ -27,6 +29,12 @@ template <class Law>
 void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* __restrict fx,
                         double* __restrict fz, double* __restrict tq, double* energies,
                         std::uint32_t* fail_pair) {
+  if constexpr (std::is_same_v<Law, CundallRebound>) {
+    if (!law.p.tension && config_.pair_kernel != EngineConfig::PairKernel::scalar) {
+      pair_range_rebound(law, i0, i1, fx, fz, tq, energies, fail_pair);
+      return;
+    }
+  }
   const double dt = dt_;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
@@ -99,6 +107,158 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
     fx[i] += fxi;
     fz[i] += fzi;
     tq[i] += ti;
+  }
+  energies[0] += e_fric;
+  energies[1] += e_damp;
+  energies[2] += e_reb;
+  energies[3] += e_n;
+  energies[4] += e_s;
+}
+
+// The same pair loop for cundall-rebound without tension, in blocks of compacted entries:
+// gather, the vectorised kernel, scatter in list order (pair_kernel.hpp). Bit-identical to
+// pair_range's one-pass loop.
+void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
+                                double* __restrict fx, double* __restrict fz, double* __restrict tq,
+                                double* energies, std::uint32_t* fail_pair) {
+  detail::PairBlock b; // scratch, written before it is read
+  const detail::ReboundConstants kc{law.p.kn, law.p.ks, dt_};
+  const bool simd = config_.pair_kernel == EngineConfig::PairKernel::simd;
+  const double* __restrict x = p_.x.data();
+  const double* __restrict z = p_.z.data();
+  const double* __restrict vx = p_.vx.data();
+  const double* __restrict vz = p_.vz.data();
+  const double* __restrict om = p_.omega.data();
+  const double* __restrict rad = p_.radius.data();
+  const double* __restrict mass = p_.mass.data();
+  const std::uint16_t* __restrict matl = p_.material.data();
+  const std::uint32_t* __restrict start = nbr_start_.data();
+  const std::uint32_t* __restrict partner = nbr_j_.data();
+  ContactHistory* __restrict hist = nbr_hist_.data();
+  const auto& mats = config_.materials;
+  const bool one_material = mats.size() == 1;
+  const double mus0 = mats[0].mu_s, mud0 = mats[0].mu_d;
+  const double max_ov = config_.max_overlap;
+  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  bool failed = fail_pair[0] != ~0u;
+  // The owner whose forces are being summed (added to its arrays when the owner changes).
+  std::size_t cur = i1;
+  double fxi = 0.0, fzi = 0.0, ti = 0.0;
+  std::size_t own = i0;
+  std::uint32_t k = start[i0];
+  const std::uint32_t kend = start[i1];
+  while (k < kend) {
+    // 1. gather: entries k … of owners own … until the block is full; the count m advances for a
+    //    touching entry or one with history only (branch-free compaction).
+    std::size_t m = 0;
+    while (k < kend && m < detail::PairBlock::kSize) {
+      while (start[own + 1] <= k) ++own;
+      const std::uint32_t ke = std::min<std::uint32_t>(
+          start[own + 1], k + static_cast<std::uint32_t>(detail::PairBlock::kSize - m));
+      const double xi = x[own], zi = z[own], ri = rad[own], vxi = vx[own], vzi = vz[own];
+      const double omi = om[own], mi = mass[own];
+      for (; k < ke; ++k) {
+        const std::uint32_t j = partner[k];
+        const double dx = xi - x[j], dz = zi - z[j], rj = rad[j];
+        const double rsum = ri + rj;
+        const double d2 = dx * dx + dz * dz;
+        const ContactHistory& h = hist[k];
+        b.dx[m] = dx;
+        b.dz[m] = dz;
+        b.ri[m] = ri;
+        b.rj[m] = rj;
+        b.dvx[m] = vxi - vx[j];
+        b.dvz[m] = vzi - vz[j];
+        b.omi[m] = omi;
+        b.omj[m] = om[j];
+        b.mi[m] = mi;
+        b.mj[m] = mass[j];
+        if (one_material) {
+          b.mus[m] = mus0;
+          b.mud[m] = mud0;
+        } else { // the weaker of the two materials
+          const auto& ma = mats[matl[own]];
+          const auto& mb = mats[matl[j]];
+          b.mus[m] = std::min(ma.mu_s, mb.mu_s);
+          b.mud[m] = std::min(ma.mu_d, mb.mu_d);
+        }
+        b.ft[m] = h.ft;
+        b.fl[m] = h.flags;
+        b.i[m] = static_cast<std::uint32_t>(own);
+        b.j[m] = j;
+        b.k[m] = k;
+        m += static_cast<std::size_t>(!(d2 >= rsum * rsum) || h.flags != 0);
+      }
+    }
+    // 2. geometry and the law of closed, active contacts, vectorised
+    detail::rebound_kernel(kc, b, m, simd);
+    // 3. scatter in list order; entries outside the kernel's case go through the scalar law
+    for (std::size_t e = 0; e < m; ++e) {
+      const std::uint32_t i = b.i[e], j = b.j[e];
+      if (i != cur) {
+        if (cur != i1) {
+          fx[cur] += fxi;
+          fz[cur] += fzi;
+          tq[cur] += ti;
+        }
+        cur = i;
+        fxi = fzi = ti = 0.0;
+      }
+      ContactHistory& h = hist[b.k[e]];
+      double Fx, Fz, Ti, Tj;
+      const double delta = b.delta[e];
+      if (b.fast[e] != 0) {
+        e_fric += b.e_fric[e];
+        e_n += b.e_n[e];
+        e_s += b.e_s[e];
+        h.ft = b.ft_new[e];
+        h.flags = static_cast<std::uint8_t>(b.fl_new[e]);
+        h.fn = static_cast<float>(b.fn[e]);
+        Fx = b.fx[e];
+        Fz = b.fz[e];
+        Ti = b.ti[e];
+        Tj = b.tj[e];
+      } else {
+        ContactInput in;
+        in.delta = delta;
+        in.vn = b.vn[e];
+        in.vs = b.vs[e];
+        in.m_eff = b.meff[e];
+        in.r_eff = b.ri[e] * b.rj[e] / (b.ri[e] + b.rj[e]);
+        in.mu_s = b.mus[e];
+        in.mu_d = b.mud[e];
+        in.dt = kc.dt;
+        const ContactResult r = law.evaluate(in, h);
+        e_fric += r.e_friction;
+        if (!r.touching) continue;
+        e_damp += r.e_damping;
+        e_reb += r.e_rebound;
+        e_n += r.e_normal;
+        e_s += r.e_shear;
+        const double fnt = r.fn + r.impulse;
+        const double nx = b.nx[e], nz = b.nz[e];
+        Fx = fnt * nx + r.ft * -nz; // eq. 2.15, t = (−n_z, n_x)
+        Fz = fnt * nz + r.ft * nx;
+        Ti = b.li[e] * r.ft;
+        Tj = b.lj[e] * r.ft;
+      }
+      if (delta > max_ov * std::min(b.ri[e], b.rj[e]) && !failed) {
+        failed = true;
+        fail_pair[0] = i;
+        fail_pair[1] = j;
+      }
+      fxi += Fx;
+      fzi += Fz;
+      ti -= Ti;
+      fx[j] -= Fx;
+      fz[j] -= Fz;
+      tq[j] -= Tj;
+    }
+  }
+  if (cur != i1) {
+    fx[cur] += fxi;
+    fz[cur] += fzi;
+    tq[cur] += ti;
   }
   energies[0] += e_fric;
   energies[1] += e_damp;

@@ -68,6 +68,11 @@ struct EngineConfig {
   // team of 1 takes over when the full team is slower (a core shared with another process makes
   // every barrier wait for a descheduled thread). false: always the full team.
   bool adaptive_threads = true;
+  // Pair loop of cundall-rebound without tension (issue 12): `simd` the blocked, vectorised
+  // kernel with the widest instruction set the processor has (pair_kernel.hpp); `portable` the
+  // same kernel built for the baseline instruction set only; `scalar` the one-pass loop of the
+  // other laws. All three give bit-identical results; the switch is for benchmarks and tests.
+  enum class PairKernel { simd, portable, scalar } pair_kernel = PairKernel::simd;
 };
 
 // Δt refused by Engine::set_dt: not positive, or above the stable limit.
@@ -258,6 +263,8 @@ private:
   template <class Law>
   void pair_range(const Law& law, std::size_t i0, std::size_t i1, double* fx, double* fz,
                   double* tq, double* energies, std::uint32_t* fail_pair);
+  void pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1, double* fx,
+                          double* fz, double* tq, double* energies, std::uint32_t* fail_pair);
   void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
                        std::size_t* bad);
   // Inside a parallel region: (this thread's number, team size).

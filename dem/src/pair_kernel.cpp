@@ -1,0 +1,112 @@
+// The blocked pair kernel of cundall-rebound (see pair_kernel.hpp). Compiled with
+// -fno-math-errno -fno-trapping-math (dem/CMakeLists.txt) so that sqrt and the selects vectorise;
+// the results are the same.
+#include "pair_kernel.hpp"
+
+#include <cmath>
+
+#include "demfem/dem/contact_laws.hpp"
+
+namespace demfem::dem::detail {
+
+namespace {
+
+// One pass over the block, written without branches so that it vectorises. Each line is the
+// scalar loop's (engine_forces.cpp, pair_range) or the law's (contact_laws.hpp) operation.
+[[gnu::always_inline]] inline void kernel_body(const ReboundConstants& c, PairBlock& b,
+                                               std::size_t m) {
+  const double kn = c.kn, ks = c.ks, dt = c.dt;
+  for (std::size_t e = 0; e < m; ++e) {
+    const double dx = b.dx[e], dz = b.dz[e], ri = b.ri[e], rj = b.rj[e];
+    const double rsum = ri + rj;
+    const double d2 = dx * dx + dz * dz;
+    const double dist = std::sqrt(d2);
+    const double delta = rsum - dist; // eq. 2.3
+    const bool apart = dist > 0.0;
+    const double inv1 = 1.0 / (apart ? dist : 1.0);
+    const double inv = apart ? inv1 : 0.0;
+    const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4)
+    const double tx = -nz, tz = nx;
+    const double li = ri - 0.5 * delta, lj = rj - 0.5 * delta;
+    const double dvx = b.dvx[e], dvz = b.dvz[e];
+    const double vn = -(dvx * nx + dvz * nz);                                // eq. 2.5
+    const double vs = dvx * tx + dvz * tz - (li * b.omi[e] + lj * b.omj[e]); // eq. 2.5
+    const double meff = b.mi[e] * b.mj[e] / (b.mi[e] + b.mj[e]);
+    // A closed contact that stays closed: f_n = K_n δ (eq. 2.6; linear_spring_force's first case)
+    const double fc = kn * delta;
+    const double A = dt * dt / meff;
+    const double d_prev = delta - vn * dt;
+    const double d_next = delta + vn * dt - fc * A;
+    const std::int64_t fl = b.fl[e];
+    const bool fast = ((fl & kHistActive) >= 1) & (delta > 0.0) & (d_prev >= 0.0) &
+                      (d_next >= 0.0) & (fc > 0.0);
+    // Shear spring and Coulomb limit (eqs. 2.9, 2.13; detail::coulomb with f_n > 0)
+    const double ft_trial = b.ft[e] - ks * vs * dt;
+    const bool sliding = (fl & kHistSliding) != 0;
+    const double mus = b.mus[e], mud = b.mud[e];
+    const double limit = (sliding ? mud : mus) * fc;
+    const bool over = std::abs(ft_trial) > limit;
+    const double ftc = std::copysign(mud * fc, ft_trial);
+    const double ef_slide = std::abs(ftc * (ft_trial - ftc)) / ks;
+    const double ef_stick = 0.5 * (ft_trial * ft_trial - ftc * ftc) / ks;
+    const double ft = over ? ftc : ft_trial;
+    const double ef = sliding ? ef_slide : ef_stick;
+    b.e_fric[e] = over ? ef : 0.0;
+    const std::int64_t slide_bit = over ? std::int64_t{kHistSliding} : 0;
+    b.fl_new[e] = (fl & ~std::int64_t{kHistSliding}) | slide_bit;
+    b.ft_new[e] = ft;
+    b.fn[e] = fc;
+    b.e_n[e] = 0.5 * kn * delta * delta; // spring energies after the step
+    b.e_s[e] = 0.5 * ft * ft / ks;
+    b.fx[e] = fc * nx + ft * tx; // eq. 2.15
+    b.fz[e] = fc * nz + ft * tz;
+    b.ti[e] = li * ft;
+    b.tj[e] = lj * ft;
+    b.fast[e] = fast ? 1 : 0;
+    b.delta[e] = delta;
+    b.vn[e] = vn;
+    b.vs[e] = vs;
+    b.meff[e] = meff;
+    b.nx[e] = nx;
+    b.nz[e] = nz;
+    b.li[e] = li;
+    b.lj[e] = lj;
+  }
+}
+
+void kernel_portable(const ReboundConstants& c, PairBlock& b, std::size_t m) {
+  kernel_body(c, b, m);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+// AVX2 only, no FMA: the operations round as the portable build's do.
+[[gnu::target("avx2")]] void kernel_avx2(const ReboundConstants& c, PairBlock& b, std::size_t m) {
+  kernel_body(c, b, m);
+}
+bool have_avx2() {
+  static const bool yes = __builtin_cpu_supports("avx2") != 0;
+  return yes;
+}
+#else
+void kernel_avx2(const ReboundConstants& c, PairBlock& b, std::size_t m) {
+  kernel_body(c, b, m);
+}
+bool have_avx2() {
+  return false;
+}
+#endif
+
+} // namespace
+
+void rebound_kernel(const ReboundConstants& c, PairBlock& b, std::size_t m, bool simd) {
+  if (simd && have_avx2())
+    kernel_avx2(c, b, m);
+  else
+    kernel_portable(c, b, m);
+}
+
+const char* rebound_kernel_isa() {
+  return have_avx2() ? "avx2" : "sse2";
+}
+
+} // namespace demfem::dem::detail

@@ -1,0 +1,66 @@
+// Internal to the DEM engine: the blocked pair kernel of the paper's law (cundall-rebound without
+// tension), issue 12 item 3. The pair loop runs in three passes over blocks of list entries:
+//   1. gather (engine_forces.cpp): every list entry of the block's owners is written into the
+//      block's arrays, and the block count advances only for a touching entry or one with history
+//      (branch-free compaction);
+//   2. kernel (this file, pair_kernel.cpp): geometry, kinematics and the law of a closed, already
+//      active contact — the case of nearly every entry in a dense bed — over contiguous arrays,
+//      without branches, so that the compiler vectorises it (AVX2 where the processor has it,
+//      chosen once at run time; SSE2 otherwise). An entry outside that case (first touch, the
+//      touch/release step of the spring, an ended contact) is marked `fast = 0`;
+//   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
+//      histories written back; a `fast = 0` entry is evaluated there by the scalar law
+//      (CundallRebound::evaluate) from the geometry the kernel stored.
+// Every operation of the kernel is the scalar law's, in the same order and without contraction
+// into fused multiply-adds, and the scatter adds in the scalar loop's order: results are
+// bit-identical to the one-pass loop (test DemPairKernel.BlockedLoopBitIdenticalToScalar).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace demfem::dem::detail {
+
+// Scratch of one block of compacted list entries (structure of arrays). Not initialised: the
+// gather writes entries 0 … m−1 before the kernel reads them.
+struct PairBlock {
+  static constexpr std::size_t kSize = 128;
+  // inputs (gather)
+  alignas(64) double dx[kSize];  // x_i − x_j [m]
+  alignas(64) double dz[kSize];  // z_i − z_j [m]
+  alignas(64) double ri[kSize];  // [m]
+  alignas(64) double rj[kSize];  // [m]
+  alignas(64) double dvx[kSize]; // v_i − v_j [m/s]
+  alignas(64) double dvz[kSize];
+  alignas(64) double omi[kSize]; // [rad/s]
+  alignas(64) double omj[kSize];
+  alignas(64) double mi[kSize]; // [kg]
+  alignas(64) double mj[kSize];
+  alignas(64) double mus[kSize]; // friction of the pair
+  alignas(64) double mud[kSize];
+  alignas(64) double ft[kSize];       // history: shear spring force [N]
+  alignas(64) std::int64_t fl[kSize]; // history flags
+  std::uint32_t i[kSize], j[kSize], k[kSize];
+  // geometry (kernel), also what the scalar law needs for a `fast = 0` entry
+  alignas(64) double delta[kSize], vn[kSize], vs[kSize], meff[kSize];
+  alignas(64) double nx[kSize], nz[kSize], li[kSize], lj[kSize];
+  // results of a `fast = 1` entry (kernel)
+  alignas(64) double fx[kSize], fz[kSize]; // force on i [N]
+  alignas(64) double ti[kSize], tj[kSize]; // l_i f_t, l_j f_t [N·m]
+  alignas(64) double fn[kSize], ft_new[kSize];
+  alignas(64) double e_fric[kSize], e_n[kSize], e_s[kSize];
+  alignas(64) std::int64_t fl_new[kSize], fast[kSize];
+};
+
+struct ReboundConstants {
+  double kn, ks, dt;
+};
+
+// Pass 2 over entries 0 … m−1 of the block. `simd` false: the portable build only (a benchmark
+// and test switch); true: the widest instruction set the processor has.
+void rebound_kernel(const ReboundConstants& c, PairBlock& b, std::size_t m, bool simd);
+
+// The instruction set rebound_kernel(…, true) uses on this processor ("avx2" or "sse2").
+const char* rebound_kernel_isa();
+
+} // namespace demfem::dem::detail
