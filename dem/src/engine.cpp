@@ -631,8 +631,8 @@ Engine::MemoryUse Engine::memory_use() const {
                 cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) +
                 cap(p_.flags);
   m.contact_history = cap(nbr_hist_) + cap(bnd_hist_);
-  m.neighbour_lists =
-      cap(nbr_start_) + cap(nbr_j_) + cap(bnd_i_) + cap(bnd_f_) + cap(x_ref_) + cap(z_ref_);
+  m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(nbr_i_) + cap(bnd_i_) + cap(bnd_f_) +
+                      cap(x_ref_) + cap(z_ref_);
   m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);
   m.other = cap(tbuf_) + cap(split_) + cap(bvx_) * 6 + cap(features_);
   return m;

@@ -122,91 +122,79 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
                                 double* __restrict fx, double* __restrict fz, double* __restrict tq,
                                 double* energies, std::uint32_t* fail_pair) {
   detail::PairBlock b; // scratch, written before it is read
-  const detail::ReboundConstants kc{law.p.kn, law.p.ks, dt_};
+  const auto& mats = config_.materials;
+  const bool one_material = mats.size() == 1;
+  const detail::ReboundConstants kc{law.p.kn,     law.p.ks,     dt_,         config_.max_overlap,
+                                    one_material, mats[0].mu_s, mats[0].mu_d};
+  const detail::ParticleArrays pa{p_.x.data(),     p_.z.data(),      p_.vx.data(),  p_.vz.data(),
+                                  p_.omega.data(), p_.radius.data(), p_.mass.data()};
   const bool simd = config_.pair_kernel == EngineConfig::PairKernel::simd;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
-  const double* __restrict vx = p_.vx.data();
-  const double* __restrict vz = p_.vz.data();
-  const double* __restrict om = p_.omega.data();
   const double* __restrict rad = p_.radius.data();
-  const double* __restrict mass = p_.mass.data();
   const std::uint16_t* __restrict matl = p_.material.data();
   const std::uint32_t* __restrict start = nbr_start_.data();
   const std::uint32_t* __restrict partner = nbr_j_.data();
   ContactHistory* __restrict hist = nbr_hist_.data();
-  const auto& mats = config_.materials;
-  const bool one_material = mats.size() == 1;
-  const double mus0 = mats[0].mu_s, mud0 = mats[0].mu_d;
-  const double max_ov = config_.max_overlap;
   double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
   bool failed = fail_pair[0] != ~0u;
-  // The owner whose forces are being summed (added to its arrays when the owner changes).
-  std::size_t cur = i1;
+  const std::uint32_t* __restrict owner = nbr_i_.data();
+  // The owner whose forces are being summed: its sums are added to its arrays when the owner
+  // changes (without a branch: the sums of an unchanged owner go to `spill`).
+  std::size_t cur = i0;
   double fxi = 0.0, fzi = 0.0, ti = 0.0;
-  std::size_t own = i0;
+  double spill[3] = {0.0, 0.0, 0.0};
   std::uint32_t k = start[i0];
   const std::uint32_t kend = start[i1];
   while (k < kend) {
-    // 1. gather: entries k … of owners own … until the block is full; the count m advances for a
-    //    touching entry or one with history only (branch-free compaction).
+    // 1. gather: entries k … k + kSize − 1; the count m advances for a touching entry or one
+    //    with history only (branch-free compaction).
+    const std::uint32_t ke =
+        std::min<std::uint32_t>(kend, k + static_cast<std::uint32_t>(detail::PairBlock::kSize));
     std::size_t m = 0;
-    while (k < kend && m < detail::PairBlock::kSize) {
-      while (start[own + 1] <= k) ++own;
-      const std::uint32_t ke = std::min<std::uint32_t>(
-          start[own + 1], k + static_cast<std::uint32_t>(detail::PairBlock::kSize - m));
-      const double xi = x[own], zi = z[own], ri = rad[own], vxi = vx[own], vzi = vz[own];
-      const double omi = om[own], mi = mass[own];
+    auto gather = [&](auto one_mat) {
       for (; k < ke; ++k) {
-        const std::uint32_t j = partner[k];
-        const double dx = xi - x[j], dz = zi - z[j], rj = rad[j];
-        const double rsum = ri + rj;
+        const std::uint32_t i = owner[k], j = partner[k];
+        const double dx = x[i] - x[j], dz = z[i] - z[j];
+        const double rsum = rad[i] + rad[j];
         const double d2 = dx * dx + dz * dz;
         const ContactHistory& h = hist[k];
-        b.dx[m] = dx;
-        b.dz[m] = dz;
-        b.ri[m] = ri;
-        b.rj[m] = rj;
-        b.dvx[m] = vxi - vx[j];
-        b.dvz[m] = vzi - vz[j];
-        b.omi[m] = omi;
-        b.omj[m] = om[j];
-        b.mi[m] = mi;
-        b.mj[m] = mass[j];
-        if (one_material) {
-          b.mus[m] = mus0;
-          b.mud[m] = mud0;
-        } else { // the weaker of the two materials
-          const auto& ma = mats[matl[own]];
+        if constexpr (!decltype(one_mat)::value) { // the weaker of the two materials
+          const auto& ma = mats[matl[i]];
           const auto& mb = mats[matl[j]];
           b.mus[m] = std::min(ma.mu_s, mb.mu_s);
           b.mud[m] = std::min(ma.mu_d, mb.mu_d);
         }
         b.ft[m] = h.ft;
         b.fl[m] = h.flags;
-        b.i[m] = static_cast<std::uint32_t>(own);
+        b.i[m] = i;
         b.j[m] = j;
         b.k[m] = k;
         m += static_cast<std::size_t>(!(d2 >= rsum * rsum) || h.flags != 0);
       }
-    }
+    };
+    if (one_material)
+      gather(std::true_type{});
+    else
+      gather(std::false_type{});
     // 2. geometry and the law of closed, active contacts, vectorised
-    detail::rebound_kernel(kc, b, m, simd);
+    detail::rebound_kernel(kc, pa, b, m, simd);
     // 3. scatter in list order; entries outside the kernel's case go through the scalar law
     for (std::size_t e = 0; e < m; ++e) {
       const std::uint32_t i = b.i[e], j = b.j[e];
-      if (i != cur) {
-        if (cur != i1) {
-          fx[cur] += fxi;
-          fz[cur] += fzi;
-          tq[cur] += ti;
-        }
-        cur = i;
-        fxi = fzi = ti = 0.0;
-      }
+      const bool next_owner = i != cur;
+      double* sx = next_owner ? fx + cur : spill;
+      double* sz = next_owner ? fz + cur : spill + 1;
+      double* st = next_owner ? tq + cur : spill + 2;
+      *sx += fxi;
+      *sz += fzi;
+      *st += ti;
+      fxi = next_owner ? 0.0 : fxi;
+      fzi = next_owner ? 0.0 : fzi;
+      ti = next_owner ? 0.0 : ti;
+      cur = i;
       ContactHistory& h = hist[b.k[e]];
       double Fx, Fz, Ti, Tj;
-      const double delta = b.delta[e];
       if (b.fast[e] != 0) {
         e_fric += b.e_fric[e];
         e_n += b.e_n[e];
@@ -220,13 +208,13 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         Tj = b.tj[e];
       } else {
         ContactInput in;
-        in.delta = delta;
+        in.delta = b.delta[e];
         in.vn = b.vn[e];
         in.vs = b.vs[e];
         in.m_eff = b.meff[e];
-        in.r_eff = b.ri[e] * b.rj[e] / (b.ri[e] + b.rj[e]);
-        in.mu_s = b.mus[e];
-        in.mu_d = b.mud[e];
+        in.r_eff = b.reff[e];
+        in.mu_s = one_material ? kc.mus0 : b.mus[e];
+        in.mu_d = one_material ? kc.mud0 : b.mud[e];
         in.dt = kc.dt;
         const ContactResult r = law.evaluate(in, h);
         e_fric += r.e_friction;
@@ -241,11 +229,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         Fz = fnt * nz + r.ft * nx;
         Ti = b.li[e] * r.ft;
         Tj = b.lj[e] * r.ft;
-      }
-      if (delta > max_ov * std::min(b.ri[e], b.rj[e]) && !failed) {
-        failed = true;
-        fail_pair[0] = i;
-        fail_pair[1] = j;
+        if (b.delta[e] > kc.max_overlap * std::min(rad[i], rad[j]) && !failed) {
+          failed = true;
+          fail_pair[0] = i;
+          fail_pair[1] = j;
+        }
       }
       fxi += Fx;
       fzi += Fz;
@@ -255,7 +243,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
       tq[j] -= Tj;
     }
   }
-  if (cur != i1) {
+  if (kend > start[i0]) {
     fx[cur] += fxi;
     fz[cur] += fzi;
     tq[cur] += ti;

@@ -34,6 +34,13 @@ void Engine::update_boundary_vertices() {
   }
 }
 
+void Engine::set_owners() {
+  nbr_i_.resize(nbr_j_.size());
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    std::fill(nbr_i_.begin() + nbr_start_[i], nbr_i_.begin() + nbr_start_[i + 1],
+              static_cast<std::uint32_t>(i));
+}
+
 void Engine::check_rebuild() {
   if (need_rebuild_ || x_ref_.size() != p_.size()) {
     rebuild();
@@ -109,6 +116,7 @@ void Engine::reorder() {
       }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
   store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  set_owners();
   for (auto& bi : bnd_i_) bi = new_of[bi];
   {
     std::vector<std::uint32_t> o(bnd_i_.size());
@@ -280,6 +288,7 @@ void Engine::rebuild() {
   nbr_start_.swap(new_start);
   nbr_j_.swap(new_j);
   nbr_hist_.swap(new_hist);
+  set_owners();
 
   // Boundary candidates: every (particle, active feature) pair within reach.
   std::vector<std::uint32_t> ni, nf;

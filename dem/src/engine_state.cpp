@@ -155,6 +155,7 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   if (nbr_j_.size() != nbr_hist_.size() || bnd_i_.size() != bnd_f_.size() ||
       bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1))
     detail::ByteReader::fail("inconsistent neighbour lists");
+  set_owners();
   failure_.clear();
 }
 
@@ -222,6 +223,7 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
   }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
   store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  set_owners();
   bnd_i_.clear();
   bnd_f_.clear();
   bnd_hist_.clear();

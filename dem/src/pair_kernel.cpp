@@ -13,11 +13,20 @@ namespace {
 
 // One pass over the block, written without branches so that it vectorises. Each line is the
 // scalar loop's (engine_forces.cpp, pair_range) or the law's (contact_laws.hpp) operation.
-[[gnu::always_inline]] inline void kernel_body(const ReboundConstants& c, PairBlock& b,
-                                               std::size_t m) {
-  const double kn = c.kn, ks = c.ks, dt = c.dt;
+template <bool OneMaterial>
+[[gnu::always_inline]] inline void kernel_body(const ReboundConstants& c, const ParticleArrays& p,
+                                               PairBlock& __restrict b, std::size_t m) {
+  const double kn = c.kn, ks = c.ks, dt = c.dt, max_ov = c.max_overlap;
+  const double* __restrict x = p.x;
+  const double* __restrict z = p.z;
+  const double* __restrict vx = p.vx;
+  const double* __restrict vz = p.vz;
+  const double* __restrict om = p.omega;
+  const double* __restrict rad = p.radius;
+  const double* __restrict mass = p.mass;
   for (std::size_t e = 0; e < m; ++e) {
-    const double dx = b.dx[e], dz = b.dz[e], ri = b.ri[e], rj = b.rj[e];
+    const std::uint32_t i = b.i[e], j = b.j[e];
+    const double dx = x[i] - x[j], dz = z[i] - z[j], ri = rad[i], rj = rad[j];
     const double rsum = ri + rj;
     const double d2 = dx * dx + dz * dz;
     const double dist = std::sqrt(d2);
@@ -28,22 +37,24 @@ namespace {
     const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4)
     const double tx = -nz, tz = nx;
     const double li = ri - 0.5 * delta, lj = rj - 0.5 * delta;
-    const double dvx = b.dvx[e], dvz = b.dvz[e];
-    const double vn = -(dvx * nx + dvz * nz);                                // eq. 2.5
-    const double vs = dvx * tx + dvz * tz - (li * b.omi[e] + lj * b.omj[e]); // eq. 2.5
-    const double meff = b.mi[e] * b.mj[e] / (b.mi[e] + b.mj[e]);
+    const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
+    const double vn = -(dvx * nx + dvz * nz);                          // eq. 2.5
+    const double vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5
+    const double mi = mass[i], mj = mass[j];
+    const double meff = mi * mj / (mi + mj);
     // A closed contact that stays closed: f_n = K_n δ (eq. 2.6; linear_spring_force's first case)
     const double fc = kn * delta;
     const double A = dt * dt / meff;
     const double d_prev = delta - vn * dt;
     const double d_next = delta + vn * dt - fc * A;
     const std::int64_t fl = b.fl[e];
+    const double rmin = ri < rj ? ri : rj;
     const bool fast = ((fl & kHistActive) >= 1) & (delta > 0.0) & (d_prev >= 0.0) &
-                      (d_next >= 0.0) & (fc > 0.0);
+                      (d_next >= 0.0) & (fc > 0.0) & !(delta > max_ov * rmin);
     // Shear spring and Coulomb limit (eqs. 2.9, 2.13; detail::coulomb with f_n > 0)
     const double ft_trial = b.ft[e] - ks * vs * dt;
     const bool sliding = (fl & kHistSliding) != 0;
-    const double mus = b.mus[e], mud = b.mud[e];
+    const double mus = OneMaterial ? c.mus0 : b.mus[e], mud = OneMaterial ? c.mud0 : b.mud[e];
     const double limit = (sliding ? mud : mus) * fc;
     const bool over = std::abs(ft_trial) > limit;
     const double ftc = std::copysign(mud * fc, ft_trial);
@@ -67,6 +78,7 @@ namespace {
     b.vn[e] = vn;
     b.vs[e] = vs;
     b.meff[e] = meff;
+    b.reff[e] = ri * rj / rsum;
     b.nx[e] = nx;
     b.nz[e] = nz;
     b.li[e] = li;
@@ -74,22 +86,30 @@ namespace {
   }
 }
 
-void kernel_portable(const ReboundConstants& c, PairBlock& b, std::size_t m) {
-  kernel_body(c, b, m);
+void kernel_portable(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b,
+                     std::size_t m) {
+  if (c.one_material)
+    kernel_body<true>(c, p, b, m);
+  else
+    kernel_body<false>(c, p, b, m);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
 // AVX2 only, no FMA: the operations round as the portable build's do.
-[[gnu::target("avx2")]] void kernel_avx2(const ReboundConstants& c, PairBlock& b, std::size_t m) {
-  kernel_body(c, b, m);
+[[gnu::target("avx2")]] void kernel_avx2(const ReboundConstants& c, const ParticleArrays& p,
+                                         PairBlock& b, std::size_t m) {
+  if (c.one_material)
+    kernel_body<true>(c, p, b, m);
+  else
+    kernel_body<false>(c, p, b, m);
 }
 bool have_avx2() {
   static const bool yes = __builtin_cpu_supports("avx2") != 0;
   return yes;
 }
 #else
-void kernel_avx2(const ReboundConstants& c, PairBlock& b, std::size_t m) {
-  kernel_body(c, b, m);
+void kernel_avx2(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m) {
+  kernel_portable(c, p, b, m);
 }
 bool have_avx2() {
   return false;
@@ -98,11 +118,12 @@ bool have_avx2() {
 
 } // namespace
 
-void rebound_kernel(const ReboundConstants& c, PairBlock& b, std::size_t m, bool simd) {
+void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
+                    bool simd) {
   if (simd && have_avx2())
-    kernel_avx2(c, b, m);
+    kernel_avx2(c, p, b, m);
   else
-    kernel_portable(c, b, m);
+    kernel_portable(c, p, b, m);
 }
 
 const char* rebound_kernel_isa() {

@@ -25,24 +25,15 @@ namespace demfem::dem::detail {
 // gather writes entries 0 … m−1 before the kernel reads them.
 struct PairBlock {
   static constexpr std::size_t kSize = 128;
-  // inputs (gather)
-  alignas(64) double dx[kSize];  // x_i − x_j [m]
-  alignas(64) double dz[kSize];  // z_i − z_j [m]
-  alignas(64) double ri[kSize];  // [m]
-  alignas(64) double rj[kSize];  // [m]
-  alignas(64) double dvx[kSize]; // v_i − v_j [m/s]
-  alignas(64) double dvz[kSize];
-  alignas(64) double omi[kSize]; // [rad/s]
-  alignas(64) double omj[kSize];
-  alignas(64) double mi[kSize]; // [kg]
-  alignas(64) double mj[kSize];
+  // inputs (gather): the history, and the pair's friction when the particles have several
+  // materials; the kernel reads positions, velocities, radii and masses through i and j
   alignas(64) double mus[kSize]; // friction of the pair
   alignas(64) double mud[kSize];
   alignas(64) double ft[kSize];       // history: shear spring force [N]
   alignas(64) std::int64_t fl[kSize]; // history flags
   std::uint32_t i[kSize], j[kSize], k[kSize];
   // geometry (kernel), also what the scalar law needs for a `fast = 0` entry
-  alignas(64) double delta[kSize], vn[kSize], vs[kSize], meff[kSize];
+  alignas(64) double delta[kSize], vn[kSize], vs[kSize], meff[kSize], reff[kSize];
   alignas(64) double nx[kSize], nz[kSize], li[kSize], lj[kSize];
   // results of a `fast = 1` entry (kernel)
   alignas(64) double fx[kSize], fz[kSize]; // force on i [N]
@@ -54,11 +45,20 @@ struct PairBlock {
 
 struct ReboundConstants {
   double kn, ks, dt;
+  double max_overlap; // an entry above max_overlap·min(r_i, r_j) is left to the scalar path
+  bool one_material;  // true: mus0, mud0 for every pair, the block's mus, mud are not read
+  double mus0, mud0;
+};
+
+// The particle arrays the kernel reads (Particles' vectors).
+struct ParticleArrays {
+  const double *x, *z, *vx, *vz, *omega, *radius, *mass;
 };
 
 // Pass 2 over entries 0 … m−1 of the block. `simd` false: the portable build only (a benchmark
 // and test switch); true: the widest instruction set the processor has.
-void rebound_kernel(const ReboundConstants& c, PairBlock& b, std::size_t m, bool simd);
+void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
+                    bool simd);
 
 // The instruction set rebound_kernel(…, true) uses on this processor ("avx2" or "sse2").
 const char* rebound_kernel_isa();

@@ -304,6 +304,8 @@ private:
   // Verlet neighbour list (CSR, owner i < partner j) with contact history per entry.
   std::vector<std::uint32_t> nbr_start_, nbr_j_;
   std::vector<ContactHistory> nbr_hist_;
+  std::vector<std::uint32_t> nbr_i_; // owner of each entry (the blocked pair loop's flat walk)
+  void set_owners();                 // after every change of nbr_start_
   // Boundary candidates: (particle, feature) sorted by particle, with history.
   std::vector<std::uint32_t> bnd_i_, bnd_f_;
   std::vector<ContactHistory> bnd_hist_;
