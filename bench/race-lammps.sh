@@ -9,6 +9,9 @@
 #   BUSY    1: keep the other core busy (stress-ng --cpu 1) during every run (default 0)
 #   ADAPT   demfem's team with cores > 1: 1 adaptive (default, as `demfem run`), 0 the full team
 #           always (bench_dem_race's 6th argument)
+#   BASELINE 1: each repeat also runs demfem with the one-pass scalar pair loop (bench_dem_race's
+#           kernel "scalar", the loop before the blocked kernel), printed as "demfem-scalar …", and
+#           the summary adds its speed and the blocked/scalar ratio (default 0)
 #   LAMMPS_BENCH  the shared LAMMPS bench dir (default ../shared/bench/lammps-bed2d, else
 #                 /work/shared/bench/lammps-bed2d); its run.sh runs LAMMPS
 #   RACE_BIN      demfem's runner (default build/bench/bench_dem_race, else build-dem/…)
@@ -68,9 +71,12 @@ fi
 run_lammps() { # N cores
   STEPS=$STEPS CORES=$2 REPS=1 WORK="$WORK/lammps" "$LAMMPS_BENCH/run.sh" "$1"
 }
-run_demfem() { # N cores
+run_demfem() { # N cores [kernel]
   OMP_PROC_BIND=${OMP_PROC_BIND:-false} "$RACE_BIN" "$WORK/race_$1.toml" "$STEPS" "$2" 10 0 \
-    "${ADAPT:-1}" 2>>"$WORK/demfem_stderr.log"
+    "${ADAPT:-1}" "${3:-simd}" 2>>"$WORK/demfem_stderr.log"
+}
+run_demfem-scalar() { # N cores: the one-pass scalar pair loop
+  run_demfem "$1" "$2" scalar | sed 's/^demfem /demfem-scalar /'
 }
 load() { cut -d' ' -f1 /proc/loadavg; }
 
@@ -81,6 +87,7 @@ for N in $NLIST; do
   for r in $(seq 1 "$reps"); do
     for c in $CORES; do
       if [ $((r % 2)) -eq 1 ]; then order="lammps demfem"; else order="demfem lammps"; fi
+      [ "${BASELINE:-0}" = 1 ] && order="$order demfem-scalar"
       for prog in $order; do
         l0=$(load)
         line=$(run_$prog "$N" "$c")
@@ -116,6 +123,10 @@ awk -v tol="$ZTOL" '
       printf "ratio N=%s cores=%s demfem/lammps=%.2f\n", nc[1], nc[2], med["demfem"] / med["lammps"]
       d = 100 * (zm["demfem"] - zm["lammps"]) / zm["lammps"]; ok = (d <= tol && d >= -tol)
       if (!ok) bad = 1
+      if (cnt["demfem-scalar", key] > 0) { m = cnt["demfem-scalar", key]; delete a
+        for (i = 1; i <= m; i++) a[i] = v["demfem-scalar", key, i]
+        ms = median(a, m)
+        printf "baseline N=%s cores=%s demfem_scalar_median=%.3g blocked/scalar=%.2f scalar/lammps=%.2f\n", nc[1], nc[2], ms, med["demfem"] / ms, ms / med["lammps"] }
       printf "physics N=%s cores=%s Z_lammps=%.3f Z_demfem=%.3f diff=%+.2f%% %s\n", nc[1], nc[2], zm["lammps"], zm["demfem"], d, ok ? "ok" : "FAIL"
     }
     exit bad
