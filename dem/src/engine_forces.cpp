@@ -21,6 +21,34 @@ using namespace detail;
 
 // ---- forces -------------------------------------------------------------------------------------
 
+// Geometry and kinematics of the pair (i, j) for the law (sign convention: contact_laws.hpp).
+// One definition for the one-pass loop and the blocked loop's scalar path, so both compute the
+// same bits. dx, dz = x_i − x_j; rsum = r_i + r_j; d2 = dx² + dz².
+struct PairGeometry {
+  ContactInput in;
+  double nx, nz, li, lj;
+};
+inline PairGeometry pair_geometry(const Particles& p, std::uint32_t i, std::uint32_t j, double dx,
+                                  double dz, double rsum, double d2) {
+  PairGeometry g;
+  const double ri = p.radius[i], rj = p.radius[j];
+  const double dvx = p.vx[i] - p.vx[j], dvz = p.vz[i] - p.vz[j];
+  const double dist = std::sqrt(d2);
+  const double delta = rsum - dist; // eq. 2.3
+  const double inv = dist > 0.0 ? 1.0 / dist : 0.0;
+  g.nx = dx * inv; // from j to i (eq. 2.4: cos α, sin α)
+  g.nz = dz * inv;
+  const double tx = -g.nz, tz = g.nx;
+  g.li = ri - 0.5 * delta; // l_i + l_j = |x_i − x_j|
+  g.lj = rj - 0.5 * delta;
+  g.in.delta = delta;
+  g.in.vn = -(dvx * g.nx + dvz * g.nz);                                    // eq. 2.5, approach
+  g.in.vs = dvx * tx + dvz * tz - (g.li * p.omega[i] + g.lj * p.omega[j]); // eq. 2.5, slip
+  g.in.m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
+  g.in.r_eff = ri * rj / rsum;
+  return g;
+}
+
 // Particle–particle forces of the owners i0 ≤ i < i1 (pairs i < j), accumulated into fx, fz, tq
 // (the particle arrays, or one thread's buffers). energies[0..4]: friction, damping, rebound,
 // normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
@@ -38,11 +66,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
   const double dt = dt_;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
-  const double* __restrict vx = p_.vx.data();
-  const double* __restrict vz = p_.vz.data();
-  const double* __restrict om = p_.omega.data();
   const double* __restrict rad = p_.radius.data();
-  const double* __restrict mass = p_.mass.data();
   const auto& mats = config_.materials;
   const bool one_material = mats.size() == 1;
   double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
@@ -59,20 +83,11 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
       const double dx = xi - x[j], dz = zi - z[j];
       const double rsum = ri + rad[j];
       const double d2 = dx * dx + dz * dz;
-      const double dvx = vx[i] - vx[j], dvz = vz[i] - vz[j];
       if (d2 >= rsum * rsum && h.flags == 0) continue; // not touching, no history
-      const double dist = std::sqrt(d2);
-      const double delta = rsum - dist; // eq. 2.3
-      const double inv = dist > 0.0 ? 1.0 / dist : 0.0;
-      const double nx = dx * inv, nz = dz * inv; // from j to i (eq. 2.4: cos α, sin α)
+      const PairGeometry g = pair_geometry(p_, static_cast<std::uint32_t>(i), j, dx, dz, rsum, d2);
+      ContactInput in = g.in;
+      const double delta = in.delta, nx = g.nx, nz = g.nz, li = g.li, lj = g.lj;
       const double tx = -nz, tz = nx;
-      const double li = ri - 0.5 * delta, lj = rad[j] - 0.5 * delta; // l_i + l_j = |x_i − x_j|
-      ContactInput in;
-      in.delta = delta;
-      in.vn = -(dvx * nx + dvz * nz);                          // eq. 2.5, approach positive
-      in.vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5, slip
-      in.m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
-      in.r_eff = ri * rad[j] / rsum;
       if (one_material) {
         in.mu_s = mats[0].mu_s;
         in.mu_d = mats[0].mu_d;
@@ -195,7 +210,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
       cur = i;
       ContactHistory& h = hist[b.k[e]];
       double Fx, Fz, Ti, Tj;
-      if (b.fast[e] != 0) {
+      if ((b.fl_new[e] & detail::PairBlock::kSlow) == 0) {
         e_fric += b.e_fric[e];
         e_n += b.e_n[e];
         e_s += b.e_s[e];
@@ -206,13 +221,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         Fz = b.fz[e];
         Ti = b.ti[e];
         Tj = b.tj[e];
-      } else {
-        ContactInput in;
-        in.delta = b.delta[e];
-        in.vn = b.vn[e];
-        in.vs = b.vs[e];
-        in.m_eff = b.meff[e];
-        in.r_eff = b.reff[e];
+      } else { // the scalar law, on the geometry as the one-pass loop computes it
+        const double dx = x[i] - x[j], dz = z[i] - z[j];
+        const double rsum = rad[i] + rad[j];
+        const PairGeometry g = pair_geometry(p_, i, j, dx, dz, rsum, dx * dx + dz * dz);
+        ContactInput in = g.in;
         in.mu_s = one_material ? kc.mus0 : b.mus[e];
         in.mu_d = one_material ? kc.mud0 : b.mud[e];
         in.dt = kc.dt;
@@ -224,12 +237,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         e_n += r.e_normal;
         e_s += r.e_shear;
         const double fnt = r.fn + r.impulse;
-        const double nx = b.nx[e], nz = b.nz[e];
-        Fx = fnt * nx + r.ft * -nz; // eq. 2.15, t = (−n_z, n_x)
-        Fz = fnt * nz + r.ft * nx;
-        Ti = b.li[e] * r.ft;
-        Tj = b.lj[e] * r.ft;
-        if (b.delta[e] > kc.max_overlap * std::min(rad[i], rad[j]) && !failed) {
+        Fx = fnt * g.nx + r.ft * -g.nz; // eq. 2.15, t = (−n_z, n_x)
+        Fz = fnt * g.nz + r.ft * g.nx;
+        Ti = g.li * r.ft;
+        Tj = g.lj * r.ft;
+        if (in.delta > kc.max_overlap * std::min(rad[i], rad[j]) && !failed) {
           failed = true;
           fail_pair[0] = i;
           fail_pair[1] = j;

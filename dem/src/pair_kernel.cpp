@@ -11,6 +11,8 @@ namespace demfem::dem::detail {
 
 namespace {
 
+constexpr std::int64_t kSlideBit = kHistSliding;
+
 // One pass over the block, written without branches so that it vectorises. Each line is the
 // scalar loop's (engine_forces.cpp, pair_range) or the law's (contact_laws.hpp) operation.
 template <bool OneMaterial>
@@ -63,8 +65,9 @@ template <bool OneMaterial>
     const double ft = over ? ftc : ft_trial;
     const double ef = sliding ? ef_slide : ef_stick;
     b.e_fric[e] = over ? ef : 0.0;
-    const std::int64_t slide_bit = over ? std::int64_t{kHistSliding} : 0;
-    b.fl_new[e] = (fl & ~std::int64_t{kHistSliding}) | slide_bit;
+    const std::int64_t slide_bit = over ? std::int64_t{kSlideBit} : 0;
+    const std::int64_t slow_bit = fast ? 0 : std::int64_t{PairBlock::kSlow};
+    b.fl_new[e] = ((fl & ~std::int64_t{kSlideBit}) | slide_bit) | slow_bit;
     b.ft_new[e] = ft;
     b.fn[e] = fc;
     b.e_n[e] = 0.5 * kn * delta * delta; // spring energies after the step
@@ -73,16 +76,6 @@ template <bool OneMaterial>
     b.fz[e] = fc * nz + ft * tz;
     b.ti[e] = li * ft;
     b.tj[e] = lj * ft;
-    b.fast[e] = fast ? 1 : 0;
-    b.delta[e] = delta;
-    b.vn[e] = vn;
-    b.vs[e] = vs;
-    b.meff[e] = meff;
-    b.reff[e] = ri * rj / rsum;
-    b.nx[e] = nx;
-    b.nz[e] = nz;
-    b.li[e] = li;
-    b.lj[e] = lj;
   }
 }
 

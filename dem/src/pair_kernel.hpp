@@ -7,10 +7,10 @@
 //      active contact — the case of nearly every entry in a dense bed — over contiguous arrays,
 //      without branches, so that the compiler vectorises it (AVX2 where the processor has it,
 //      chosen once at run time; SSE2 otherwise). An entry outside that case (first touch, the
-//      touch/release step of the spring, an ended contact) is marked `fast = 0`;
+//      touch/release step of the spring, an ended contact) is marked kSlow;
 //   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
-//      histories written back; a `fast = 0` entry is evaluated there by the scalar law
-//      (CundallRebound::evaluate) from the geometry the kernel stored.
+//      histories written back; a kSlow entry is evaluated there by the scalar law
+//      (CundallRebound::evaluate) on the geometry the one-pass loop computes (pair_geometry).
 // Every operation of the kernel is the scalar law's, in the same order and without contraction
 // into fused multiply-adds, and the scatter adds in the scalar loop's order: results are
 // bit-identical to the one-pass loop (test DemPairKernel.BlockedLoopBitIdenticalToScalar).
@@ -32,15 +32,14 @@ struct PairBlock {
   alignas(64) double ft[kSize];       // history: shear spring force [N]
   alignas(64) std::int64_t fl[kSize]; // history flags
   std::uint32_t i[kSize], j[kSize], k[kSize];
-  // geometry (kernel), also what the scalar law needs for a `fast = 0` entry
-  alignas(64) double delta[kSize], vn[kSize], vs[kSize], meff[kSize], reff[kSize];
-  alignas(64) double nx[kSize], nz[kSize], li[kSize], lj[kSize];
-  // results of a `fast = 1` entry (kernel)
+  // results of an entry without kSlow (kernel)
   alignas(64) double fx[kSize], fz[kSize]; // force on i [N]
   alignas(64) double ti[kSize], tj[kSize]; // l_i f_t, l_j f_t [N·m]
   alignas(64) double fn[kSize], ft_new[kSize];
   alignas(64) double e_fric[kSize], e_n[kSize], e_s[kSize];
-  alignas(64) std::int64_t fl_new[kSize], fast[kSize];
+  // new history flags; kSlow set: not the kernel's case, the scalar law evaluates the entry
+  alignas(64) std::int64_t fl_new[kSize];
+  static constexpr std::int64_t kSlow = 1 << 8;
 };
 
 struct ReboundConstants {
