@@ -54,16 +54,18 @@ inline PairGeometry pair_geometry(const Particles& p, std::uint32_t i, std::uint
 // normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
 // (i, j), left unchanged when none.
 template <class Law>
-void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* __restrict fx,
-                        double* __restrict fz, double* __restrict tq, double* energies,
-                        std::uint32_t* fail_pair) {
+void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
+                        double* energies, std::uint32_t* fail_pair) {
   if constexpr (std::is_same_v<Law, CundallRebound>) {
     if (!law.p.tension && config_.pair_kernel != EngineConfig::PairKernel::scalar) {
-      pair_range_rebound(law, i0, i1, fx, fz, tq, energies, fail_pair);
+      pair_range_rebound(law, i0, i1, out, energies, fail_pair);
       return;
     }
   }
   const double dt = dt_;
+  double* __restrict fx = out.fx;
+  double* __restrict fz = out.fz;
+  double* __restrict tq = out.tq;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
@@ -115,9 +117,11 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
       fxi += Fx;
       fzi += Fz;
       ti -= li * r.ft;
-      fx[j] -= Fx;
-      fz[j] -= Fz;
-      tq[j] -= lj * r.ft;
+      const bool own = j < out.end; // else the halo of partners beyond this part's range
+      const std::size_t jj = own ? j : j - out.end;
+      (own ? fx : out.hx)[jj] -= Fx;
+      (own ? fz : out.hz)[jj] -= Fz;
+      (own ? tq : out.ht)[jj] -= lj * r.ft;
     }
     fx[i] += fxi;
     fz[i] += fzi;
@@ -134,8 +138,11 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, double* 
 // gather, the vectorised kernel, scatter in list order (pair_kernel.hpp). Bit-identical to
 // pair_range's one-pass loop.
 void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
-                                double* __restrict fx, double* __restrict fz, double* __restrict tq,
-                                double* energies, std::uint32_t* fail_pair) {
+                                const ForceTarget& out, double* energies,
+                                std::uint32_t* fail_pair) {
+  double* __restrict fx = out.fx;
+  double* __restrict fz = out.fz;
+  double* __restrict tq = out.tq;
   detail::PairBlock b; // scratch, written before it is read
   const auto& mats = config_.materials;
   const bool one_material = mats.size() == 1;
@@ -250,9 +257,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
       fxi += Fx;
       fzi += Fz;
       ti -= Ti;
-      fx[j] -= Fx;
-      fz[j] -= Fz;
-      tq[j] -= Tj;
+      const bool own = j < out.end; // else the halo of partners beyond this part's range
+      const std::size_t jj = own ? j : j - out.end;
+      (own ? fx : out.hx)[jj] -= Fx;
+      (own ? fz : out.hz)[jj] -= Fz;
+      (own ? tq : out.ht)[jj] -= Tj;
     }
   }
   if (kend > start[i0]) {
@@ -298,12 +307,13 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   double en[5] = {0, 0, 0, 0, 0};
   std::uint32_t fail[2] = {~0u, ~0u};
   if (T <= 1) {
-    pair_range(law, 0, n, p_.fx.data(), p_.fz.data(), p_.torque.data(), en, fail);
+    const ForceTarget ft{
+        p_.fx.data(), p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n};
+    pair_range(law, 0, n, ft, en, fail);
   } else {
-    // Deterministic for a fixed thread count: thread t takes the owners in split_[t]…split_[t+1]
-    // (equal shares of pair entries) and accumulates into its own buffers; the buffers are then
-    // summed per particle in thread order.
-    const auto tcount = static_cast<std::size_t>(T);
+    // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
+    // (equal shares of pair entries).
+    const auto tcount = std::min(static_cast<std::size_t>(T), kMaxParts);
     split_.assign(tcount + 1, n);
     split_[0] = 0;
     const std::uint32_t total = nbr_start_[n];
@@ -316,40 +326,48 @@ template <class Law> void Engine::pair_forces(const Law& law) {
           nbr_start_.begin());
       split_[t] = std::max(split_[t], split_[t - 1]);
     }
-    // Part 0 accumulates straight into the (zeroed) particle force arrays, parts 1 … T−1 into
-    // their own buffers, which are then added per particle in part order: f = f₀ + (f₁ + …).
-    if (tbuf_.size() < 3 * n * (tcount - 1)) tbuf_.resize(3 * n * (tcount - 1));
-    std::vector<double> ten(5 * tcount, 0.0);
-    std::vector<std::uint32_t> tfail(2 * tcount, ~0u);
+    // Part t (owners s_t … s_{t+1} − 1) adds straight into the particle force arrays for the
+    // particles of its own range (its owners, and partners j < s_{t+1}: a partner is never below
+    // its owner) and into its halo buffer for partners beyond it (j ≥ s_{t+1}); no two parts write
+    // the same element. The halos are then added per particle in part order, so the result
+    // depends on T only, whichever threads run the parts (the adaptive team).
+    std::size_t halo = 0;
+    for (std::size_t t = 0; t + 1 < tcount; ++t) halo += n - split_[t + 1];
+    if (tbuf_.size() < 3 * halo) tbuf_.resize(3 * halo);
+    double ten[5 * kMaxParts] = {};
+    std::uint32_t tfail[2 * kMaxParts];
+    std::fill(tfail, tfail + 2 * tcount, ~0u);
     double* buf = tbuf_.data();
     double* fxo = p_.fx.data();
     double* fzo = p_.fz.data();
     double* tqo = p_.torque.data();
+    auto halo_of = [&](std::size_t t) { // part t's halo: 3 arrays of n − s_{t+1} values
+      std::size_t off = 0;
+      for (std::size_t u = 0; u < t; ++u) off += 3 * (n - split_[u + 1]);
+      return buf + off;
+    };
 #pragma omp parallel num_threads(team_size())
     {
-      // Part t of the T parts always accumulates into buffer t, whichever thread runs it: the
-      // result depends on T only, not on how many threads the adaptive team has right now.
       const auto [t0, ts] = team_member();
       for (std::size_t t = t0; t < tcount; t += ts) {
-        double* bx = t == 0 ? fxo : buf + 3 * n * (t - 1);
-        double* bz = t == 0 ? fzo : bx + n;
-        double* bt = t == 0 ? tqo : bz + n;
-        if (t > 0) std::fill(bx, bx + 3 * n, 0.0);
-        pair_range(law, split_[t], split_[t + 1], bx, bz, bt, &ten[5 * t], &tfail[2 * t]);
+        const std::size_t end = split_[t + 1], h = n - end;
+        double* hb = t + 1 < tcount ? halo_of(t) : nullptr;
+        if (hb) std::fill(hb, hb + 3 * h, 0.0);
+        const ForceTarget ft{fxo, fzo, tqo, hb, hb ? hb + h : nullptr, hb ? hb + 2 * h : nullptr,
+                             end};
+        pair_range(law, split_[t], end, ft, &ten[5 * t], &tfail[2 * t]);
       }
 #pragma omp barrier
-#pragma omp for schedule(static)
-      for (std::size_t i = 0; i < n; ++i) {
-        double sx = 0.0, sz = 0.0, st = 0.0;
-        for (std::size_t u = 0; u + 1 < tcount; ++u) {
-          sx += buf[3 * n * u + i];
-          sz += buf[3 * n * u + n + i];
-          st += buf[3 * n * u + 2 * n + i];
+      for (std::size_t u = t0 + 1; u < tcount; u += ts) // part u's particles: halos of parts < u
+        for (std::size_t t = 0; t < u; ++t) {
+          const std::size_t end = split_[t + 1], h = n - end;
+          const double* hx = halo_of(t);
+          for (std::size_t i = split_[u]; i < split_[u + 1]; ++i) {
+            fxo[i] += hx[i - end];
+            fzo[i] += hx[h + i - end];
+            tqo[i] += hx[2 * h + i - end];
+          }
         }
-        fxo[i] += sx;
-        fzo[i] += sz;
-        tqo[i] += st;
-      }
     }
     for (std::size_t t = 0; t < tcount; ++t) {
       for (int q = 0; q < 5; ++q) en[q] += ten[5 * t + static_cast<std::size_t>(q)];

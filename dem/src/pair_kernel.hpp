@@ -1,13 +1,14 @@
 // Internal to the DEM engine: the blocked pair kernel of the paper's law (cundall-rebound without
 // tension), issue 12 item 3. The pair loop runs in three passes over blocks of list entries:
-//   1. gather (engine_forces.cpp): every list entry of the block's owners is written into the
-//      block's arrays, and the block count advances only for a touching entry or one with history
-//      (branch-free compaction);
+//   1. gather (engine_forces.cpp): for kSize consecutive list entries, the pair (i, j), the entry
+//      and its history are written into the block, and the block count advances only for a
+//      touching entry or one with history (branch-free compaction);
 //   2. kernel (this file, pair_kernel.cpp): geometry, kinematics and the law of a closed, already
-//      active contact — the case of nearly every entry in a dense bed — over contiguous arrays,
-//      without branches, so that the compiler vectorises it (AVX2 where the processor has it,
-//      chosen once at run time; SSE2 otherwise). An entry outside that case (first touch, the
-//      touch/release step of the spring, an ended contact) is marked kSlow;
+//      active contact — the case of nearly every entry in a dense bed — reading the particle
+//      arrays through i and j, without branches, so that the compiler vectorises it (AVX2 where
+//      the processor has it, chosen once at run time; SSE2 otherwise). An entry outside that case
+//      (first touch, the touch/release step of the spring, an ended contact, an overlap above
+//      max_overlap) is marked kSlow;
 //   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
 //      histories written back; a kSlow entry is evaluated there by the scalar law
 //      (CundallRebound::evaluate) on the geometry the one-pass loop computes (pair_geometry).

@@ -260,11 +260,19 @@ private:
   void compute_mass(std::uint32_t i);
   Boundary new_boundary(const std::string& name, const std::vector<scene::Vec2>& points,
                         std::optional<double> mu_s, std::optional<double> mu_d);
+  // Where one part of the pair loop adds its forces: the particle arrays for the particles below
+  // `end` (its own range), the halo arrays (index j − end) for the partners beyond it.
+  struct ForceTarget {
+    double *fx, *fz, *tq;
+    double *hx, *hz, *ht;
+    std::size_t end;
+  };
+  static constexpr std::size_t kMaxParts = 64;
   template <class Law>
-  void pair_range(const Law& law, std::size_t i0, std::size_t i1, double* fx, double* fz,
-                  double* tq, double* energies, std::uint32_t* fail_pair);
-  void pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1, double* fx,
-                          double* fz, double* tq, double* energies, std::uint32_t* fail_pair);
+  void pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
+                  double* energies, std::uint32_t* fail_pair);
+  void pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
+                          const ForceTarget& out, double* energies, std::uint32_t* fail_pair);
   void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
                        std::size_t* bad);
   // Inside a parallel region: (this thread's number, team size).
@@ -321,7 +329,8 @@ private:
   double e_normal_ = 0.0, e_shear_ = 0.0; // spring energies, last step
   double pe_ref_ = 0.0;
   bool pe_ref_set_ = false;
-  // Per-thread force buffers (fx, fz, torque per thread) and owner ranges of the pair loop.
+  // Halo force buffers of the pair loop's parts (fx, fz, torque of the partners beyond each part's
+  // range) and the parts' owner ranges.
   std::vector<double> tbuf_;
   std::vector<std::size_t> split_;
   // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
