@@ -49,6 +49,52 @@ inline PairGeometry pair_geometry(const Particles& p, std::uint32_t i, std::uint
   return g;
 }
 
+// Energy sums of a range of pairs: friction, damping, rebound, normal spring, shear spring.
+struct PairEnergies {
+  double fric = 0.0, damp = 0.0, reb = 0.0, n = 0.0, s = 0.0;
+  void add_to(double* e) const {
+    e[0] += fric;
+    e[1] += damp;
+    e[2] += reb;
+    e[3] += n;
+    e[4] += s;
+  }
+};
+
+// One pair through the law: its energies are added to `en`; false when the contact ended (no
+// force), else the force on i (fx, fz: eq. 2.15, t = (−n_z, n_x)) and the torque terms l_i f_t,
+// l_j f_t.
+struct PairForce {
+  double fx, fz, ti, tj;
+};
+template <class Law>
+inline bool law_on_pair(const Law& law, const PairGeometry& g, const ContactInput& in,
+                        ContactHistory& h, PairEnergies& en, PairForce& f) {
+  const ContactResult r = law.evaluate(in, h);
+  en.fric += r.e_friction;
+  if (!r.touching) return false;
+  en.damp += r.e_damping;
+  en.reb += r.e_rebound;
+  en.n += r.e_normal;
+  en.s += r.e_shear;
+  const double fnt = r.fn + r.impulse;
+  f.fx = fnt * g.nx + r.ft * -g.nz;
+  f.fz = fnt * g.nz + r.ft * g.nx;
+  f.ti = g.li * r.ft;
+  f.tj = g.lj * r.ft;
+  return true;
+}
+
+// The first pair whose overlap exceeds max_overlap·min(r_i, r_j) (the blow-up check).
+inline void note_overlap(double delta, double limit, std::uint32_t i, std::uint32_t j, bool& failed,
+                         std::uint32_t* fail_pair) {
+  if (delta > limit && !failed) {
+    failed = true;
+    fail_pair[0] = i;
+    fail_pair[1] = j;
+  }
+}
+
 // Particle–particle forces of the owners i0 ≤ i < i1 (pairs i < j), accumulated into fx, fz, tq
 // (the particle arrays, or one thread's buffers). energies[0..4]: friction, damping, rebound,
 // normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
@@ -71,7 +117,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
   const double* __restrict rad = p_.radius.data();
   const auto& mats = config_.materials;
   const bool one_material = mats.size() == 1;
-  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  PairEnergies en;
   const double max_ov = config_.max_overlap;
   bool failed = fail_pair[0] != ~0u;
   for (std::size_t i = i0; i < i1; ++i) {
@@ -88,8 +134,6 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
       if (d2 >= rsum * rsum && h.flags == 0) continue; // not touching, no history
       const PairGeometry g = pair_geometry(p_, static_cast<std::uint32_t>(i), j, dx, dz, rsum, d2);
       ContactInput in = g.in;
-      const double delta = in.delta, nx = g.nx, nz = g.nz, li = g.li, lj = g.lj;
-      const double tx = -nz, tz = nx;
       if (one_material) {
         in.mu_s = mats[0].mu_s;
         in.mu_d = mats[0].mu_d;
@@ -100,38 +144,20 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
         in.mu_d = std::min(a.mu_d, b.mu_d);
       }
       in.dt = dt;
-      const ContactResult r = law.evaluate(in, h);
-      e_fric += r.e_friction;
-      if (!r.touching) continue;
-      e_damp += r.e_damping;
-      e_reb += r.e_rebound;
-      e_n += r.e_normal;
-      e_s += r.e_shear;
-      if (delta > max_ov * std::min(ri, rad[j]) && !failed) {
-        failed = true;
-        fail_pair[0] = static_cast<std::uint32_t>(i);
-        fail_pair[1] = j;
-      }
-      const double fnt = r.fn + r.impulse;
-      const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz; // eq. 2.15
-      fxi += Fx;
-      fzi += Fz;
-      ti -= li * r.ft;
-      const bool own = j < out.end; // else the halo of partners beyond this part's range
-      const std::size_t jj = own ? j : j - out.end;
-      (own ? fx : out.hx)[jj] -= Fx;
-      (own ? fz : out.hz)[jj] -= Fz;
-      (own ? tq : out.ht)[jj] -= lj * r.ft;
+      PairForce f;
+      if (!law_on_pair(law, g, in, h, en, f)) continue;
+      note_overlap(in.delta, max_ov * std::min(ri, rad[j]), static_cast<std::uint32_t>(i), j,
+                   failed, fail_pair);
+      fxi += f.fx;
+      fzi += f.fz;
+      ti -= f.ti;
+      out.add_to_partner(j, f.fx, f.fz, f.tj);
     }
     fx[i] += fxi;
     fz[i] += fzi;
     tq[i] += ti;
   }
-  energies[0] += e_fric;
-  energies[1] += e_damp;
-  energies[2] += e_reb;
-  energies[3] += e_n;
-  energies[4] += e_s;
+  en.add_to(energies);
 }
 
 // The same pair loop for cundall-rebound without tension, in blocks of compacted entries:
@@ -158,7 +184,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   const std::uint32_t* __restrict start = nbr_start_.data();
   const std::uint32_t* __restrict partner = nbr_j_.data();
   ContactHistory* __restrict hist = nbr_hist_.data();
-  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  PairEnergies en;
   bool failed = fail_pair[0] != ~0u;
   const std::uint32_t* __restrict owner = nbr_i_.data();
   // The owner whose forces are being summed: its sums are added to its arrays when the owner
@@ -216,18 +242,15 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
       ti = next_owner ? 0.0 : ti;
       cur = i;
       ContactHistory& h = hist[b.k[e]];
-      double Fx, Fz, Ti, Tj;
+      PairForce f;
       if ((b.fl_new[e] & detail::PairBlock::kSlow) == 0) {
-        e_fric += b.e_fric[e];
-        e_n += b.e_n[e];
-        e_s += b.e_s[e];
+        en.fric += b.e_fric[e];
+        en.n += b.e_n[e];
+        en.s += b.e_s[e];
         h.ft = b.ft_new[e];
         h.flags = static_cast<std::uint8_t>(b.fl_new[e]);
         h.fn = static_cast<float>(b.fn[e]);
-        Fx = b.fx[e];
-        Fz = b.fz[e];
-        Ti = b.ti[e];
-        Tj = b.tj[e];
+        f = {b.fx[e], b.fz[e], b.ti[e], b.tj[e]};
       } else { // the scalar law, on the geometry as the one-pass loop computes it
         const double dx = x[i] - x[j], dz = z[i] - z[j];
         const double rsum = rad[i] + rad[j];
@@ -236,32 +259,13 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         in.mu_s = one_material ? kc.mus0 : b.mus[e];
         in.mu_d = one_material ? kc.mud0 : b.mud[e];
         in.dt = kc.dt;
-        const ContactResult r = law.evaluate(in, h);
-        e_fric += r.e_friction;
-        if (!r.touching) continue;
-        e_damp += r.e_damping;
-        e_reb += r.e_rebound;
-        e_n += r.e_normal;
-        e_s += r.e_shear;
-        const double fnt = r.fn + r.impulse;
-        Fx = fnt * g.nx + r.ft * -g.nz; // eq. 2.15, t = (−n_z, n_x)
-        Fz = fnt * g.nz + r.ft * g.nx;
-        Ti = g.li * r.ft;
-        Tj = g.lj * r.ft;
-        if (in.delta > kc.max_overlap * std::min(rad[i], rad[j]) && !failed) {
-          failed = true;
-          fail_pair[0] = i;
-          fail_pair[1] = j;
-        }
+        if (!law_on_pair(law, g, in, h, en, f)) continue;
+        note_overlap(in.delta, kc.max_overlap * std::min(rad[i], rad[j]), i, j, failed, fail_pair);
       }
-      fxi += Fx;
-      fzi += Fz;
-      ti -= Ti;
-      const bool own = j < out.end; // else the halo of partners beyond this part's range
-      const std::size_t jj = own ? j : j - out.end;
-      (own ? fx : out.hx)[jj] -= Fx;
-      (own ? fz : out.hz)[jj] -= Fz;
-      (own ? tq : out.ht)[jj] -= Tj;
+      fxi += f.fx;
+      fzi += f.fz;
+      ti -= f.ti;
+      out.add_to_partner(j, f.fx, f.fz, f.tj);
     }
   }
   if (kend > start[i0]) {
@@ -269,11 +273,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
     fz[cur] += fzi;
     tq[cur] += ti;
   }
-  energies[0] += e_fric;
-  energies[1] += e_damp;
-  energies[2] += e_reb;
-  energies[3] += e_n;
-  energies[4] += e_s;
+  en.add_to(energies);
 }
 
 int Engine::team_size() const {

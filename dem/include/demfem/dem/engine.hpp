@@ -150,6 +150,23 @@ struct Boundary {
   double reaction_x = 0.0, reaction_z = 0.0; // force of the particles on it, last step [N]
 };
 
+namespace detail {
+// Where one part of the pair loop adds its forces: the particle arrays for the particles below
+// `end` (its own range), the halo arrays (index j − end) for the partners beyond it.
+struct ForceTarget {
+  double *fx, *fz, *tq;
+  double *hx, *hz, *ht;
+  std::size_t end;
+  void add_to_partner(std::uint32_t j, double Fx, double Fz, double Tj) const {
+    const bool own = j < end; // else the halo of partners beyond this part's range
+    const std::size_t jj = own ? j : j - end;
+    (own ? fx : hx)[jj] -= Fx;
+    (own ? fz : hz)[jj] -= Fz;
+    (own ? tq : ht)[jj] -= Tj;
+  }
+};
+} // namespace detail
+
 class Engine {
 public:
   explicit Engine(EngineConfig config);
@@ -260,13 +277,7 @@ private:
   void compute_mass(std::uint32_t i);
   Boundary new_boundary(const std::string& name, const std::vector<scene::Vec2>& points,
                         std::optional<double> mu_s, std::optional<double> mu_d);
-  // Where one part of the pair loop adds its forces: the particle arrays for the particles below
-  // `end` (its own range), the halo arrays (index j − end) for the partners beyond it.
-  struct ForceTarget {
-    double *fx, *fz, *tq;
-    double *hx, *hz, *ht;
-    std::size_t end;
-  };
+  using ForceTarget = detail::ForceTarget;
   static constexpr std::size_t kMaxParts = 64;
   template <class Law>
   void pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
