@@ -119,8 +119,4 @@ void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBloc
     kernel_portable(c, p, b, m);
 }
 
-const char* rebound_kernel_isa() {
-  return have_avx2() ? "avx2" : "sse2";
-}
-
 } // namespace demfem::dem::detail

@@ -60,7 +60,5 @@ struct ParticleArrays {
 void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
                     bool simd);
 
-// The instruction set rebound_kernel(…, true) uses on this processor ("avx2" or "sse2").
-const char* rebound_kernel_isa();
 
 } // namespace demfem::dem::detail
