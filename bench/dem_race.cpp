@@ -7,14 +7,14 @@
 // distance ≤ r_i + r_j) / N, wall contacts excluded, averaged over `zn` samples taken every
 // steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
 // Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
-//        [kernel=simd|portable|scalar]
+//        [kernel=simd|portable|scalar] [order=columns|morton]
 // adaptive=0: the full team of `threads` always (no adaptive team, EngineConfig::adaptive_threads);
 // adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1] "
-                 "[kernel=simd|portable|scalar]\n");
+                 "[kernel=simd|portable|scalar] [order=columns|morton]\n");
     return 2;
   }
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
@@ -75,6 +75,15 @@ int main(int argc, char** argv) {
   else if (kernel != "simd") {
     std::fprintf(stderr, "bench_dem_race: kernel must be simd, portable or scalar, not '%s'\n",
                  kernel.c_str());
+    return 2;
+  }
+  // 8th argument: the particle order of the reorder (EngineConfig::particle_order)
+  const std::string order = argc > 8 ? argv[8] : "columns";
+  if (order == "morton")
+    cfg.particle_order = dem::EngineConfig::ParticleOrder::morton;
+  else if (order != "columns") {
+    std::fprintf(stderr, "bench_dem_race: order must be columns or morton, not '%s'\n",
+                 order.c_str());
     return 2;
   }
   dem::Engine e(cfg);

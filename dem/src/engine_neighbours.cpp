@@ -1,4 +1,4 @@
-// Engine: Verlet neighbour list — displacement check, space-filling-curve reorder, cell-grid
+// Engine: Verlet neighbour list — displacement check, cache-friendly reorder, cell-grid
 // rebuild with the contact history carried over.
 #include "demfem/dem/engine.hpp"
 
@@ -78,11 +78,20 @@ void Engine::check_rebuild() {
 void Engine::reorder() {
   const std::size_t n = p_.size();
   if (n < 2) return;
-  double xmin = p_.x[0], zmin = p_.z[0];
+  double xmin = std::numeric_limits<double>::infinity(), zmin = xmin;
+  double xmax = -xmin, zmax = -xmin;
   for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(p_.x[i]) || !std::isfinite(p_.z[i])) continue;
     xmin = std::min(xmin, p_.x[i]);
     zmin = std::min(zmin, p_.z[i]);
+    xmax = std::max(xmax, p_.x[i]);
+    zmax = std::max(zmax, p_.z[i]);
   }
+  if (!(xmin <= xmax)) return; // no finite position
+  // Columns across the longer side: the column index is the major key, the cell along the
+  // column the minor one (a particle's neighbours are then within ~2 columns of it in memory).
+  const bool morton_order = config_.particle_order == EngineConfig::ParticleOrder::morton;
+  const bool x_major = xmax - xmin >= zmax - zmin;
   const double h = 2.0 * r_max_;
   std::vector<std::uint64_t> key(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -92,7 +101,9 @@ void Engine::reorder() {
     }
     const auto cx = static_cast<std::uint32_t>(std::min((p_.x[i] - xmin) / h, 1.0e9));
     const auto cz = static_cast<std::uint32_t>(std::min((p_.z[i] - zmin) / h, 1.0e9));
-    key[i] = morton(cx, cz);
+    key[i] = morton_order ? morton(cx, cz)
+             : x_major    ? (static_cast<std::uint64_t>(cx) << 32) | cz
+                          : (static_cast<std::uint64_t>(cz) << 32) | cx;
   }
   std::vector<std::uint32_t> order(n);
   std::iota(order.begin(), order.end(), 0u);
@@ -152,8 +163,8 @@ void Engine::rebuild() {
   const int T = threads_in_use();
   const auto tcount = static_cast<std::size_t>(T);
   skin_ = config_.skin_factor * r_min_;
-  // Space-filling-curve order every reorder_every rebuilds, and at the first rebuild of a large
-  // set (its input order may be anything; small sets keep theirs, which tests index by).
+  // Particle order (columns or Morton) every reorder_every rebuilds, and at the first rebuild of a
+  // large set (its input order may be anything; small sets keep theirs, which tests index by).
   const bool first_large = stats_.neighbour_rebuilds == 0 && n >= kReorderFirstMin;
   if (config_.reorder_every > 0 &&
       (first_large || rebuilds_since_reorder_ >= config_.reorder_every)) {

@@ -563,3 +563,39 @@ TEST(DemMass, SphereAndDiskConventions) {
   EXPECT_NEAR(sph.particles().mass[0], ms, 1e-12 * ms);
   EXPECT_NEAR(1.0 / sph.particles().inv_inertia[0], 0.4 * ms * 0.05 * 0.05, 1e-12 * ms);
 }
+
+// Particle order (issue 12): the reorder puts the particles of a wide bed in columns across x
+// (a tall one in rows across z), so every touching pair lies within about two columns of
+// particles in memory. A 400 × 12 lattice (4,800 disks, reordered at the first rebuild) is added
+// row by row, where vertical neighbours are 400 apart; after one step every contact's |i − j| is
+// at most 3 columns (36). The Z-order curve it replaced has pairs 88–162 apart here (the check
+// that the bound can fail).
+TEST(DemNeighbours, ColumnOrderKeepsTouchingPairsWithinThreeColumns) {
+  auto max_distance = [](EngineConfig::ParticleOrder order, bool tall) {
+    EngineConfig c = base_config();
+    c.particle_order = order;
+    Engine e(c);
+    const int along = 400, across = 12;
+    for (int a = 0; a < along; ++a)
+      for (int b = 0; b < across; ++b) {
+        const double u = 0.1 * (a % 2 == 0 ? b : across - 1 - b); // any input order
+        const double v = 0.1 * a;
+        e.add_particle(tall ? u : v, tall ? v : u, 0.0505);
+      }
+    e.set_dt(e.auto_dt());
+    e.step();
+    EXPECT_EQ(e.stats().reorders, 1);
+    std::vector<ContactView> cv;
+    e.contacts(cv);
+    EXPECT_GT(cv.size(), 9000u); // ~2 contacts per disk: the lattice touches
+    std::int64_t dmax = 0;
+    for (const auto& v : cv)
+      if (v.j >= 0) dmax = std::max<std::int64_t>(dmax, std::abs(std::int64_t(v.j) - v.i));
+    return dmax;
+  };
+  for (const bool tall : {false, true}) {
+    SCOPED_TRACE(tall ? "tall bed" : "wide bed");
+    EXPECT_LE(max_distance(EngineConfig::ParticleOrder::columns, tall), 36);
+    EXPECT_GT(max_distance(EngineConfig::ParticleOrder::morton, tall), 72);
+  }
+}

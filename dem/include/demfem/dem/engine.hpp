@@ -58,7 +58,13 @@ struct EngineConfig {
   scene::TimeFunction shaking_acceleration;
   // Neighbour search
   double skin_factor = 0.3; // Verlet skin = skin_factor · r_min
-  int reorder_every = 25; // space-filling-curve reordering every … neighbour rebuilds (0 = never)
+  int reorder_every = 25;   // particle reordering every … neighbour rebuilds (0 = never)
+  // The order reorder() gives the particles, by their cell of size 2·r_max: `columns` cuts the
+  // bed into columns across its longer side and runs along each column (the neighbours of a
+  // particle lie within about two columns' particles of it in memory, so the pair loop's partner
+  // reads stay in cache: 1.3–1.5× the step of `morton` at 10⁵ disks, bench/RESULTS.md);
+  // `morton` is the Z-order curve (the order before issue 12's column change).
+  enum class ParticleOrder { columns, morton } particle_order = ParticleOrder::columns;
   // Threads (OpenMP) for the force loop and the integration: 0 = OpenMP default. Results are
   // bit-identical between runs at the same count, and equal to round-off across counts.
   int threads = 1;
