@@ -361,9 +361,10 @@ void Engine::integrate() {
     integrate_range(0, n, ax_body, az_body, sums, &bad);
   } else {
     // Static contiguous chunks; partial sums combined in thread order (deterministic per count).
-    const auto tcount = static_cast<std::size_t>(T);
-    std::vector<double> ts(2 * tcount, 0.0);
-    std::vector<std::size_t> tb(tcount, none);
+    const auto tcount = std::min(static_cast<std::size_t>(T), kMaxParts);
+    double ts[2 * kMaxParts] = {};
+    std::size_t tb[kMaxParts];
+    std::fill(tb, tb + tcount, none);
 #pragma omp parallel num_threads(team_size())
     {
       const auto [t0, tstride] = team_member();

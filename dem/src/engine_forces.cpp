@@ -307,32 +307,47 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   double en[5] = {0, 0, 0, 0, 0};
   std::uint32_t fail[2] = {~0u, ~0u};
   if (T <= 1) {
+    std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
+    std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
+    std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
     const ForceTarget ft{
         p_.fx.data(), p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n};
     pair_range(law, 0, n, ft, en, fail);
   } else {
     // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
-    // (equal shares of pair entries).
+    // (equal shares of pair entries). Computed once per list.
     const auto tcount = std::min(static_cast<std::size_t>(T), kMaxParts);
-    split_.assign(tcount + 1, n);
-    split_[0] = 0;
-    const std::uint32_t total = nbr_start_[n];
-    for (std::size_t t = 1; t < tcount; ++t) {
-      const auto target = static_cast<std::uint32_t>(
-          static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
-      split_[t] = static_cast<std::size_t>(
-          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n),
-                           target) -
-          nbr_start_.begin());
-      split_[t] = std::max(split_[t], split_[t - 1]);
+    if (parts_version_ != list_version_ || split_.size() != tcount + 1) {
+      split_.assign(tcount + 1, n);
+      split_[0] = 0;
+      const std::uint32_t total = nbr_start_[n];
+      for (std::size_t t = 1; t < tcount; ++t) {
+        const auto target = static_cast<std::uint32_t>(
+            static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
+        split_[t] = static_cast<std::size_t>(
+            std::lower_bound(nbr_start_.begin(),
+                             nbr_start_.begin() + static_cast<std::ptrdiff_t>(n), target) -
+            nbr_start_.begin());
+        split_[t] = std::max(split_[t], split_[t - 1]);
+      }
+      // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
+      // couple of columns past its range, not the rest of the particles.
+      halo_end_.assign(tcount, n);
+      for (std::size_t t = 0; t < tcount; ++t) {
+        std::size_t e = split_[t + 1];
+        for (std::uint32_t k = nbr_start_[split_[t]]; k < nbr_start_[split_[t + 1]]; ++k)
+          e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
+        halo_end_[t] = e;
+      }
+      parts_version_ = list_version_;
     }
     // Part t (owners s_t … s_{t+1} − 1) adds straight into the particle force arrays for the
     // particles of its own range (its owners, and partners j < s_{t+1}: a partner is never below
-    // its owner) and into its halo buffer for partners beyond it (j ≥ s_{t+1}); no two parts write
-    // the same element. The halos are then added per particle in part order, so the result
-    // depends on T only, whichever threads run the parts (the adaptive team).
+    // its owner) and into its halo buffer for partners beyond it (s_{t+1} ≤ j < halo_end_[t]); no
+    // two parts write the same element. The halos are then added per particle in part order, so
+    // the result depends on T only, whichever threads run the parts (the adaptive team).
     std::size_t halo = 0;
-    for (std::size_t t = 0; t + 1 < tcount; ++t) halo += n - split_[t + 1];
+    for (std::size_t t = 0; t < tcount; ++t) halo += halo_end_[t] - split_[t + 1];
     if (tbuf_.size() < 3 * halo) tbuf_.resize(3 * halo);
     double ten[5 * kMaxParts] = {};
     std::uint32_t tfail[2 * kMaxParts];
@@ -341,18 +356,22 @@ template <class Law> void Engine::pair_forces(const Law& law) {
     double* fxo = p_.fx.data();
     double* fzo = p_.fz.data();
     double* tqo = p_.torque.data();
-    auto halo_of = [&](std::size_t t) { // part t's halo: 3 arrays of n − s_{t+1} values
+    auto halo_of = [&](std::size_t t) { // part t's halo: 3 arrays of halo_end_[t] − s_{t+1} values
       std::size_t off = 0;
-      for (std::size_t u = 0; u < t; ++u) off += 3 * (n - split_[u + 1]);
+      for (std::size_t u = 0; u < t; ++u) off += 3 * (halo_end_[u] - split_[u + 1]);
       return buf + off;
     };
 #pragma omp parallel num_threads(team_size())
     {
       const auto [t0, ts] = team_member();
       for (std::size_t t = t0; t < tcount; t += ts) {
-        const std::size_t end = split_[t + 1], h = n - end;
-        double* hb = t + 1 < tcount ? halo_of(t) : nullptr;
+        const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
+        double* hb = h > 0 ? halo_of(t) : nullptr;
         if (hb) std::fill(hb, hb + 3 * h, 0.0);
+        // The part's own range is written by this part only (until the halo sums below).
+        std::fill(fxo + split_[t], fxo + end, 0.0);
+        std::fill(fzo + split_[t], fzo + end, 0.0);
+        std::fill(tqo + split_[t], tqo + end, 0.0);
         const ForceTarget ft{fxo, fzo, tqo, hb, hb ? hb + h : nullptr, hb ? hb + 2 * h : nullptr,
                              end};
         pair_range(law, split_[t], end, ft, &ten[5 * t], &tfail[2 * t]);
@@ -360,9 +379,9 @@ template <class Law> void Engine::pair_forces(const Law& law) {
 #pragma omp barrier
       for (std::size_t u = t0 + 1; u < tcount; u += ts) // part u's particles: halos of parts < u
         for (std::size_t t = 0; t < u; ++t) {
-          const std::size_t end = split_[t + 1], h = n - end;
+          const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
           const double* hx = halo_of(t);
-          for (std::size_t i = split_[u]; i < split_[u + 1]; ++i) {
+          for (std::size_t i = split_[u]; i < std::min(split_[u + 1], halo_end_[t]); ++i) {
             fxo[i] += hx[i - end];
             fzo[i] += hx[h + i - end];
             tqo[i] += hx[2 * h + i - end];
@@ -508,9 +527,6 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
 }
 
 void Engine::compute_forces() {
-  std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
-  std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
-  std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
   std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
       [this](const auto& law) {
         pair_forces(law);

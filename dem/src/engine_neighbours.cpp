@@ -35,6 +35,7 @@ void Engine::update_boundary_vertices() {
 }
 
 void Engine::set_owners() {
+  ++list_version_; // the pair loop's parts are recomputed for this list
   nbr_i_.resize(nbr_j_.size());
   for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
     std::fill(nbr_i_.begin() + nbr_start_[i], nbr_i_.begin() + nbr_start_[i + 1],

@@ -271,6 +271,8 @@ public:
   void boundary_vertices(int b, std::vector<scene::Vec2>& out) const;
 
 private:
+  // Sets fx, fz, torque of every particle to its particle–particle forces (each part zeroes and
+  // fills its own range); boundary_forces then adds the walls' and structures'.
   template <class Law> void pair_forces(const Law& law);
   template <class Law> void boundary_forces(const Law& law);
   void compute_forces();
@@ -347,9 +349,11 @@ private:
   double pe_ref_ = 0.0;
   bool pe_ref_set_ = false;
   // Halo force buffers of the pair loop's parts (fx, fz, torque of the partners beyond each part's
-  // range) and the parts' owner ranges.
+  // range), the parts' owner ranges, and the end of each part's halo (one past its largest
+  // partner), computed for the list of version parts_version_ (list_version_ counts the lists).
   std::vector<double> tbuf_;
-  std::vector<std::size_t> split_;
+  std::vector<std::size_t> split_, halo_end_;
+  std::uint64_t list_version_ = 0, parts_version_ = ~0ull;
   // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
   std::vector<std::uint32_t> cell_of_, cell_start_, cell_items_;
 };
