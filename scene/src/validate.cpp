@@ -3,10 +3,14 @@
 #include "demfem/scene/validate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <string_view>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -15,6 +19,61 @@
 namespace demfem::scene {
 
 namespace {
+
+// The first `limit` particle pairs (i, j), j < i, in order of i then j, whose overlap
+// r_i + r_j − |c_i − c_j| exceeds max_overlap·min(r_i, r_j) (the engine's blow-up check). A cell
+// grid of size 2·r_max (sorted cell keys, candidates per cell by binary search): O(n log n), so
+// particle files of any size are checked.
+std::vector<std::pair<std::size_t, std::size_t>>
+overlapping_pairs(const std::vector<std::array<double, 6>>& p, double max_overlap,
+                  std::size_t limit) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  const std::size_t n = p.size();
+  double x0 = INFINITY, z0 = INFINITY, rmax = 0.0;
+  for (const auto& a : p)
+    if (std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2])) {
+      x0 = std::min(x0, a[0]);
+      z0 = std::min(z0, a[1]);
+      rmax = std::max(rmax, a[2]);
+    }
+  if (n < 2 || !(rmax > 0.0) || !std::isfinite(x0)) return out;
+  const double h = 2.0 * rmax; // any touching pair is in the same or an adjacent cell
+  auto cell = [&](const std::array<double, 6>& a) {
+    return std::pair<std::int64_t, std::int64_t>{
+        static_cast<std::int64_t>(std::min((a[0] - x0) / h, 1.0e15)),
+        static_cast<std::int64_t>(std::min((a[1] - z0) / h, 1.0e15))};
+  };
+  std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::size_t>> keyed;
+  keyed.reserve(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (std::isfinite(p[i][0]) && std::isfinite(p[i][1]) && std::isfinite(p[i][2]))
+      keyed.push_back({cell(p[i]), i});
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::size_t> cand;
+  for (std::size_t i = 0; i < n && out.size() < limit; ++i) {
+    const auto& a = p[i];
+    if (!(std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]))) continue;
+    const auto [cx, cz] = cell(a);
+    cand.clear();
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dz = -1; dz <= 1; ++dz) {
+        const std::pair<std::int64_t, std::int64_t> c{cx + dx, cz + dz};
+        auto lo = std::lower_bound(keyed.begin(), keyed.end(), std::pair{c, std::size_t{0}});
+        for (; lo != keyed.end() && lo->first == c; ++lo)
+          if (lo->second < i) cand.push_back(lo->second);
+      }
+    std::sort(cand.begin(), cand.end());
+    for (const std::size_t j : cand) {
+      const auto& b = p[j];
+      const double ov = a[2] + b[2] - std::hypot(a[0] - b[0], a[1] - b[1]);
+      if (ov > max_overlap * std::min(a[2], b[2])) {
+        out.emplace_back(i, j);
+        if (out.size() >= limit) break;
+      }
+    }
+  }
+  return out;
+}
 
 using Box = Bounds;
 Box bbox(const std::vector<Vec2>& p) {
@@ -378,22 +437,17 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
   }
-  if (d.particles.size() <= 20000) { // pairwise overlaps beyond the blow-up limit (O(n²) scan)
-    int reported = 0;
-    for (std::size_t i = 0; i < d.particles.size() && reported < 5; ++i)
-      for (std::size_t j = 0; j < i && reported < 5; ++j) {
-        const auto& a = d.particles[i];
-        const auto& b = d.particles[j];
-        const double ov = a[2] + b[2] - std::hypot(a[0] - b[0], a[1] - b[1]);
-        if (ov > d.max_overlap * std::min(a[2], b[2])) {
-          add(locate(root, {"soil", "dem", "particles", i}),
-              fmt::format("soil.dem.particles[{}]", i),
-              fmt::format("overlaps particle {} by {:.4g} m, beyond max_overlap = {} of the "
-                          "smaller radius; the run would stop at its first step",
-                          j, ov, d.max_overlap));
-          ++reported;
-        }
-      }
+  { // pairwise overlaps beyond the blow-up limit: the first five pairs (i, j < i) in that order
+    const auto over = overlapping_pairs(d.particles, d.max_overlap, 5);
+    for (const auto& [i, j] : over) {
+      const auto& a = d.particles[i];
+      const auto& b = d.particles[j];
+      const double ov = a[2] + b[2] - std::hypot(a[0] - b[0], a[1] - b[1]);
+      add(locate(root, {"soil", "dem", "particles", i}), fmt::format("soil.dem.particles[{}]", i),
+          fmt::format("overlaps particle {} by {:.4g} m, beyond max_overlap = {} of the "
+                      "smaller radius; the run would stop at its first step",
+                      j, ov, d.max_overlap));
+    }
   }
 
   // ---- capacity, steps, memory, output ---------------------------------------------------------

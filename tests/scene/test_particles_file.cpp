@@ -4,6 +4,7 @@
 #include <fstream>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "../scratch.hpp"
@@ -162,3 +163,22 @@ TEST_F(ParticlesFile, ResolvedSceneKeepsTheFileNotAnInlineList) {
 }
 
 } // namespace
+
+// Overlaps beyond max_overlap are found in a set of any size (a cell grid; the O(n²) scan it
+// replaced stopped checking above 20,000 particles): a 30,000-disk lattice whose last two disks
+// sit on disks 5 and 17 gives exactly those two errors, in file order.
+TEST_F(ParticlesFile, OverlapsFoundInLargeSets) {
+  std::string csv = "x,z,r\n";
+  const int cols = 1000, n = 30000;
+  for (int k = 0; k < n - 2; ++k)
+    csv += fmt::format("{},{},0.05\n", 0.1 + 0.115 * (k % cols), 0.1 + 0.115 * (k / cols));
+  for (const int k : {5, 17})
+    csv += fmt::format("{},{},0.05\n", 0.1 + 0.115 * (k % cols) + 0.01, 0.1);
+  write("sub/big.csv", csv);
+  const auto d = errors(scene("particles_file = \"big.csv\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0].key, "soil.dem.particles[29998]");
+  EXPECT_NE(d[0].message.find("overlaps particle 5 by"), std::string::npos) << d[0].message;
+  EXPECT_EQ(d[1].key, "soil.dem.particles[29999]");
+  EXPECT_NE(d[1].message.find("overlaps particle 17 by"), std::string::npos) << d[1].message;
+}
