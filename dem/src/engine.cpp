@@ -492,12 +492,14 @@ void Engine::tune_team() {
   }
   ++tu.steps;
   const double elapsed = std::chrono::duration<double>(now - tu.t0).count();
-  // A probe behind the current choice's pace (after at least a quarter window's worth of time)
-  // has lost: stop it now. A stalled team can be 10–50× slower; a whole window of it would cost
-  // more than the adaptation gains.
+  // A probe behind the current choice's pace (after at least 8 steps' worth of time, or a
+  // quarter window when that is shorter) has lost: stop it now. A stalled team can be 10–50×
+  // slower: one scheduler slice of the other process costs several steps, and a probe that waited
+  // for a quarter window (32 steps at 10⁴ disks) lost more than the adaptation gained.
+  const long grace = std::min<long>(tu.window / 4, 8);
   const bool lost =
       tu.probing &&
-      elapsed > tu.current_per_step * static_cast<double>(std::max(tu.steps, tu.window / 4)) / 0.95;
+      elapsed > tu.current_per_step * static_cast<double>(std::max(tu.steps, grace)) / 0.95;
   if (tu.steps < tu.window && !lost) return;
   const double per = elapsed / static_cast<double>(tu.steps);
   // Windows of ≈ 0.1 s of the current choice: long enough to average over rebuilds and
