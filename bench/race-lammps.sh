@@ -25,7 +25,7 @@
 #
 # Output: one line per run (run.sh's format, "lammps …" / "demfem …"), then per (N, cores)
 #   summary N=<n> cores=<c> lammps=<min>/<median>/<max> demfem=<min>/<median>/<max> (particle-steps/s)
-#   ratio N=<n> cores=<c> demfem/lammps=<median ratio>
+#   ratio N=<n> cores=<c> demfem/lammps=<ratio of the medians> paired=<median of the repeats' ratios>
 #   physics N=<n> cores=<c> Z_lammps=<z> Z_demfem=<z> diff=<%> ok|FAIL   (|diff| <= ZTOL %, default 3)
 # and the exit status is 1 when a physics check failed.
 set -euo pipefail
@@ -120,7 +120,12 @@ awk -v tol="$ZTOL" '
         med[prog] = median(a, m); s[prog] = sprintf("%.3g/%.3g/%.3g", mn, med[prog], mx)
         zm[prog] = zs[prog, key] / m }
       printf "summary N=%s cores=%s runs=%d lammps=%s demfem=%s (min/median/max particle-steps/s)\n", nc[1], nc[2], cnt["demfem", key], s["lammps"], s["demfem"]
-      printf "ratio N=%s cores=%s demfem/lammps=%.2f\n", nc[1], nc[2], med["demfem"] / med["lammps"]
+      # paired: the median of the per-repeat ratios (LAMMPS and demfem run back to back in a
+      # repeat, so a slow phase of the machine hits both); the ratio of the medians may pair a
+      # fast phase of one program with a slow phase of the other.
+      m = cnt["demfem", key]; if (cnt["lammps", key] < m) m = cnt["lammps", key]; delete a
+      for (i = 1; i <= m; i++) a[i] = v["demfem", key, i] / v["lammps", key, i]
+      printf "ratio N=%s cores=%s demfem/lammps=%.2f paired=%.2f\n", nc[1], nc[2], med["demfem"] / med["lammps"], median(a, m)
       d = 100 * (zm["demfem"] - zm["lammps"]) / zm["lammps"]; ok = (d <= tol && d >= -tol)
       if (!ok) bad = 1
       if (cnt["demfem-scalar", key] > 0) { m = cnt["demfem-scalar", key]; delete a
