@@ -76,6 +76,7 @@ Engine::Engine(EngineConfig config) : config_(std::move(config)), law_(make_cont
 }
 
 std::uint16_t Engine::add_material(Material m) {
+  friction_dirty_ = true;
   config_.materials.push_back(m);
   return static_cast<std::uint16_t>(config_.materials.size() - 1);
 }
@@ -114,6 +115,7 @@ std::uint32_t Engine::add_particle(double x, double z, double r, double vx, doub
   p_.id.push_back(next_id_++);
   p_.material.push_back(material);
   p_.flags.push_back(kFlagNone);
+  friction_dirty_ = true;
   compute_mass(i);
   r_min_ = i == 0 ? r : std::min(r_min_, r);
   r_max_ = i == 0 ? r : std::max(r_max_, r);
@@ -550,6 +552,7 @@ std::size_t Engine::set_friction(const scene::Polygon& region, double mu_s, doub
       p_.material[i] = mat;
       ++count;
     }
+  friction_dirty_ = true;
   return count;
 }
 

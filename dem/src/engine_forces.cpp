@@ -116,7 +116,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
   const auto& mats = config_.materials;
-  const bool one_material = mats.size() == 1;
+  const bool one_material = friction_uniform_; // every pair: friction_mus_, friction_mud_
   PairEnergies en;
   const double max_ov = config_.max_overlap;
   bool failed = fail_pair[0] != ~0u;
@@ -135,8 +135,8 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
       const PairGeometry g = pair_geometry(p_, static_cast<std::uint32_t>(i), j, dx, dz, rsum, d2);
       ContactInput in = g.in;
       if (one_material) {
-        in.mu_s = mats[0].mu_s;
-        in.mu_d = mats[0].mu_d;
+        in.mu_s = friction_mus_;
+        in.mu_d = friction_mud_;
       } else { // the weaker of the two materials
         const auto& a = mats[p_.material[i]];
         const auto& b = mats[p_.material[j]];
@@ -171,9 +171,9 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   double* __restrict tq = out.tq;
   detail::PairBlock b; // scratch, written before it is read
   const auto& mats = config_.materials;
-  const bool one_material = mats.size() == 1;
-  const detail::ReboundConstants kc{law.p.kn,     law.p.ks,     dt_,         config_.max_overlap,
-                                    one_material, mats[0].mu_s, mats[0].mu_d};
+  const bool one_material = friction_uniform_; // every pair: friction_mus_, friction_mud_
+  const detail::ReboundConstants kc{law.p.kn,     law.p.ks,      dt_,          config_.max_overlap,
+                                    one_material, friction_mus_, friction_mud_};
   const detail::ParticleArrays pa{p_.x.data(),     p_.z.data(),      p_.vx.data(),  p_.vz.data(),
                                   p_.omega.data(), p_.radius.data(), p_.mass.data()};
   const bool simd = config_.pair_kernel == EngineConfig::PairKernel::simd;
@@ -526,7 +526,34 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
   e_shear_ += e_s;
 }
 
+void Engine::update_pair_friction() {
+  friction_dirty_ = false;
+  const auto& mats = config_.materials;
+  std::vector<std::uint8_t> used(mats.size(), 0);
+  bool in_range = true;
+  for (const std::uint16_t m : p_.material) {
+    if (m < used.size())
+      used[m] = 1;
+    else
+      in_range = false;
+  }
+  std::size_t first = mats.size();
+  bool uniform = in_range;
+  for (std::size_t k = 0; k < mats.size(); ++k) {
+    if (!used[k]) continue;
+    if (first == mats.size())
+      first = k;
+    else if (mats[k].mu_s != mats[first].mu_s || mats[k].mu_d != mats[first].mu_d)
+      uniform = false;
+  }
+  if (first == mats.size()) first = 0; // no particles: any
+  friction_uniform_ = uniform && !mats.empty();
+  friction_mus_ = mats.empty() ? 0.0 : mats[first].mu_s;
+  friction_mud_ = mats.empty() ? 0.0 : mats[first].mu_d;
+}
+
 void Engine::compute_forces() {
+  if (friction_dirty_) update_pair_friction();
   std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
       [this](const auto& law) {
         pair_forces(law);

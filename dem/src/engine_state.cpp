@@ -156,6 +156,7 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
       bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1))
     detail::ByteReader::fail("inconsistent neighbour lists");
   set_owners();
+  friction_dirty_ = true;
   failure_.clear();
 }
 

@@ -456,3 +456,36 @@ TEST(DemPairKernel, BlockedLoopBitIdenticalToScalar) {
     expect_same_energy(ref.en, r.en);
   }
 }
+
+// Friction of the pairs (engine: update_pair_friction): when every material in use has the same
+// μ_s, μ_d the pair loops take them as constants. A bed whose friction is set to (0.3, 0.1) for
+// every particle by an event (two materials, the soil's no longer in use) runs bit-identically to
+// a bed built with (0.3, 0.1) as its only material, for the blocked and the one-pass loop; a
+// half-bed event (two frictions in use) differs from both.
+TEST(DemPairKernel, UniformFrictionOfAnEventEqualsOneMaterial) {
+  for (const Kernel k : {Kernel::scalar, Kernel::simd}) {
+    SCOPED_TRACE(::testing::Message() << "kernel " << int(k));
+    auto run = [k](int mode) { // 0: one material; 1: event on the whole bed; 2: half the bed
+      dem::EngineConfig c = kernel_test_config(k, 1);
+      if (mode == 0) c.materials = {dem::Material{0.3, 0.1}};
+      dem::Engine e(c);
+      add_shaken_lattice(e, 1000, 40, 11);
+      if (mode == 1) {
+        EXPECT_EQ(e.set_friction({{-1, -1}, {9, -1}, {9, 9}, {-1, 9}}, 0.3, 0.1), 1000u);
+      } else if (mode == 2) {
+        EXPECT_GT(e.set_friction({{0, 0}, {3, 0}, {3, 5}, {0, 5}}, 0.3, 0.1), 400u);
+      }
+      e.run_steps(300);
+      EXPECT_FALSE(e.failed()) << e.failure();
+      return KernelRun{e.particles(), e.energy(), 0};
+    };
+    const auto one = run(0), half = run(2);
+    auto all = run(1);
+    EXPECT_GT(one.en.friction, 0.0);
+    for (const auto m : all.p.material) ASSERT_EQ(m, 1u); // the event's material
+    std::fill(all.p.material.begin(), all.p.material.end(), std::uint16_t{0});
+    expect_same_particles(one.p, all.p);
+    expect_same_energy(one.en, all.en);
+    EXPECT_NE(one.en.friction, half.en.friction);
+  }
+}

@@ -249,7 +249,10 @@ public:
   [[nodiscard]] MemoryUse memory_use() const;
 
   // ---- access -----------------------------------------------------------------------------
-  [[nodiscard]] Particles& particles() { return p_; }
+  [[nodiscard]] Particles& particles() {
+    friction_dirty_ = true; // the materials may change through it
+    return p_;
+  }
   [[nodiscard]] const Particles& particles() const { return p_; }
   [[nodiscard]] const std::vector<StructureState>& structures() const { return structures_; }
   [[nodiscard]] std::vector<StructureState>& structures() { return structures_; }
@@ -353,6 +356,12 @@ private:
   // partner), computed for the list of version parts_version_ (list_version_ counts the lists).
   std::vector<double> tbuf_;
   std::vector<std::size_t> split_, halo_end_;
+  // Friction of the pairs: uniform when every material in use has the same μ_s, μ_d (then the
+  // pair loops take them as constants instead of the weaker of the pair's two materials: the
+  // same values). Recomputed before the forces after a change of materials or of particles.
+  bool friction_dirty_ = true, friction_uniform_ = true;
+  double friction_mus_ = 0.0, friction_mud_ = 0.0;
+  void update_pair_friction();
   std::uint64_t list_version_ = 0, parts_version_ = ~0ull;
   // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
   std::vector<std::uint32_t> cell_of_, cell_start_, cell_items_;
