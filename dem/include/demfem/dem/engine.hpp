@@ -62,7 +62,7 @@ struct EngineConfig {
   // The order reorder() gives the particles, by their cell of size 2·r_max: `columns` cuts the
   // bed into columns across its longer side and runs along each column (the neighbours of a
   // particle lie within about two columns' particles of it in memory, so the pair loop's partner
-  // reads stay in cache: 1.3–1.5× the step of `morton` at 10⁵ disks, bench/RESULTS.md);
+  // reads stay in cache: 1.2–1.8× the speed of `morton` at 10⁵ disks, bench/RESULTS.md);
   // `morton` is the Z-order curve (the order before issue 12's column change).
   enum class ParticleOrder { columns, morton } particle_order = ParticleOrder::columns;
   // Threads (OpenMP) for the force loop and the integration: 0 = OpenMP default. Results are
