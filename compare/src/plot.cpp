@@ -1,11 +1,20 @@
 #include "demfem/compare/plot.hpp"
+#include "gnuplot_run.hpp"
 #include "out_file.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
+#include <thread>
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -59,17 +68,10 @@ std::string quote_title(const std::string& s) {
   return out + "\"";
 }
 bool run_gnuplot(const fs::path& script, std::string* error) {
-  const std::string cmd = fmt::format("gnuplot {} > {} 2>&1", quote(script.string()),
-                                      quote((script.string() + ".log")));
-  const int rc = std::system(cmd.c_str());
-  if (rc != 0) {
-    if (error)
-      *error = fmt::format("gnuplot failed (exit {}) on {}; see {}.log (is gnuplot-nox installed?)",
-                           rc, script.string(), script.string());
-    return false;
-  }
-  fs::remove(script.string() + ".log");
-  return true;
+  const auto r = detail::run_gnuplot_scripts({script}, 1);
+  if (r[0].empty()) return true;
+  if (error) *error = r[0];
+  return false;
 }
 } // namespace
 
@@ -302,5 +304,65 @@ std::vector<double> running_mean(const std::vector<double>& y, std::size_t windo
   }
   return out;
 }
+
+namespace detail {
+
+std::vector<std::string> run_gnuplot_scripts(const std::vector<fs::path>& scripts,
+                                             unsigned parallel) {
+  if (parallel == 0) parallel = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::string> err(scripts.size());
+  std::vector<pid_t> pid(scripts.size(), -1);
+  auto log_of = [&](std::size_t k) { return scripts[k].string() + ".log"; };
+  auto finish = [&](std::size_t k, int status) {
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+      std::error_code ec;
+      fs::remove(log_of(k), ec);
+      return;
+    }
+    err[k] = WIFEXITED(status) ? fmt::format("gnuplot failed (exit {}) on {}; see {}",
+                                             WEXITSTATUS(status), scripts[k].string(), log_of(k))
+                               : fmt::format("gnuplot failed (signal {}) on {}; see {}",
+                                             WTERMSIG(status), scripts[k].string(), log_of(k));
+  };
+  // Started in order, waited for in order (the oldest first): only these children are reaped.
+  std::vector<std::size_t> queue; // running scripts, oldest first
+  std::size_t next = 0;
+  while (next < scripts.size() || !queue.empty()) {
+    while (next < scripts.size() && queue.size() < parallel) {
+      const std::size_t k = next++;
+      posix_spawn_file_actions_t fa;
+      posix_spawn_file_actions_init(&fa);
+      posix_spawn_file_actions_addopen(&fa, 1, log_of(k).c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                       0644);
+      posix_spawn_file_actions_adddup2(&fa, 1, 2);
+      std::string arg0 = "gnuplot", arg1 = scripts[k].string();
+      char* argv[] = {arg0.data(), arg1.data(), nullptr};
+      pid_t p = -1;
+      const int rc = posix_spawnp(&p, "gnuplot", &fa, nullptr, argv, environ);
+      posix_spawn_file_actions_destroy(&fa);
+      if (rc != 0) {
+        err[k] = fmt::format("gnuplot failed to start on {} ({}); is gnuplot-nox installed?",
+                             scripts[k].string(), std::strerror(rc));
+        continue;
+      }
+      pid[k] = p;
+      queue.push_back(k);
+    }
+    if (queue.empty()) continue;
+    const std::size_t k = queue.front();
+    int status = 0;
+    pid_t w;
+    do w = ::waitpid(pid[k], &status, 0);
+    while (w < 0 && errno == EINTR);
+    queue.erase(queue.begin());
+    if (w < 0)
+      err[k] = fmt::format("gnuplot on {}: lost ({})", scripts[k].string(), std::strerror(errno));
+    else
+      finish(k, status);
+  }
+  return err;
+}
+
+} // namespace detail
 
 } // namespace demfem::compare

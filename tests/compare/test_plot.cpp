@@ -1,10 +1,13 @@
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "../scratch.hpp"
 
+#include "../../compare/src/gnuplot_run.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/scene/write_file.hpp"
 
@@ -104,4 +107,40 @@ TEST(Plot, ParticleSnapshotWithChains) {
   ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0}, d / "s.png", &err))
       << err;
   EXPECT_TRUE(is_png(d / "s.png"));
+}
+
+// Several gnuplot scripts at once (the run's snapshot series): one result per script in order,
+// the failing script's console kept in <script>.log and named, the others' logs removed, and
+// every good script's output written, whatever the number of processes at once.
+TEST(Plot, ScriptsRunTogetherWithErrorsInOrder) {
+  const auto d = tmpdir("gnuplot_jobs");
+  std::vector<fs::path> scripts;
+  for (int k = 0; k < 5; ++k) {
+    const fs::path gp = d / ("s" + std::to_string(k) + ".gp");
+    std::ofstream g(gp);
+    if (k == 2)
+      g << "this is not gnuplot\n";
+    else
+      g << "set terminal pngcairo size 200,150\nset output '"
+        << (d / ("s" + std::to_string(k) + ".png")).string() << "'\nplot sin(x)\n";
+    scripts.push_back(gp);
+  }
+  for (const unsigned parallel : {1u, 2u, 0u}) {
+    SCOPED_TRACE(parallel);
+    for (int k = 0; k < 5; ++k) fs::remove(d / ("s" + std::to_string(k) + ".png"));
+    const auto err = compare::detail::run_gnuplot_scripts(scripts, parallel);
+    ASSERT_EQ(err.size(), 5u);
+    for (int k = 0; k < 5; ++k) {
+      const auto log = scripts[static_cast<std::size_t>(k)].string() + ".log";
+      if (k == 2) {
+        EXPECT_NE(err[2].find("gnuplot failed (exit"), std::string::npos) << err[2];
+        EXPECT_NE(err[2].find(log), std::string::npos) << err[2];
+        EXPECT_TRUE(fs::exists(log));
+      } else {
+        EXPECT_TRUE(err[static_cast<std::size_t>(k)].empty()) << err[static_cast<std::size_t>(k)];
+        EXPECT_TRUE(is_png(d / ("s" + std::to_string(k) + ".png"))) << k;
+        EXPECT_FALSE(fs::exists(log)) << log;
+      }
+    }
+  }
 }
