@@ -25,6 +25,7 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "demfem/compare/coarse_grain.hpp"
+#include "gnuplot_run.hpp"
 #include "out_file.hpp"
 
 namespace fs = std::filesystem;
@@ -379,13 +380,9 @@ bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
     f << "unset multiplot\n";
     f.close();
   }
-  const std::string cmd = fmt::format("gnuplot '{}' 2>'{}'", gp.string(),
-                                      fs::path(png).replace_extension(".log").string());
-  const int rc = std::system(cmd.c_str());
-  if (rc != 0 || !fs::exists(png)) {
-    if (err)
-      *err =
-          fmt::format("gnuplot failed (see {})", fs::path(png).replace_extension(".log").string());
+  const auto r = detail::run_gnuplot_scripts({gp}, 1); // the plots' shared runner
+  if (!r[0].empty() || !fs::exists(png)) {
+    if (err) *err = r[0].empty() ? fmt::format("gnuplot wrote no {}", png.string()) : r[0];
     return false;
   }
   return true;

@@ -670,7 +670,7 @@ Engine::MemoryUse Engine::memory_use() const {
   m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(nbr_i_) + cap(bnd_i_) + cap(bnd_f_) +
                       cap(x_ref_) + cap(z_ref_);
   m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);
-  m.other = cap(tbuf_) + cap(split_) + cap(bvx_) * 6 + cap(features_);
+  m.other = cap(tbuf_) + cap(split_) + cap(halo_end_) + cap(bvx_) * 6 + cap(features_);
   return m;
 }
 
