@@ -708,6 +708,17 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (*w) (*w)->flush();
   for (auto& pw : pressure_csv) pw.second.flush();
   report("dem");
+  if (const auto& st = e.stats(); st.steps > 0) {
+    const double solver = seconds_since(t_start);
+    spdlog::info("DEM steps: {}, {} neighbour rebuilds (one per {:.0f} steps), {:.2f} list "
+                 "entries per particle; forces {:.1f} s, neighbour rebuilds {:.1f} s of {:.1f} s",
+                 st.steps, st.neighbour_rebuilds,
+                 static_cast<double>(st.steps) /
+                     static_cast<double>(std::max<long long>(1, st.neighbour_rebuilds)),
+                 static_cast<double>(st.pair_entries) /
+                     static_cast<double>(std::max<std::size_t>(1, e.particles().size())),
+                 st.force_seconds, st.rebuild_seconds, solver);
+  }
   if (const auto& st = e.stats(); st.team_full_steps + st.team_one_steps > 0) {
     const double all = static_cast<double>(st.team_full_steps + st.team_one_steps);
     spdlog::info("threads: work cut into {} parts; {:.1f} % of the steps ran on {} threads, "

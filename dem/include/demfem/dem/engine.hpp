@@ -57,7 +57,7 @@ struct EngineConfig {
   char shaking_direction = 'x';
   scene::TimeFunction shaking_acceleration;
   // Neighbour search
-  double skin_factor = 0.3; // Verlet skin = skin_factor · r_min
+  double skin_factor = 0.6; // Verlet skin = skin_factor · r_min (bench/RESULTS.md, "Verlet skin")
   int reorder_every = 25;   // particle reordering every … neighbour rebuilds (0 = never)
   // The order reorder() gives the particles, by their cell of size 2·r_max: `columns` cuts the
   // bed into columns across its longer side and runs along each column (the neighbours of a
