@@ -63,7 +63,7 @@ struct Top2 {
     add(o.b);
   }
 };
-#pragma omp declare reduction(top2 : Top2 : omp_out.merge(omp_in))
+#pragma omp declare reduction(top2:Top2 : omp_out.merge(omp_in))
 
 } // namespace
 
