@@ -37,9 +37,7 @@
 #include "demfem/scene/write_file.hpp"
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
-#include "demfem/continuum/run.hpp"
-#include "demfem/continuum/stability.hpp"
-#include "demfem/continuum/verification.hpp"
+#include "continuum_module.hpp"
 #endif
 
 namespace fs = std::filesystem;
@@ -281,7 +279,7 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       o.refinement = a.refinement;
       o.degree = a.degree;
       o.progress = progress;
-      const auto x = continuum::run(s, o);
+      const auto x = app::continuum_module().run(s, o);
       r.ran = true;
       r.ok = x.ok;
       r.message = x.message;
@@ -506,7 +504,7 @@ std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene
     }
   }
   try {
-    return continuum::stable_step(r);
+    return app::continuum_module().stable_step(r, {});
   } catch (const std::exception&) { // a scene the continuum cannot mesh: the run says why
     return std::nullopt;
   }
@@ -1291,7 +1289,7 @@ int cmd_study_point(const PointArgs& pa) {
     const scene::Scene sc = with_calibration(file.base, pa.out);
     continuum::RunOptions o;
     o.out_dir = pa.out;
-    const auto x = continuum::run(sc, o);
+    const auto x = app::continuum_module().run(sc, o);
     scene::write_file_atomic(
         pa.json,
         fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "
@@ -1313,7 +1311,7 @@ int cmd_study_point(const PointArgs& pa) {
     return kBadInput;
   }
 #ifdef DEMFEM_WITH_CONTINUUM
-  const auto r = continuum::flamant_strip_load(pa.refinement, pa.degree);
+  const auto r = app::continuum_module().flamant_strip_load(pa.refinement, pa.degree);
   scene::write_file_atomic(
       pa.json, fmt::format("{{\"computed\": {:.17g}, \"exact\": {:.17g}, \"dofs\": {}, "
                            "\"h_min\": {:.17g}, \"converged\": {}, \"solver_seconds\": "
@@ -1371,6 +1369,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
 #ifdef DEMFEM_WITH_CONTINUUM
     if (cont)
       o.continuum_rows = [&out](const scene::Scene& sc0) {
+        const auto& cm = app::continuum_module(); // opens the module (throws when it cannot)
         std::vector<compare::StabilityRow> rows;
         const auto add = [&rows](const continuum::StabilityCase& c) {
           compare::StabilityRow r;
@@ -1391,25 +1390,25 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
         const int degree = std::max(1, sc0.continuum.degree);
         // ν → 0.5: locking shown by the rocking stiffness without B-bar against the B-bar run
         for (const double nu : {0.49, 0.499}) {
-          const double kb = add(continuum::rocking_locking_case(nu, true, degree));
-          const double kn = add(continuum::rocking_locking_case(nu, false, degree));
+          const double kb = add(cm.rocking_locking_case(nu, true, degree));
+          const double kn = add(cm.rocking_locking_case(nu, false, degree));
           if (std::isfinite(kb) && std::isfinite(kn) && kb > 0.0)
             rows.back().measure += fmt::format("; {:.4f} × the B-bar run (locking)", kn / kb);
         }
-        add(continuum::stiff_structure_case(1.0e6, degree));
+        add(cm.stiff_structure_case(1.0e6, degree));
         // the scene's own continuum (calibrated moduli) for the explicit step guard
         const scene::Scene sc = with_calibration(sc0, out);
         // ν → 0.5 on the scene's own mesh and seating: the seated settlement without B-bar
         // against the B-bar row (no closed form there: the built-in rows above carry it)
         for (const double nu : {0.49, 0.499}) {
-          const double wb = add(continuum::scene_locking_case(sc, nu, true));
-          const double wn = add(continuum::scene_locking_case(sc, nu, false));
+          const double wb = add(cm.scene_locking_case(sc, nu, true));
+          const double wn = add(cm.scene_locking_case(sc, nu, false));
           if (std::isfinite(wb) && std::isfinite(wn) && wb != 0.0)
             rows.back().measure +=
                 fmt::format("; settlement {:.4f} × the B-bar run's (locking)", wn / wb);
         }
-        add(continuum::explicit_step_case(sc, 1.5));
-        for (const double f : {0.9, 1.1}) add(continuum::bearing_capacity_case(f, degree));
+        add(cm.explicit_step_case(sc, 1.5));
+        for (const double f : {0.9, 1.1}) add(cm.bearing_capacity_case(f, degree));
         return rows;
       };
 #endif

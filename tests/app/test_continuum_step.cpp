@@ -112,4 +112,43 @@ TEST(ContinuumStep, AStepBelowTheLimitRunsAndARefinedRunRefusesItAtTheSameKey) {
   EXPECT_NE(line.find("refinement-2"), std::string::npos) << f.out;
   EXPECT_NEAR(stable_in(line), 0.5 * stable, 0.05 * stable) << line;
 }
+// The continuum solver is a module the program opens at its first continuum call
+// (continuum/module.hpp): a DEM-only run loads neither the module nor deal.II (the dynamic
+// loader's own record, LD_DEBUG=files, lists every object it opens), a continuum run loads both,
+// and a module that cannot be opened fails the run (exit 1) with the path and the reason.
+TEST(ContinuumModule, DemRunLoadsNoDealIIAndAContinuumRunLoadsTheModule) {
+  const fs::path dem_out = demfem::test::scratch("module_dem_run");
+  const Result d = demfem::test::run_raw(
+      "LD_DEBUG=files " + std::string(DEMFEM_BINARY) + " run " + DEMFEM_SOURCE_DIR +
+      "/cases/verification/head_on_collision.toml --out " + dem_out.string());
+  EXPECT_EQ(d.code, 0) << d.out.substr(0, 4000);
+  EXPECT_NE(d.out.find("file=libfmt"), std::string::npos) << d.out.substr(0, 4000); // recorded
+  EXPECT_EQ(d.out.find("libdeal"), std::string::npos);
+  EXPECT_EQ(d.out.find("libpetsc"), std::string::npos);
+  EXPECT_EQ(d.out.find("libdemfem-continuum"), std::string::npos);
+
+  const fs::path p = write_temp("module_column.toml", column("0.0", "0.0"));
+  const fs::path out = demfem::test::scratch("module_continuum_run");
+  const Result c = demfem::test::run_raw("LD_DEBUG=files " + std::string(DEMFEM_BINARY) + " run " +
+                                         p.string() + " --solver continuum --out " + out.string());
+  EXPECT_EQ(c.code, 0) << c.out.substr(0, 4000);
+  EXPECT_NE(c.out.find("libdemfem-continuum.so"), std::string::npos);
+  EXPECT_NE(c.out.find("libdeal"), std::string::npos);
+}
+
+TEST(ContinuumModule, AModuleThatCannotBeOpenedFailsTheRunNamingIt) {
+  const fs::path p = write_temp("module_missing.toml", column("0.0", "0.0"));
+  const fs::path out = demfem::test::scratch("module_missing_run");
+  const Result r = demfem::test::run_raw(
+      "DEMFEM_CONTINUUM_MODULE=/nonexistent/libdemfem-continuum.so " + std::string(DEMFEM_BINARY) +
+      " run " + p.string() + " --solver continuum --out " + out.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("continuum solver module (libdemfem-continuum.so) could not be loaded"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("/nonexistent/libdemfem-continuum.so: cannot open shared object file"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("DEMFEM_CONTINUUM_MODULE"), std::string::npos) << r.out;
+}
 #endif
