@@ -1426,7 +1426,11 @@ int main(int argc, char** argv) {
   CLI::App app{"demfem — the same geotechnical scene as a granular assembly (DEM) and as a "
                "continuum (FEM), and where the two diverge."};
   app.footer(kExitCodes);
-  app.set_version_flag("--version", std::string("demfem ") + DEMFEM_VERSION);
+  // The engine fingerprint (dem/pack.hpp): which DEM, bit for bit, made a run's packings.
+  app.set_version_flag("--version", [] {
+    return fmt::format("demfem {}\nDEM engine fingerprint {}", DEMFEM_VERSION,
+                       dem::engine_fingerprint());
+  });
   app.require_subcommand(1);
   // Loading a scene checks soil.dem.dt against the DEM's stable limit (issue 11): `check` and
   // `run` refuse the same step, at the key's file:line:col.

@@ -214,8 +214,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // The packing's density and contacts, for the run's summary (issue 14).
     write_packing_json(pr, scene, out / "packing.json");
     spdlog::info(
-        "packing: porosity {:.4f} (void ratio {:.4f}), coordination {:.3f}{}", pr.measure.porosity,
-        pr.measure.void_ratio, pr.measure.coordination,
+        "packing: porosity {:.4f} (void ratio {:.4f}), coordination {:.3f}{}{}",
+        pr.measure.porosity, pr.measure.void_ratio, pr.measure.coordination,
+        pr.key.empty() ? std::string()
+                       : fmt::format(" (key {}, {}, engine {})", pr.key,
+                                     pr.from_cache ? "cached" : "deposited", engine_fingerprint()),
         scene.soil.dem->packing.target_porosity
             ? fmt::format(" — target {:.4f} ± {:.4f}{}", *scene.soil.dem->packing.target_porosity,
                           scene.soil.dem->packing.target_tolerance, pr.target_met ? "" : " NOT MET")

@@ -39,6 +39,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -48,6 +49,8 @@
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::dem {
+
+struct EngineConfig; // engine.hpp
 
 // Portable uniform random numbers: std::mt19937_64 is specified bit-exactly by the standard; the
 // mapping to [0, 1) is ours (53 high bits), unlike std::uniform_real_distribution whose output
@@ -70,7 +73,24 @@ private:
 // 64-bit FNV-1a digest of everything that shapes the packing: fill polygon, count, radius
 // distribution, density, thickness, contact law and its parameters, friction, gravity, walls,
 // structure outlines, seed and the packing settings. Hex string of 16 digits.
+// The key also carries the engine's fingerprint (engine_fingerprint), so a packing deposited by
+// an engine that rounds differently is not reused: it would not be the packing this engine makes.
 [[nodiscard]] std::string packing_key(const scene::Scene& scene);
+// The same with a given engine fingerprint (tests).
+[[nodiscard]] std::string packing_key(const scene::Scene& scene, const std::string& engine);
+
+// What the engine does, bit for bit: the FNV-1a digest of the positions and contact history of a
+// small bed (150 disks, friction, rebound, walls, ≈ 3,300 steps with many neighbour rebuilds)
+// deposited by this build. Any change that moves the DEM by round-off (summation order, the
+// neighbour list's rebuild rule or skin, the pair kernel) changes it; a change that leaves every
+// bit alone does not. It enters the cache keys of packings and, through them, of calibrations,
+// so a checkout never reuses a cache an older engine wrote. Computed once per process (0.02–0.05
+// s); 16 hex digits.
+[[nodiscard]] const std::string& engine_fingerprint();
+// Computes it afresh; `tweak` changes the engine's configuration first (tests: a different skin
+// must give a different fingerprint).
+[[nodiscard]] std::uint64_t
+compute_engine_fingerprint(const std::function<void(EngineConfig&)>& tweak = {});
 
 // Where the packing of `scene` is cached: packing.cache (relative paths are taken relative to the
 // scene file's directory) or <out_dir>/packing; file name packing-<key>.ckpt.
@@ -117,7 +137,8 @@ struct PackResult {
   // pivot] at which a seated structure the run leaves free to rotate came to rest on the bed; the
   // run places it so (scene::rotated), so it starts in moment equilibrium.
   std::vector<double> seat_rot;
-  double seat_load = 0.0; // the bed's reaction / the structure's weight, at rest on it (packing end)
+  double seat_load =
+      0.0; // the bed's reaction / the structure's weight, at rest on it (packing end)
 };
 
 // Writes the packing's statistics and measure as JSON (beside a checkpoint, or into a run).
