@@ -107,6 +107,8 @@ TEST(Plot, ParticleSnapshotWithChains) {
   ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0}, d / "s.png", &err))
       << err;
   EXPECT_TRUE(is_png(d / "s.png"));
+  EXPECT_FALSE(fs::exists(d / "s.svg")); // PNG only (plot.hpp); the script says how to get one
+  EXPECT_TRUE(fs::exists(d / "s.gp"));
 }
 
 // Several gnuplot scripts at once (the run's snapshot series): one result per script in order,

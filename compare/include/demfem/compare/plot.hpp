@@ -55,7 +55,9 @@ struct SnapshotSpec {
 };
 
 // Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|
-// (compression solid, tension dashed), boundaries as polylines.
+// (compression solid, tension dashed), boundaries as polylines. PNG only (with its gnuplot script
+// and data, whose last line is the command for an SVG): a vector copy of thousands of disks is
+// several times the PNG's size.
 bool plot_particles(const dem::Particles& particles, const std::vector<dem::ContactView>& contacts,
                     const std::vector<dem::BoundaryView>& boundaries, const SnapshotSpec& spec,
                     const std::filesystem::path& png, std::string* error = nullptr);
