@@ -897,10 +897,13 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
 
 namespace {
 
-// The fingerprint's bed: 150 disks of two sizes dropped into a 0.8 m box with friction, the
-// rebound rule (V_0 below the impact speeds the light deposition damping allows) and enough fall
-// to cross cells and rebuild the neighbour list many times; 0.6 s of deposition (the KE test
-// cannot stop it earlier). ≈ 0.02–0.05 s of wall time.
+// The fingerprint's bed: 150 disks (r 2–3.5 cm) dropped into a 0.8 m box with friction, the
+// rebound rule (V_0 = 0.3 m/s, below the impact speeds the light deposition damping allows) and
+// enough fall to cross cells and rebuild the neighbour list many times; 0.6 s of deposition (the
+// KE test cannot stop it earlier), then 0.2 s of the run's kind of step from there: no damping,
+// 400 gal shaking. ≈ 0.04 s of wall time. It covers the pair kernel, walls, the neighbour list and
+// both integration paths (damped deposition, undamped run), which shape packings and the
+// calibration's element tests; the calibration's own changes bump kCalibrationFormat.
 constexpr const char* kFingerprintScene = R"(
 [scene]
 name = "engine-fingerprint"
@@ -921,6 +924,9 @@ rebound_speed = 0.3
 damping = 0.005
 ke_ratio = 1.0e-30
 max_time = 0.6
+[load]
+gravity = 9.81
+shaking = { direction = "x", amplitude = 4.0, frequency = 3.6, start = 0.0 }
 [[wall]]
 name = "base"
 points = [[0, 0], [0.8, 0]]
@@ -941,13 +947,27 @@ std::uint64_t compute_engine_fingerprint(const std::function<void(EngineConfig&)
   const Trial t = deposit(scene, pl, 1.0, {}, std::chrono::steady_clock::now(), 0, tweak);
   Fnv f;
   f.integer(t.steps);
-  const auto& P = t.particles;
-  f.integer(static_cast<long long>(P.size()));
-  for (std::size_t i = 0; i < P.size(); ++i) {
-    f.bytes(&P.x[i], sizeof(double)); // the bits, not the values: round-off counts
-    f.bytes(&P.z[i], sizeof(double));
-  }
+  auto state = [&f](const Particles& P) {
+    f.integer(static_cast<long long>(P.size()));
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      f.bytes(&P.x[i], sizeof(double)); // the bits, not the values: round-off counts
+      f.bytes(&P.z[i], sizeof(double));
+      f.bytes(&P.omega[i], sizeof(double));
+    }
+  };
+  state(t.particles);
   f.bytes(t.history.data(), t.history.size());
+  // The run's step: the scene's configuration (no deposition damping, shaking on).
+  EngineConfig c = make_config(scene);
+  if (tweak) tweak(c);
+  Engine e(c);
+  const auto& P = t.particles;
+  for (std::size_t i = 0; i < P.size(); ++i) e.add_particle(P.x[i], P.z[i], P.radius[i]);
+  for (const auto& w : scene.walls) e.add_wall(w);
+  e.load_contact_history(t.history);
+  e.set_dt(t.dt);
+  e.run_steps(static_cast<long long>(std::ceil(0.2 / t.dt)));
+  state(e.particles());
   return f.h;
 }
 
