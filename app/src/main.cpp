@@ -2,6 +2,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -29,6 +30,7 @@
 #include "demfem/compare/processes.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/compare/study.hpp"
+#include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -357,9 +359,25 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
   return with_seed_dir(out, a);
 }
 
+// The identity of a run directory: the scene as given (variant applied, before the calibration
+// fills in the continuum), hashed. A DEM run, which does not calibrate, and a continuum run,
+// which does, of the same scene share a directory; another scene does not. Written as a comment
+// line of scene.resolved.toml.
+constexpr const char* kIdentityTag = "# scene identity: ";
+std::string scene_identity_line(const scene::Scene& given) {
+  dem::KeyHash h;
+  std::istringstream in(scene::to_toml(given));
+  for (std::string l; std::getline(in, l);)
+    if (l.rfind('#', 0) != 0) h.str(l); // the header names the file; the scene is the rest
+  return fmt::format("{}{:016x} (the scene before calibration; a run into this directory must "
+                     "have the same)",
+                     kIdentityTag, h.h);
+}
+
 // Creates the run directory, writes scene.resolved.toml and opens log.txt. Returns kOk, or
 // kRunFailed with a message naming the directory or file and the cause (e.g. an unwritable --out).
-int start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
+int start_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::path& out,
+                  bool resume) {
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) {
@@ -368,7 +386,9 @@ int start_run_dir(const scene::Scene& s, const fs::path& out, bool resume) {
     return kRunFailed;
   }
   try {
-    scene::write_file_atomic(out / "scene.resolved.toml", scene::to_toml(s));
+    std::string text = scene::to_toml(s);
+    text.insert(text.find('\n') + 1, scene_identity_line(given) + "\n");
+    scene::write_file_atomic(out / "scene.resolved.toml", text);
     setup_run_log(out, resume);
   } catch (const std::exception& e) {
     fmt::print(stderr, "demfem: cannot write into the run directory {}: {}\n", out.string(),
@@ -437,13 +457,30 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
 // or read from the cache). Logs one line per key; `notes` gets them. `figures`: draw the
 // calibration's figures into out/calibration even when it came from the cache (the comparison
 // report embeds them); otherwise only when it was computed now.
+// `compute` false (a DEM run, which reads no calibration): only a cached calibration is applied,
+// for the record; none is made.
 scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
-                              std::vector<std::string>* notes = nullptr, bool figures = false) {
+                              std::vector<std::string>* notes = nullptr, bool figures = false,
+                              bool compute = true) {
   scene::Scene r = s;
   if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !r.uses(scene::Solver::Continuum))
     return r;
   compare::CalibrateOptions o;
   o.out_dir = out / "calibration";
+  if (!compute) {
+    std::error_code ec;
+    const fs::path f = compare::calibration_cache_dir(r, o) /
+                       ("calibration-" + compare::calibration_key(r, o) + ".json");
+    if (!fs::exists(f, ec)) {
+      spdlog::info("{}: the continuum is not calibrated yet (a DEM run does not need it; the first "
+                   "continuum run, `demfem compare` or `demfem calibrate` makes it)",
+                   s.label());
+      r.soil.continuum->provenance.emplace_back(
+          "calibration", "not made by this DEM run: the [soil.continuum] values here are the "
+                         "defaults, a continuum run fills them in");
+      return r;
+    }
+  }
   app::ProgressReporter reporter;
   o.progress = [&](const scene::Progress& p) { reporter(p); };
   const auto c = compare::load_or_calibrate(s, o);
@@ -545,8 +582,8 @@ void remove_outputs(const fs::path& out, const std::vector<std::string>& names) 
 // unless --force, which clears every solver output first. A fresh run of the same scene clears
 // the outputs it is about to write (`fresh`), so figures and summaries are built only from files
 // this run wrote; --resume keeps them. Returns kOk or kBadInput (message printed).
-int prepare_run_dir(const scene::Scene& s, const fs::path& out, const RunArgs& a, const char* sub,
-                    const std::vector<std::string>& fresh) {
+int prepare_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::path& out,
+                    const RunArgs& a, const char* sub, const std::vector<std::string>& fresh) {
   if (a.resume || !fs::exists(out)) return kOk;
   const fs::path resolved = out / "scene.resolved.toml";
   std::string why;
@@ -555,7 +592,16 @@ int prepare_run_dir(const scene::Scene& s, const fs::path& out, const RunArgs& a
     std::stringstream ss;
     ss << in.rdbuf();
     const auto old_lines = scene_lines(ss.str()), new_lines = scene_lines(scene::to_toml(s));
-    if (old_lines != new_lines) {
+    // The directory's identity line when it has one (scene_identity_line); else, from an older
+    // demfem, the resolved scenes themselves.
+    std::string old_id;
+    {
+      std::istringstream t(ss.str());
+      for (std::string l; std::getline(t, l);)
+        if (l.rfind(kIdentityTag, 0) == 0) old_id = l.substr(0, std::strlen(kIdentityTag) + 16);
+    }
+    const std::string new_id = scene_identity_line(given).substr(0, std::strlen(kIdentityTag) + 16);
+    if (old_id.empty() ? old_lines != new_lines : old_id != new_id) {
       std::size_t i = 0;
       while (i < old_lines.size() && i < new_lines.size() && old_lines[i] == new_lines[i]) ++i;
       // "# resolved scene: <label> (from <file>)", the first line to_toml writes
@@ -630,9 +676,10 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
       if (!s->variant.empty()) v.insert(v.end(), {"--variant", s->variant});
       return v;
     };
-    // calibrate = "dem" (resolved for both solvers) packs the bed too; else a DEM run's packing
-    const bool calibrated =
-        s->soil.continuum && s->soil.continuum->calibrate_dem && s->uses(scene::Solver::Continuum);
+    // A continuum run with calibrate = "dem": the calibration (it packs the bed too); a DEM run:
+    // its packing only (it makes no calibration)
+    const bool calibrated = continuum && s->soil.continuum && s->soil.continuum->calibrate_dem &&
+                            s->uses(scene::Solver::Continuum);
     const bool packs = !continuum && s->soil.dem && s->soil.dem->particles.empty() &&
                        !s->soil.dem->packing.cache.empty();
     if (calibrated || packs) {
@@ -724,15 +771,18 @@ int cmd_run(const RunArgs& a) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
     // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
     // the same directory record the same resolved scene
-    const scene::Scene sc = with_calibration(*s, out);
+    // A continuum run calibrates (calibrate = "dem"); a DEM run records a cached calibration
+    // only: it reads none, and its directory's identity is the scene before calibration.
+    const scene::Scene sc =
+        with_calibration(*s, out, nullptr, false, solver == scene::Solver::Continuum);
     if (const int p = prepare_run_dir(
-            sc, out, a, "run",
+            sc, *s, out, a, "run",
             solver == scene::Solver::Dem
                 ? std::vector<std::string>{"dem", "figures", "summary.json", "run_dem.json"}
                 : std::vector<std::string>{"continuum", "run_continuum.json"});
         p != kOk)
       return p;
-    if (const int d = start_run_dir(sc, out, a.resume); d != kOk) return d;
+    if (const int d = start_run_dir(sc, *s, out, a.resume); d != kOk) return d;
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
     const auto r = run_solver(sc, solver, out, a);
@@ -774,11 +824,11 @@ int cmd_compare(const RunArgs& a) {
         return kBadInput;
       }
     } else {
-      if (const int p = prepare_run_dir(*s, out, a, "compare",
+      if (const int p = prepare_run_dir(*s, *s0, out, a, "compare",
                                         {std::begin(kRunOutputs), std::end(kRunOutputs)});
           p != kOk)
         return p;
-      if (const int d = start_run_dir(*s, out, a.resume); d != kOk) return d;
+      if (const int d = start_run_dir(*s, *s0, out, a.resume); d != kOk) return d;
     }
     compare::ReportOptions ro;
     ro.scene = s;

@@ -157,6 +157,65 @@ TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
   fs::remove(p);
 }
 
+// A DEM run of a scene that calibrates its continuum from the DEM (calibrate = "dem") reads no
+// calibration, so it makes none (issue 12: ≈ 40 s of element tests per bed on the paper's scenes,
+// for nothing): `run --jobs` prepares the packing, the runs log that the continuum is not
+// calibrated yet. The run directory's identity is the scene before calibration, so a directory
+// whose record holds the calibrated continuum (as a continuum run writes it) takes a DEM run of
+// the same scene, and still refuses another scene.
+TEST(Cli, DemRunsOfACalibratingSceneMakeNoCalibration) {
+  const fs::path out = demfem::test::scratch("cli_dem_no_calibration");
+  fs::remove_all(out);
+  const auto p =
+      write_temp("demfem_cli_dem_no_calibration.toml",
+                 "[scene]\nname = \"tiny\"\nduration = 0.02\nseed = 3\nsolvers = [\"dem\", "
+                 "\"continuum\"]\n[domain]\npolygon = [[0, 0], [1.2, 0], [1.2, 0.8], [0, 0.8]]\n"
+                 "[soil.dem]\ncount = 200\nradius = { uniform = [0.015, 0.025] }\nkn = 1.0e6\n"
+                 "ks = 3.0e5\n[soil.dem.packing]\ndamping = 0.05\nmax_time = 10\ncache = \"" +
+                     (out / "cache").string() +
+                     "\"\n[soil.continuum]\ncalibrate = \"dem\"\n[output]\nfigures = false\n"
+                     "[[wall]]\nname = \"base\"\npoints = [[0, 0], [1.2, 0]]\n"
+                     "[[wall]]\nname = \"left\"\npoints = [[0, 0.8], [0, 0]]\n"
+                     "[[wall]]\nname = \"right\"\npoints = [[1.2, 0], [1.2, 0.8]]\n"
+                     "[[variant]]\nname = \"a\"\nset = { \"scene.duration\" = 0.02 }\n"
+                     "[[variant]]\nname = \"b\"\nset = { \"scene.duration\" = 0.03 }\n");
+  const fs::path runs = out / "runs";
+  const auto r =
+      run("run " + p.string() + " --all-variants --solver dem --jobs 2 --out " + runs.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("1 shared packing(s)/calibration(s) first"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(packing): done"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("(calibration)"), std::string::npos) << r.out;
+  for (const char* v : {"a", "b"}) {
+    EXPECT_TRUE(fs::exists(runs / v / "dem" / "energy.csv")) << v;
+    EXPECT_FALSE(fs::exists(runs / v / "calibration")) << v;
+    EXPECT_NE(
+        demfem::test::slurp(runs / v / "console.txt").find("the continuum is not calibrated yet"),
+        std::string::npos)
+        << v;
+  }
+  for (const auto& e : fs::directory_iterator(out / "cache"))
+    EXPECT_FALSE(e.path().filename().string().starts_with("calibration-")) << e.path();
+  // The record as a calibrated continuum run leaves it: other [soil.continuum] values.
+  const fs::path rec = runs / "a" / "scene.resolved.toml";
+  std::string text = demfem::test::slurp(rec);
+  ASSERT_NE(text.find("# scene identity: "), std::string::npos) << text;
+  const auto at = text.find("\nfriction_angle = ");
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, text.find('\n', at + 1) - at, "\nfriction_angle = 16.6");
+  std::ofstream(rec) << text;
+  const auto same =
+      run("run " + p.string() + " --variant a --solver dem --out " + (runs / "a").string());
+  EXPECT_EQ(same.code, 0) << same.out;
+  const auto other =
+      run("run " + p.string() + " --variant b --solver dem --out " + (runs / "a").string());
+  EXPECT_EQ(other.code, 2) << other.out;
+  EXPECT_NE(other.out.find("holds the results of a different scene"), std::string::npos)
+      << other.out;
+  fs::remove(p);
+  fs::remove_all(out);
+}
+
 // Ctrl-C writes a checkpoint and stops; --resume continues it to the end.
 TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
   std::ifstream in(fs::path(DEMFEM_SOURCE_DIR) / "cases/verification/settle_box.toml");

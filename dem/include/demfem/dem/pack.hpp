@@ -81,10 +81,11 @@ private:
 
 // What the engine does, bit for bit: the FNV-1a digest of the positions and contact history of a
 // small bed (150 disks, friction, rebound, walls, ≈ 3,300 steps with many neighbour rebuilds)
-// deposited by this build. Any change that moves the DEM by round-off (summation order, the
+// deposited by this build, and of its positions after 0.2 s more of the run's step (no damping,
+// shaking). Any change that moves the DEM by round-off (summation order, the
 // neighbour list's rebuild rule or skin, the pair kernel) changes it; a change that leaves every
 // bit alone does not. It enters the cache keys of packings and, through them, of calibrations,
-// so a checkout never reuses a cache an older engine wrote. Computed once per process (0.02–0.05
+// so a checkout never reuses a cache an older engine wrote. Computed once per process (≈ 0.04
 // s); 16 hex digits.
 [[nodiscard]] const std::string& engine_fingerprint();
 // Computes it afresh; `tweak` changes the engine's configuration first (tests: a different skin
