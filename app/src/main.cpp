@@ -2,7 +2,6 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -13,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -363,15 +363,13 @@ fs::path run_dir_for(const scene::Scene& s, const RunArgs& a, std::size_t count)
 // fills in the continuum), hashed. A DEM run, which does not calibrate, and a continuum run,
 // which does, of the same scene share a directory; another scene does not. Written as a comment
 // line of scene.resolved.toml.
-constexpr const char* kIdentityTag = "# scene identity: ";
-std::string scene_identity_line(const scene::Scene& given) {
+constexpr std::string_view kIdentityTag = "# scene identity: ";
+std::string scene_identity(const scene::Scene& given) {
   dem::KeyHash h;
   std::istringstream in(scene::to_toml(given));
   for (std::string l; std::getline(in, l);)
     if (l.rfind('#', 0) != 0) h.str(l); // the header names the file; the scene is the rest
-  return fmt::format("{}{:016x} (the scene before calibration; a run into this directory must "
-                     "have the same)",
-                     kIdentityTag, h.h);
+  return fmt::format("{}{:016x}", kIdentityTag, h.h);
 }
 
 // Creates the run directory, writes scene.resolved.toml and opens log.txt. Returns kOk, or
@@ -387,7 +385,9 @@ int start_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::pa
   }
   try {
     std::string text = scene::to_toml(s);
-    text.insert(text.find('\n') + 1, scene_identity_line(given) + "\n");
+    text.insert(text.find('\n') + 1,
+                scene_identity(given) +
+                    " (the scene before calibration; a run into this directory must have it)\n");
     scene::write_file_atomic(out / "scene.resolved.toml", text);
     setup_run_log(out, resume);
   } catch (const std::exception& e) {
@@ -592,16 +592,16 @@ int prepare_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::
     std::stringstream ss;
     ss << in.rdbuf();
     const auto old_lines = scene_lines(ss.str()), new_lines = scene_lines(scene::to_toml(s));
-    // The directory's identity line when it has one (scene_identity_line); else, from an older
-    // demfem, the resolved scenes themselves.
+    // The directory's identity (scene_identity) when it records one; else, from an older demfem,
+    // the resolved scenes themselves.
+    const std::string id = scene_identity(given);
     std::string old_id;
     {
       std::istringstream t(ss.str());
       for (std::string l; std::getline(t, l);)
-        if (l.rfind(kIdentityTag, 0) == 0) old_id = l.substr(0, std::strlen(kIdentityTag) + 16);
+        if (l.starts_with(kIdentityTag)) old_id = l.substr(0, id.size());
     }
-    const std::string new_id = scene_identity_line(given).substr(0, std::strlen(kIdentityTag) + 16);
-    if (old_id.empty() ? old_lines != new_lines : old_id != new_id) {
+    if (old_id.empty() ? old_lines != new_lines : old_id != id) {
       std::size_t i = 0;
       while (i < old_lines.size() && i < new_lines.size() && old_lines[i] == new_lines[i]) ++i;
       // "# resolved scene: <label> (from <file>)", the first line to_toml writes
@@ -769,8 +769,6 @@ int cmd_run(const RunArgs& a) {
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
-    // issue 9: calibrate = "dem" resolved for both solvers, so a DEM and a continuum run into
-    // the same directory record the same resolved scene
     // A continuum run calibrates (calibrate = "dem"); a DEM run records a cached calibration
     // only: it reads none, and its directory's identity is the scene before calibration.
     const scene::Scene sc =
