@@ -171,22 +171,27 @@ TEST(Cli, DemRunsOfACalibratingSceneMakeNoCalibration) {
                  "[scene]\nname = \"tiny\"\nduration = 0.02\nseed = 3\nsolvers = [\"dem\", "
                  "\"continuum\"]\n[domain]\npolygon = [[0, 0], [1.2, 0], [1.2, 0.8], [0, 0.8]]\n"
                  "[soil.dem]\ncount = 200\nradius = { uniform = [0.015, 0.025] }\nkn = 1.0e6\n"
-                 "ks = 3.0e5\n[soil.dem.packing]\ndamping = 0.05\nmax_time = 10\ncache = \"" +
+                 "ks = 3.0e5\n[soil.dem.packing]\ndamping = 0.05\nmax_time = 10\ntarget = "
+                 "\"none\"\ncache = \"" +
                      (out / "cache").string() +
                      "\"\n[soil.continuum]\ncalibrate = \"dem\"\n[output]\nfigures = false\n"
                      "[[wall]]\nname = \"base\"\npoints = [[0, 0], [1.2, 0]]\n"
                      "[[wall]]\nname = \"left\"\npoints = [[0, 0.8], [0, 0]]\n"
                      "[[wall]]\nname = \"right\"\npoints = [[1.2, 0], [1.2, 0.8]]\n"
                      "[[variant]]\nname = \"a\"\nset = { \"scene.duration\" = 0.02 }\n"
-                     "[[variant]]\nname = \"b\"\nset = { \"scene.duration\" = 0.03 }\n");
+                     "[[variant]]\nname = \"b\"\nset = { \"scene.duration\" = 0.03 }\n"
+                     // a porosity the deposition cannot reach: the nearest packing, NOT MET
+                     "[[variant]]\nname = \"c\"\nset = { \"soil.dem.packing.target\" = { "
+                     "porosity = 0.6, tolerance = 0.001 } }\n");
   const fs::path runs = out / "runs";
   const auto r =
       run("run " + p.string() + " --all-variants --solver dem --jobs 2 --out " + runs.string());
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("1 shared packing(s)/calibration(s) first"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("2 shared packing(s)/calibration(s) first"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("(packing): done"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("(calibration)"), std::string::npos) << r.out;
-  for (const char* v : {"a", "b"}) {
+  EXPECT_NE(demfem::test::slurp(runs / "c" / "log.txt").find("NOT MET"), std::string::npos);
+  for (const char* v : {"a", "b", "c"}) {
     EXPECT_TRUE(fs::exists(runs / v / "dem" / "energy.csv")) << v;
     EXPECT_FALSE(fs::exists(runs / v / "calibration")) << v;
     EXPECT_NE(
