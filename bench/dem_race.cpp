@@ -8,6 +8,8 @@
 // steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
 // Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
 //        [kernel=simd|portable|scalar] [order=columns|morton]
+// adaptive=1: the adaptive team as `demfem run` has it (probes of the full team only when another
+// CPU was idle, Engine::set_idle_source); adaptive=2: adaptive, probing without that reading;
 // adaptive=0: the full team of `threads` always (no adaptive team, EngineConfig::adaptive_threads);
 // adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
@@ -20,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -91,6 +94,7 @@ int main(int argc, char** argv) {
   for (const auto& w : sc.walls) e.add_wall(w);
   e.set_dt(sc.soil.dem->dt > 0.0 ? sc.soil.dem->dt : e.auto_dt());
   if (adaptive < 0) e.set_team(-adaptive); // a fixed team of −adaptive threads
+  if (adaptive == 1) e.set_idle_source(dem::idle_cpu_seconds);
   std::vector<dem::ContactView> buf;
   const double z0 = coordination(e, buf); // no contacts listed before the first step
   (void)z0;
@@ -126,7 +130,8 @@ int main(int argc, char** argv) {
   std::fprintf(stderr,
                "# rebuilds %lld, reorders %lld, pair entries/particle %.2f, rebuild+check %.3f s, "
                "forces %.3f s, bytes/particle %.1f (particles %.1f, history %.1f, lists %.1f, "
-               "grid %.1f, other %.1f), team steps full/one %lld/%lld, switches %lld%s%s\n",
+               "grid %.1f, other %.1f), team steps full/one %lld/%lld, switches %lld, probes "
+               "skipped %lld%s%s\n",
                st.neighbour_rebuilds, st.reorders,
                static_cast<double>(st.pair_entries) / static_cast<double>(n), st.rebuild_seconds,
                st.force_seconds, static_cast<double>(m.total()) / static_cast<double>(n),
@@ -135,7 +140,7 @@ int main(int argc, char** argv) {
                static_cast<double>(m.neighbour_lists) / static_cast<double>(n),
                static_cast<double>(m.grid) / static_cast<double>(n),
                static_cast<double>(m.other) / static_cast<double>(n), st.team_full_steps,
-               st.team_one_steps, st.team_switches, e.failed() ? " FAILED: " : "",
-               e.failed() ? e.failure().c_str() : "");
+               st.team_one_steps, st.team_switches, st.team_probes_skipped,
+               e.failed() ? " FAILED: " : "", e.failed() ? e.failure().c_str() : "");
   return e.failed() ? 1 : 0;
 }

@@ -477,6 +477,8 @@ void Engine::step() {
       if (st.spec.dead_weight) pe_ref_ += st.mass * g * (st.pz0 + st.uz + st.cz_local);
   }
   const auto t0 = std::chrono::steady_clock::now();
+  if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads && threads_in_use() > 1)
+    start_team(t0);
   check_rebuild();
   const auto t1 = std::chrono::steady_clock::now();
   compute_forces();
@@ -490,6 +492,23 @@ void Engine::step() {
   tune_team();
 }
 
+void Engine::start_team(std::chrono::steady_clock::time_point now) {
+  // Start with one thread and probe the full team at once: a stalled full team is what costs, so
+  // it is only ever tried for short probes (and not for the first step, before any measurement).
+  auto& tu = tuner_;
+  tu.started = true;
+  tu.t0 = now;
+  tu.steps = 0;
+  tu.current = 1;
+  team_ = 1;
+  tu.until_probe = 1;
+  tu.probe_every = 1;
+  if (idle_source_) {
+    tu.idle_t = now;
+    tu.idle_s = idle_source_();
+  }
+}
+
 void Engine::tune_team() {
   const int T = threads_in_use();
   if (T <= 1) return;
@@ -498,14 +517,8 @@ void Engine::tune_team() {
   auto& tu = tuner_;
   if (tu.fixed || !config_.adaptive_threads) return;
   const auto now = std::chrono::steady_clock::now();
-  if (!tu.started) {   // start with one thread and probe the full team at once: a stalled full
-    tu.started = true; // team is what costs, so it is only ever tried for short probes
-    tu.t0 = now;
-    tu.steps = 0;
-    tu.current = 1;
-    team_ = 1;
-    tu.until_probe = 1;
-    tu.probe_every = 1;
+  if (!tu.started) {
+    start_team(now);
     return;
   }
   ++tu.steps;
@@ -539,12 +552,37 @@ void Engine::tune_team() {
   } else {
     tu.current_per_step = per;
     if (--tu.until_probe <= 0) {
-      tu.probing = true;
-      team_ = tu.current == 1 ? 0 : 1;
+      const int idle = tu.current == 1 ? others_idle(now) : 1; // a probe of one thread never stalls
+      if (idle > 0) {
+        tu.probing = true;
+        team_ = tu.current == 1 ? 0 : 1;
+      } else if (idle ==
+                 0) { // the other CPUs were busy: the full team would stall; ask again later
+        ++stats_.team_probes_skipped;
+        tu.until_probe = tu.probe_every;
+      } else { // too short a span to tell: decide after the next window
+        tu.until_probe = 1;
+      }
     }
   }
   tu.t0 = now;
   tu.steps = 0;
+}
+
+int Engine::others_idle(std::chrono::steady_clock::time_point now) {
+  auto& tu = tuner_;
+  if (!idle_source_) return 1;
+  const double span = std::chrono::duration<double>(now - tu.idle_t).count();
+  // /proc/stat counts in ticks of 10 ms: over less than 5 ticks per CPU the reading says little.
+  if (std::isfinite(tu.idle_s) && span < 0.05) return -1;
+  const double s = idle_source_();
+  const double idle = s - tu.idle_s;
+  tu.idle_s = s;
+  tu.idle_t = now;
+  if (!std::isfinite(idle)) return 1; // unknown (or the first reading): probe, as without a source
+  // The full team needs T − 1 more CPUs; it is worth a probe when they were idle at least half
+  // of the time (a partly busy core may still win; a fully busy one only stalls the team).
+  return idle >= 0.5 * static_cast<double>(threads_in_use() - 1) * span ? 1 : 0;
 }
 
 void Engine::run_steps(long long n) {

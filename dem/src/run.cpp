@@ -33,6 +33,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -167,6 +168,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   // ---- build ------------------------------------------------------------------------------
   Engine e(make_config(scene));
   e.set_threads(options.threads);
+  e.set_idle_source(idle_cpu_seconds); // the adaptive team probes 2 threads only when a CPU idles
   const auto ckpt_path = out / "checkpoint.ckpt";
   std::optional<io::Checkpoint> resume_from;
   if (options.resume) {
@@ -726,9 +728,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     const double all = static_cast<double>(st.team_full_steps + st.team_one_steps);
     spdlog::info("threads: work cut into {} parts; {:.1f} % of the steps ran on {} threads, "
                  "{:.1f} % on one (adaptive team: one thread where the full team measured slower, "
-                 "e.g. a core shared with another process); results depend on the part count only",
+                 "e.g. a core shared with another process; {} probes of the full team left out "
+                 "while the other CPUs were busy); results depend on the part count only",
                  e.threads_in_use(), 100.0 * static_cast<double>(st.team_full_steps) / all,
-                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all);
+                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all,
+                 st.team_probes_skipped);
   }
   summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a particle checkpoint (readable without the engine); a failed write throws.

@@ -5,14 +5,18 @@
 #include "../scratch.hpp"
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
+#include <limits>
 #include <random>
 #include <string>
 
+#include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
@@ -325,6 +329,68 @@ TEST(DemThreads, TeamSizeDoesNotChangeResults) {
     const auto [pv, fv] = run(threads, true);
     expect_same_particles(pf, pv);
     EXPECT_EQ(ff, fv);
+  }
+}
+
+// The adaptive team reads how idle the other CPUs were before it probes the full team: while they
+// are busy it never runs a 2-thread step (each such probe stalls on the busy core: 0.84 of one
+// thread at 10⁴ disks with the probes, 1.00 without, bench/RESULTS.md); while they idle it probes.
+TEST(DemThreads, TheFullTeamIsProbedOnlyWhenAnotherCpuIdles) {
+  using clock = std::chrono::steady_clock;
+  auto run = [](std::function<double()> idle) {
+    dem::Engine e(team_test_config(2));
+    add_shaken_lattice(e, 1000, 40, 7);
+    if (idle) e.set_idle_source(std::move(idle));
+    // Decisions are made on windows of ≥ 0.05 s of steps: run until a few were made (≤ 5 s).
+    const auto t0 = clock::now();
+    while (clock::now() - t0 < std::chrono::seconds(5) && !e.failed() &&
+           e.stats().team_full_steps == 0 && e.stats().team_probes_skipped < 3)
+      e.run_steps(20);
+    EXPECT_FALSE(e.failed()) << e.failure();
+    return e.stats();
+  };
+  const auto t_start = clock::now();
+  auto cpu_seconds_since_start = [t_start](double cpus) {
+    return [t_start, cpus] {
+      return cpus * std::chrono::duration<double>(clock::now() - t_start).count();
+    };
+  };
+  // The other CPU busy: its idle counter does not move (one idle CPU-second over the whole run,
+  // as a real counter gives under `stress-ng --cpu 1`).
+  const auto busy = run([] { return 1.0; });
+  EXPECT_EQ(busy.team_full_steps, 0);
+  EXPECT_GE(busy.team_probes_skipped, 3);
+  // One CPU idle all the time (the counter grows by 1 CPU-second per second): probed.
+  const auto idle = run(cpu_seconds_since_start(1.0));
+  EXPECT_GT(idle.team_full_steps, 0);
+  EXPECT_EQ(idle.team_probes_skipped, 0);
+  // A quarter of a CPU idle: below the half the second thread needs, not probed.
+  const auto quarter = run(cpu_seconds_since_start(0.25));
+  EXPECT_EQ(quarter.team_full_steps, 0);
+  // No reading (NaN, or no source): every probe is made, as before the reading existed.
+  const auto unknown = run([] { return std::numeric_limits<double>::quiet_NaN(); });
+  EXPECT_GT(unknown.team_full_steps, 0);
+  EXPECT_GT(run({}).team_full_steps, 0);
+}
+
+// /proc/stat: the idle and iowait columns of the per-CPU lines in the affinity mask, in seconds.
+TEST(CpuIdle, ReadsIdleAndIowaitOfTheAllowedCpus) {
+  const std::string text = "cpu  400 0 200 9000 100 0 0 0 0 0\n"
+                           "cpu0 200 0 100 4000 50 0 0 0 0 0\n"
+                           "cpu1 200 0 100 5000 50 0 0 0 0 0\n"
+                           "intr 12345 0 0\n"
+                           "ctxt 999\n";
+  EXPECT_DOUBLE_EQ(dem::idle_seconds_from_proc_stat(text, {}, 100.0), 91.0);
+  EXPECT_DOUBLE_EQ(dem::idle_seconds_from_proc_stat(text, {false, true}, 100.0), 50.5);
+  EXPECT_DOUBLE_EQ(dem::idle_seconds_from_proc_stat(text, {true}, 100.0), 40.5); // cpu1 not allowed
+  EXPECT_DOUBLE_EQ(dem::idle_seconds_from_proc_stat("cpu3 1 2 3 4\n", {}, 1.0), 4.0); // no iowait
+  EXPECT_TRUE(std::isnan(dem::idle_seconds_from_proc_stat("cpu  1 2 3 4 5\n", {}, 100.0)));
+  EXPECT_TRUE(std::isnan(dem::idle_seconds_from_proc_stat("", {}, 100.0)));
+  // This machine: a counter that does not run backwards.
+  const double a = dem::idle_cpu_seconds();
+  const double b = dem::idle_cpu_seconds();
+  if (!std::isnan(a)) {
+    EXPECT_GE(b, a);
   }
 }
 

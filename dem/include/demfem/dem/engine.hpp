@@ -16,6 +16,8 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <limits>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -142,6 +144,8 @@ struct EngineStats {
   double rebuild_seconds = 0.0, force_seconds = 0.0;
   // threads > 1: steps run by the full team / by one thread (adaptive team), team switches.
   long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
+  // Probes of the full team left out because no other CPU had been idle (set_idle_source).
+  long long team_probes_skipped = 0;
 };
 
 // Boundary = a wall polyline or a structure outline, made of segment and vertex features.
@@ -224,6 +228,13 @@ public:
     tuner_ = {};
     tuner_.fixed = k > 0;
   }
+  // The adaptive team's view of the machine: a counter of idle CPU-seconds of the CPUs this
+  // process may use (dem::idle_cpu_seconds, cpu_idle.hpp; NaN: unknown). With one, a probe of the
+  // full team is made only when the other CPUs were idle for at least half of the time the team
+  // would need (T − 1 CPUs) since the last decision: on a machine whose other cores are busy, a
+  // probe can only stall (bench/RESULTS.md, "busy core"). Without one (the default, and for a
+  // counter that reads NaN) every probe is made.
+  void set_idle_source(std::function<double()> source) { idle_source_ = std::move(source); }
 
   // ---- checkpoint / resume ----------------------------------------------------------------
   // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
@@ -300,6 +311,7 @@ private:
   // Inside a parallel region: (this thread's number, team size).
   static std::pair<std::size_t, std::size_t> team_member();
   void tune_team(); // after each step: measures, and switches the adaptive team
+  void start_team(std::chrono::steady_clock::time_point now); // before the first adaptive step
 
   // Adaptive team: windows of whole steps are timed with the current team; now and then one
   // window runs with the other choice (1 thread or all), and the faster one is kept.
@@ -311,7 +323,13 @@ private:
     int current = 0;             // team size outside probes (0: full)
     double current_per_step = 0; // seconds per step of the last window with `current`
     int until_probe = 4, probe_every = 4;
+    std::chrono::steady_clock::time_point idle_t{}; // last reading of the idle counter
+    double idle_s = std::numeric_limits<double>::quiet_NaN();
   } tuner_;
+  std::function<double()> idle_source_;
+  // Whether the other CPUs were idle enough since the last reading for a probe of the full team:
+  // 1 yes (or unknown), 0 no, −1 too short a span to tell.
+  int others_idle(std::chrono::steady_clock::time_point now);
 
   EngineConfig config_;
   AnyContactLaw law_; // built once from config_
