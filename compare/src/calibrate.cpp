@@ -27,7 +27,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 5; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 6; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -165,6 +165,13 @@ BiaxialCurve evaluate(double depth, const calib::BiaxialResult& r, double max_st
       }
     if (cnt) c.phi_cv = deg(std::asin(std::clamp(sum / static_cast<double>(cnt), 0.0, 1.0)));
     c.end_dilatancy = linear_fit(xe, ye).slope;
+    // Dilation of the test: volumetric strain (compression positive) from its densest point to
+    // its end. The continuum's dilatancy cut-off (ψ → 0 beyond it) is the mean over the tests.
+    {
+      double ev_max = 0.0;
+      for (std::size_t i = 0; i < n; ++i) ev_max = std::max(ev_max, c.ea[i] + c.el[i]);
+      c.dilation = std::max(0.0, ev_max - (c.ea[n - 1] + c.el[n - 1]));
+    }
     // Dilatancy at the peak: sin ψ = −ε̇_v/(ε̇_1 − ε̇_3) = −s/(2 − s), s = dε_v/dε_1 over ±1 %
     // axial strain around the peak (Vermeer & de Borst, Heron 29 (1984), compression positive).
     std::vector<double> xp, yp;
@@ -241,6 +248,7 @@ json to_json(const Calibration& c) {
                      {"t_peak_pa", t.t_peak},
                      {"strain_at_peak", t.strain_at_peak},
                      {"end_dilatancy", t.end_dilatancy},
+                     {"dilation", t.dilation},
                      {"failure", t.failure},
                      {"e_axial", t.ea},
                      {"e_lateral", t.el},
@@ -261,6 +269,8 @@ json to_json(const Calibration& c) {
                     {"friction_angle_deg", c.friction_angle},
                     {"cohesion", c.cohesion},
                     {"dilation_angle_deg", c.dilation_angle},
+                    {"dilation_cutoff",
+                     std::isfinite(c.dilation_cutoff) ? json(c.dilation_cutoff) : json(nullptr)},
                     {"density", c.bulk_density},
                     {"k0", c.k0},
                     {"surface", c.surface},
@@ -305,6 +315,7 @@ Calibration from_json(const json& j) {
     x.t_peak = t.at("t_peak_pa");
     x.strain_at_peak = t.at("strain_at_peak");
     x.end_dilatancy = t.at("end_dilatancy");
+    x.dilation = t.value("dilation", 0.0);
     x.failure = t.at("failure");
     x.ea = t.at("e_axial").get<std::vector<double>>();
     x.el = t.at("e_lateral").get<std::vector<double>>();
@@ -330,6 +341,8 @@ Calibration from_json(const json& j) {
   c.friction_angle = k.at("friction_angle_deg");
   c.cohesion = k.at("cohesion");
   c.dilation_angle = k.at("dilation_angle_deg");
+  if (k.contains("dilation_cutoff") && k.at("dilation_cutoff").is_number())
+    c.dilation_cutoff = k.at("dilation_cutoff");
   c.young_source = k.at("young_source");
   c.young_small = k.at("young_small");
   c.young_e50 = k.at("young_e50");
@@ -604,6 +617,14 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
     c.cohesion = std::max(0.0, c.cohesion_fit);
     c.dilation_angle = std::clamp(c.psi, 0.0, c.friction_angle);
+    double dil = 0.0;
+    int nd = 0;
+    for (const auto& t : c.tests)
+      if (t.failure.empty() && !t.ea.empty()) {
+        dil += t.dilation;
+        ++nd;
+      }
+    if (nd > 0) c.dilation_cutoff = dil / nd;
   }
   // ---- cyclic ------------------------------------------------------------------------------
   if (o.cyclic && !o.cyclic_amplitudes.empty()) {
@@ -684,6 +705,11 @@ std::string continuum_block(const Calibration& c) {
   s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
                    "(clamped to [0, φ])\n",
                    c.dilation_angle);
+  if (std::isfinite(c.dilation_cutoff))
+    s += fmt::format("dilation_cutoff = {:.4f}   # plastic dilation after which ψ = 0: the "
+                     "biaxial tests' volumetric strain\n#   from their densest point to the end "
+                     "({:.0f} % axial strain), mean of the tests\n",
+                     c.dilation_cutoff, 100.0 * (c.tests.empty() ? 0.0 : c.tests[0].ea.back()));
   s += fmt::format("density = {:.5g}   # [kg/m³] ρ_s (1 − n), porosity n = {:.4f} of the "
                    "deposited bed\n",
                    c.bulk_density, c.porosity);
@@ -858,6 +884,13 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
                         c.continuum_mass / c.soil_mass)
           : std::string("height holding the DEM bed's soil mass at that density"));
   s.surface = surf;
+  if (std::isfinite(c.dilation_cutoff)) {
+    double cut = s.dilation_cutoff.value_or(0.0);
+    set("dilation_cutoff", cut, c.dilation_cutoff, fmt::format("{:.4f}", c.dilation_cutoff),
+        "dilatancy cut-off: mean dilation of the biaxial tests, densest point to the end "
+        "(ψ → 0 beyond it)");
+    s.dilation_cutoff = cut;
+  }
   if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
   // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
   // smallest amplitude; larger strains dissipate by plasticity in the continuum) at the layer's

@@ -118,8 +118,11 @@ std::string continuum_model(const scene::ContinuumSoil& c) {
                        cal ? " (calibrated)" : "");
   return fmt::format(
       "Mohr–Coulomb, perfectly plastic, non-associated: E = {}, ν = {}, φ = {}, c = {}, "
-      "ψ = {}{}{}",
+      "ψ = {}{}{}{}",
       pa(c.young), g3(c.poisson), deg(c.friction_angle), pa(c.cohesion), deg(c.dilation_angle),
+      c.dilation_cutoff && c.dilation_angle > 0.0
+          ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(*c.dilation_cutoff))
+          : std::string(c.dilation_angle > 0.0 ? " without limit" : ""),
       c.tension_cutoff > 0.0 ? ", tension cut-off " + pa(c.tension_cutoff) : "",
       cal ? " (calibrated from DEM element tests)" : "");
 }
@@ -345,8 +348,8 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
       r.consequence =
           "The granular bed's stiffness grows with confinement and falls with strain amplitude, "
           "and it compacts under shaking; the continuum has one E at every depth and strain, and "
-          "changes volume only elastically or by dilating at ψ ≥ 0 when it yields — it cannot "
-          "densify.";
+          "changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up to its "
+          "dilatancy cut-off) — it cannot densify.";
     else
       r.consequence = "The continuum never yields or slides: every permanent deformation and all "
                       "sliding at failure are DEM-only.";
@@ -886,6 +889,7 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
       add("friction_angle", deg(c.friction_angle));
       add("cohesion", pa(c.cohesion));
       add("dilation_angle", deg(c.dilation_angle));
+      if (c.dilation_cutoff) add("dilation_cutoff", g3(*c.dilation_cutoff));
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
     add("k0", c.k0 >= 0.0

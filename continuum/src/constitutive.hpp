@@ -28,10 +28,19 @@ struct State {
 struct Elastic {
   mc::Parameters p;
 };
-// Perfectly plastic Mohr–Coulomb with non-associated flow and tension cut-off (mc::integrate).
+// Perfectly plastic Mohr–Coulomb with non-associated flow and tension cut-off (mc::integrate),
+// and the dilatancy cut-off of p.dilation_cutoff: `p_cut` is p with ψ = 0, used at points whose
+// plastic volumetric strain has reached the cut-off.
 struct MohrCoulomb {
   mc::Parameters p;
+  mc::Parameters p_cut;
 };
+
+// Plastic volumetric strain of a point, dilation positive (tension-positive strains; plane
+// strain: the out-of-plane plastic strain counts).
+inline double plastic_volumetric_strain(const State& s) {
+  return s.eps_p[0] + s.eps_p[1] + s.eps_p[3];
+}
 
 class Material {
 public:
@@ -39,9 +48,11 @@ public:
   // The model the parameters describe: Mohr–Coulomb when p.plastic, else elastic.
   static Material from(const mc::Parameters& p) {
     Material m;
-    if (p.plastic)
-      m.model_ = MohrCoulomb{p};
-    else
+    if (p.plastic) {
+      mc::Parameters cut = p;
+      cut.dilation = 0.0;
+      m.model_ = MohrCoulomb{p, cut};
+    } else
       m.model_ = Elastic{p};
     return m;
   }
@@ -71,7 +82,10 @@ public:
     const auto& m = std::get<MohrCoulomb>(model_);
     mc::ElasticStrain trial = c0.ee;
     for (int k = 0; k < 3; ++k) trial.in_plane[k] += deps[k];
-    const mc::Result r = mc::integrate(m.p, trial, predictor && c0.plastic);
+    // Dilatancy cut-off (mohr_coulomb.hpp): decided on the committed state, so that a step's
+    // Newton iterations see one flow rule.
+    const bool cut = plastic_volumetric_strain(c0) >= m.p.dilation_cutoff;
+    const mc::Result r = mc::integrate(cut ? m.p_cut : m.p, trial, predictor && c0.plastic);
     s.ee = r.elastic;
     s.stress = r.stress;
     s.syy = r.stress_yy;

@@ -181,7 +181,10 @@ int Model::Impl::solve_linear(bool symmetric) {
 bool Model::Impl::symmetric_tangent() const {
   // non-associated flow (ψ ≠ φ) makes the consistent tangent non-symmetric: in the soil, and in
   // the frictional interface layer (ψ = 0, φ_l > 0) when there is one
-  const bool soil_sym = !pb.soil.plastic || std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12;
+  // (a dilatancy cut-off turns ψ to 0 at some points: symmetric only when ψ = φ = 0 there too)
+  const bool cutoff = std::isfinite(pb.soil.dilation_cutoff) && pb.soil.friction > 1e-12;
+  const bool soil_sym =
+      !pb.soil.plastic || (std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12 && !cutoff);
   const bool iface_sym = pb.interface_friction < 1e-12; // < 0: tied, no layer
   return soil_sym && iface_sym;
 }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 
 namespace demfem::continuum::mc {
 
@@ -22,6 +23,11 @@ struct Parameters {
   double cohesion = 0.0;        // c [Pa]
   double dilation = 0.0;        // ψ [rad]
   double tension_cutoff = -1.0; // t [Pa]: max principal stress; < 0 = none (only the MC apex)
+  // Dilatancy cut-off: a point whose plastic volumetric strain (dilation positive) has reached
+  // this value flows with ψ = 0 from then on (PLAXIS Material Models Manual, Mohr–Coulomb
+  // "dilatancy cut-off": a soil stops dilating at its loosest, critical state). Without it a
+  // constant ψ dilates a yielding mass without bound (constitutive::Material::update applies it).
+  double dilation_cutoff = std::numeric_limits<double>::infinity();
 
   [[nodiscard]] double shear_modulus() const { return young / (2.0 * (1.0 + poisson)); }
   [[nodiscard]] double lame() const {

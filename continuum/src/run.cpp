@@ -280,6 +280,7 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   pb.soil.friction = soil.friction_angle;
   pb.soil.cohesion = soil.cohesion;
   pb.soil.dilation = soil.dilation_angle;
+  if (soil.dilation_cutoff) pb.soil.dilation_cutoff = *soil.dilation_cutoff;
   pb.soil.tension_cutoff = soil.tension_cutoff > 0.0 ? soil.tension_cutoff : -1.0;
   pb.density = soil.density;
   for (const auto& s : scene.structures) {

@@ -189,6 +189,8 @@ std::string to_toml(const Scene& s) {
                                          {"density", c->density},
                                          {"k0", c->k0}});
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
+    if (c->dilation_cutoff)
+      soil.get_as<toml::table>("continuum")->insert("dilation_cutoff", *c->dilation_cutoff);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
     if (!c->provenance.empty()) { // where each value came from (issue 9)
       toml::table prov;

@@ -635,6 +635,7 @@ ContinuumSoil read_continuum_soil(Reader& r) {
   if (s.dilation_angle > s.friction_angle)
     r.error("dilation_angle", "dilation angle must not exceed the friction angle");
   s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
+  if (r.has("dilation_cutoff")) s.dilation_cutoff = r.in_range("dilation_cutoff", 0.0, 0.0, 1.0);
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
@@ -647,14 +648,15 @@ ContinuumSoil read_continuum_soil(Reader& r) {
                                        *cal));
   }
   for (const char* k : {"young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-                        "density", "k0", "surface"})
+                        "dilation_cutoff", "density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
   // Written by the resolved dump (where each calibrated value came from); informational.
   if (const auto* pv = r.table("provenance"))
     for (auto&& [k, v] : *pv)
       s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
   r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
+            "dilation_cutoff", "tension_cutoff", "density", "k0", "surface", "calibrate",
+            "provenance"});
   return s;
 }
 
@@ -1103,8 +1105,8 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
       if (last) {
         // With calibrate = "dem" the calibrated keys exist implicitly (their values come from
         // `demfem calibrate`): a variant may state one.
-        static constexpr std::array<std::string_view, 8> kCalibrated{
-            "young",   "poisson", "friction_angle", "cohesion", "dilation_angle",
+        static constexpr std::array<std::string_view, 9> kCalibrated{
+            "young",   "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
             "density", "k0",      "surface"};
         const bool calibrated =
             walked == "soil.continuum" && (*t)["calibrate"].value<std::string>() == "dem" &&

@@ -158,8 +158,26 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = compare::apply_calibration(r, d);
-  EXPECT_EQ(lines.size(), 9u); // 8 parameters and the damping
+  EXPECT_EQ(lines.size(), 10u); // 9 parameters and the damping
   EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
+  // Dilatancy cut-off: the mean of the tests' dilation (densest point to the end), which a
+  // dilating specimen has (ψ > 0 above), cached and passed to the continuum.
+  {
+    double mean = 0.0;
+    for (const auto& t : c.tests) {
+      EXPECT_GT(t.dilation, 0.0);
+      double ev_max = 0.0;
+      for (std::size_t i = 0; i < t.ea.size(); ++i) ev_max = std::max(ev_max, t.ea[i] + t.el[i]);
+      // the samples are thinned for the file: the same to their resolution
+      EXPECT_NEAR(t.dilation, ev_max - (t.ea.back() + t.el.back()), 1e-3);
+      mean += t.dilation / static_cast<double>(c.tests.size());
+    }
+    EXPECT_NEAR(c.dilation_cutoff, mean, 1e-12);
+    EXPECT_DOUBLE_EQ(d.dilation_cutoff, c.dilation_cutoff);
+    ASSERT_TRUE(r.soil.continuum->dilation_cutoff.has_value());
+    EXPECT_DOUBLE_EQ(*r.soil.continuum->dilation_cutoff, c.dilation_cutoff);
+    EXPECT_NE(block.find("dilation_cutoff = "), std::string::npos);
+  }
   // Damping: Rayleigh α, β giving the smallest-amplitude cyclic ξ0 at the layer's first shear
   // mode f1 = V_s/4H (recomputed here from the resolved continuum), ξ(ω) = α/2ω + βω/2.
   {

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 
+#include "constitutive.hpp"
 #include "mohr_coulomb.hpp"
 
 using namespace demfem::continuum::mc;
@@ -199,4 +201,45 @@ TEST(MohrCoulomb, RandomTrialsAdmissibleInAllRegions) {
   for (Return r : {Return::Elastic, Return::MainPlane, Return::EdgeLeft, Return::EdgeRight,
                    Return::Apex, Return::Tension, Return::TensionMain, Return::TensionEdge})
     EXPECT_TRUE(regions.count(int(r))) << "region never reached: " << int(r);
+}
+
+// Dilatancy cut-off (constitutive::Material, mohr_coulomb.hpp): drained simple shear at constant
+// σzz. Without the cut-off ψ = 10° dilates for ever (dε_v^p/dγ^p = sin ψ); with it the plastic
+// volumetric strain stops within one increment of the cut-off and shearing goes on at constant
+// volume, on the same Mohr–Coulomb strength.
+TEST(MohrCoulomb, DilatancyCutOffStopsDilation) {
+  namespace cst = demfem::continuum::constitutive;
+  auto shear = [](double cutoff) {
+    Parameters p = soil();
+    p.cohesion = 0.0;
+    p.dilation_cutoff = cutoff;
+    const auto m = cst::Material::from(p);
+    cst::State c;
+    const double s0 = -1.0e5; // isotropic compression [Pa]
+    c.ee = elastic_strain_from_stress(p, {{s0, s0, 0.0}}, s0);
+    elastic_stress(p, c.ee, c.stress, c.syy);
+    double max_step_dev = 0.0;
+    for (int k = 0; k < 3000; ++k) { // γ to 0.3 in steps of 1e-4
+      Vec3 d{{0.0, 0.0, 1e-4}};
+      cst::State s;
+      Mat3 t{};
+      for (int it = 0; it < 20; ++it) { // Δεzz such that σzz stays s0 (drained, free surface)
+        m.update(c, d, s, &t);
+        if (std::abs(s.stress[1] - s0) < 1e-6 * std::abs(s0)) break;
+        d[1] -= (s.stress[1] - s0) / t[1][1];
+      }
+      max_step_dev = std::max(max_step_dev, std::abs(s.stress[1] - s0));
+      c = s;
+    }
+    EXPECT_LT(max_step_dev, 1e-3 * std::abs(s0));
+    return std::pair{cst::plastic_volumetric_strain(c), c.stress[2]};
+  };
+  const auto [ev_free, tau_free] = shear(std::numeric_limits<double>::infinity());
+  const auto [ev_cut, tau_cut] = shear(0.01);
+  EXPECT_GT(ev_free, 0.04); // ≈ γ^p sin ψ / (…): far beyond the cut-off
+  EXPECT_GE(ev_cut, 0.01);
+  EXPECT_LT(ev_cut, 0.0101); // one increment of 1e-4 shear adds < 2e-5
+  // both on the yield surface: the shear stress stays of the same order (σxx differs)
+  EXPECT_GT(std::abs(tau_cut), 0.2e5);
+  EXPECT_GT(std::abs(tau_free), 0.2e5);
 }

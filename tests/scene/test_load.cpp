@@ -262,6 +262,18 @@ TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
   EXPECT_FALSE(again.base.continuum.bbar);
   EXPECT_DOUBLE_EQ(again.base.continuum.max_displacement, 0.5);
 }
+TEST(SceneLoad, DilationCutoff) {
+  // absent: none; given: kept through the resolved-scene round trip; out of [0, 1]: located error
+  EXPECT_FALSE(parse_scene(kValid, "a.toml").base.soil.continuum->dilation_cutoff.has_value());
+  const SceneFile f = parse_scene(
+      mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = 0.02"), "cut.toml");
+  ASSERT_TRUE(f.base.soil.continuum->dilation_cutoff.has_value());
+  EXPECT_DOUBLE_EQ(*f.base.soil.continuum->dilation_cutoff, 0.02);
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  EXPECT_DOUBLE_EQ(*again.base.soil.continuum->dilation_cutoff, 0.02);
+  expect_error(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = -0.1"), 22,
+               "must be in [0, 1], got -0.1", "soil.continuum.dilation_cutoff");
+}
 TEST(SceneLoad, SeatStructures) {
   // absent: automatic (nullopt); given: kept, and it survives the resolved-scene round trip
   EXPECT_FALSE(parse_scene(kValid, "a.toml").base.continuum.seat_structures.has_value());

@@ -28,6 +28,7 @@
 #pragma once
 
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -61,6 +62,7 @@ struct BiaxialCurve {
   double s_peak = 0.0, t_peak = 0.0; // (σ1+σ3)/2, (σ1−σ3)/2 at the peak stress ratio [Pa]
   double strain_at_peak = 0.0;
   double end_dilatancy = 0.0; // dε_v/dε_a over the last quarter (≈ 0 at critical state)
+  double dilation = 0.0;      // volumetric strain from the densest point to the end (≥ 0)
   std::string failure;
   // samples: ε_a, ε_xx, σ_zz, σ_xx (compression positive)
   std::vector<double> ea, el, sa, sl;
@@ -99,9 +101,11 @@ struct Calibration {
   // what the continuum takes (plane strain)
   double young = 0.0, poisson = 0.0, friction_angle = 0.0, cohesion = 0.0,
          dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]
-  std::string young_source;    // which test and measure E comes from
-  double young_small = 0.0;    // 2 G0 (1 + ν): G0 of the smallest cyclic amplitude [Pa]
-  double young_e50 = 0.0;      // E50 (plane strain) at mid-depth when E is E0 [Pa]
+  // dilatancy cut-off: mean of the tests' `dilation` (NaN: none measured, or an older file)
+  double dilation_cutoff = std::numeric_limits<double>::quiet_NaN();
+  std::string young_source; // which test and measure E comes from
+  double young_small = 0.0; // 2 G0 (1 + ν): G0 of the smallest cyclic amplitude [Pa]
+  double young_e50 = 0.0;   // E50 (plane strain) at mid-depth when E is E0 [Pa]
 };
 
 // Digest of everything that shapes the calibration (16 hex digits).

@@ -147,14 +147,17 @@ struct ContinuumSoil {
   double cohesion = 0.0;          // [Pa]
   double dilation_angle = 0.0;    // [rad] (file: degrees)
   double tension_cutoff = 0.0;    // [Pa]
-  double density = 1700.0;        // [kg/m³]
-  double k0 = -1.0;               // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
+  // dilatancy cut-off: plastic volumetric strain (dilation positive) after which a point flows
+  // with ψ = 0 (continuum mohr_coulomb.hpp); unset: none (ψ for ever), unless calibrated
+  std::optional<double> dilation_cutoff;
+  double density = 1700.0; // [kg/m³]
+  double k0 = -1.0;        // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
   // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
   // height of the deposited DEM bed); unset: the whole domain polygon
   std::optional<double> surface;
   // calibrate = "dem" (issue 9): young, poisson, friction_angle, cohesion, dilation_angle,
-  // density, k0 and surface come from `demfem calibrate` (the app fills them in before the
-  // continuum runs, compare::apply_calibration); a value stated in the file wins.
+  // dilation_cutoff, density, k0 and surface come from `demfem calibrate` (the app fills them in
+  // before the continuum runs, compare::apply_calibration); a value stated in the file wins.
   bool calibrate_dem = false;
   std::vector<std::string> given; // the keys stated in the file (or set by a variant)
   // key → where its value came from (filled by apply_calibration; dumped as a table)
@@ -184,7 +187,7 @@ struct ContinuumOptions {
   // rayleigh_alpha or rayleigh_beta stated in the file: a calibrated continuum keeps them
   // (otherwise `calibrate = "dem"` sets both from the DEM's small-strain damping ratio)
   bool rayleigh_stated = false;
-  bool absorbing = false;               // Lysmer dashpots on the sides and base
+  bool absorbing = false; // Lysmer dashpots on the sides and base
   // cg-amg | gmres-amg | direct. One default with continuum::fem::Problem's (a test checks):
   // MUMPS, robust on the near-singular tangents of yielding soil; cg-amg for large meshes
   std::string linear_solver = "direct";
@@ -347,8 +350,8 @@ struct Bounds {
 // it): perpendicular to the chord from the first to the last vertex of `outline` (a closed outline:
 // its first edge), oriented out of the soil, from the domain's centroid towards the chord's
 // midpoint, so the thrust is > 0 when the soil presses on the wall and < 0 when it pulls (a tied
-// continuum in tension), whichever way the wall was drawn. Without a domain (or with the centroid on
-// the chord's line) the chord's right-hand normal (dz, −dx)/l.
+// continuum in tension), whichever way the wall was drawn. Without a domain (or with the centroid
+// on the chord's line) the chord's right-hand normal (dz, −dx)/l.
 [[nodiscard]] Vec2 thrust_normal(const std::vector<Vec2>& outline, const Polygon& domain);
 
 template <std::size_t N>
