@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <signal.h>
@@ -18,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <spdlog/sinks/base_sink.h>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -129,9 +131,51 @@ scene::SceneFile load_or_report(const std::string& path, int& rc) {
   }
 }
 
+// Lines logged before a run directory's log.txt opens (the packing and the calibration a run
+// makes first): printed, and kept for the top of that log.txt (setup_run_log), so that log.txt
+// has everything the run said.
+class PendingLines final : public spdlog::sinks::base_sink<std::mutex> {
+public:
+  std::vector<std::string> take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return std::exchange(lines_, {});
+  }
+
+protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    spdlog::memory_buf_t buf;
+    formatter_->format(msg, buf);
+    lines_.emplace_back(buf.data(), buf.size());
+  }
+  void flush_() override {}
+
+private:
+  std::vector<std::string> lines_;
+};
+std::shared_ptr<PendingLines>& pending_lines() {
+  static std::shared_ptr<PendingLines> p;
+  return p;
+}
+
+// Logs to the console (stdout, as spdlog's default logger) and keeps the lines for the next run
+// directory's log.txt. Before each run's own set-up, so that one run's lines never reach another
+// run's log.
+void log_before_run_dir() {
+  if (compare::study_rank() != 0) return; // other MPI ranks: warnings only (main)
+  pending_lines() = std::make_shared<PendingLines>();
+  auto console = std::make_shared<spdlog::sinks::stdout_color_sink_mt>();
+  auto logger =
+      std::make_shared<spdlog::logger>("demfem", spdlog::sinks_init_list{console, pending_lines()});
+  logger->set_level(spdlog::level::info);
+  spdlog::set_default_logger(logger);
+}
+
 // A resumed run appends to the log of the run it continues.
 void setup_run_log(const fs::path& dir, bool append) {
   fs::create_directories(dir);
+  std::vector<std::string> earlier;
+  if (pending_lines()) earlier = pending_lines()->take();
+  pending_lines().reset();
   auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
   if (compare::study_rank() != 0) {
     // another MPI rank of the same run: the first rank writes log.txt (a second file sink on it
@@ -142,8 +186,13 @@ void setup_run_log(const fs::path& dir, bool append) {
     spdlog::set_default_logger(logger);
     return;
   }
-  auto file =
-      std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(), !append);
+  if (!earlier.empty()) { // what this run logged before its directory existed, first
+    std::ofstream early(dir / "log.txt", append ? std::ios::app : std::ios::trunc);
+    for (const auto& l : earlier) early << l;
+    if (!early) throw std::runtime_error("cannot write " + (dir / "log.txt").string());
+  }
+  auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((dir / "log.txt").string(),
+                                                                  !append && earlier.empty());
   console->set_level(spdlog::level::info);
   auto logger = std::make_shared<spdlog::logger>("demfem", spdlog::sinks_init_list{console, file});
   logger->set_level(spdlog::level::debug);
@@ -771,6 +820,7 @@ int cmd_run(const RunArgs& a) {
   if (a.jobs > 1 && scenes.size() > 1) return run_parallel(scenes, a);
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
+    log_before_run_dir();
     const fs::path out = run_dir_for(*s, a, scenes.size());
     // A continuum run calibrates (calibrate = "dem"); a DEM run records a cached calibration
     // only: it reads none, and its directory's identity is the scene before calibration.
@@ -814,6 +864,7 @@ int cmd_compare(const RunArgs& a) {
   if (rc != kOk) return rc;
   int worst = kOk;
   for (const scene::Scene* s0 : scenes) {
+    log_before_run_dir();
     const fs::path out = run_dir_for(*s0, a, scenes.size());
     std::vector<std::string> calibrated;
     const scene::Scene cs = a.report_only ? calibration_of_run(*s0, out)

@@ -198,6 +198,12 @@ TEST(Cli, DemRunsOfACalibratingSceneMakeNoCalibration) {
         demfem::test::slurp(runs / v / "console.txt").find("the continuum is not calibrated yet"),
         std::string::npos)
         << v;
+    // logged before the run directory existed, and in its log.txt all the same, before the
+    // run's first line
+    const std::string log = demfem::test::slurp(runs / v / "log.txt");
+    const auto early = log.find("the continuum is not calibrated yet");
+    EXPECT_NE(early, std::string::npos) << v << ": " << log;
+    EXPECT_LT(early, log.find("with the dem solver")) << v << ": " << log;
   }
   for (const auto& e : fs::directory_iterator(out / "cache"))
     EXPECT_FALSE(e.path().filename().string().starts_with("calibration-")) << e.path();
