@@ -493,8 +493,9 @@ void Engine::step() {
 }
 
 void Engine::start_team(std::chrono::steady_clock::time_point now) {
-  // Start with one thread and probe the full team at once: a stalled full team is what costs, so
-  // it is only ever tried for short probes (and not for the first step, before any measurement).
+  // Start with one thread and probe the full team after the first window (once the idle reading
+  // says another CPU is free): a stalled full team is what costs, so it is only ever tried for
+  // short probes, and not for the first step, before any measurement.
   auto& tu = tuner_;
   tu.started = true;
   tu.t0 = now;
@@ -556,8 +557,8 @@ void Engine::tune_team() {
       if (idle > 0) {
         tu.probing = true;
         team_ = tu.current == 1 ? 0 : 1;
-      } else if (idle ==
-                 0) { // the other CPUs were busy: the full team would stall; ask again later
+      } else if (idle == 0) {
+        // the other CPUs were busy: the full team would stall; ask again later
         ++stats_.team_probes_skipped;
         tu.until_probe = tu.probe_every;
       } else { // too short a span to tell: decide after the next window
@@ -630,8 +631,10 @@ EnergyBudget Engine::energy() const {
       pe += st.mass * g * (st.pz0 + st.uz + s * st.cx_local + c * st.cz_local);
     }
   }
+  pe += pe_left_; // removed particles: at the height where they left
   e.potential = pe - (pe_ref_set_ ? pe_ref_ : pe);
   e.gravity_work = -e.potential;
+  e.left_scene = e_left_;
   e.spring_normal = e_normal_;
   e.spring_shear = e_shear_;
   e.friction = e_friction_;

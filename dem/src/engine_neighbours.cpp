@@ -222,6 +222,10 @@ void Engine::rebuild() {
           (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
            p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
         p_.flags[i] |= kFlagRemoved;
+        // what it takes out of the budget (EnergyBudget::left_scene, engine.cpp energy())
+        e_left_ += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]) +
+                   0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
+        pe_left_ += p_.mass[i] * config_.gravity * p_.z[i];
         p_.vx[i] = p_.vz[i] = p_.omega[i] = 0.0;
       }
   }

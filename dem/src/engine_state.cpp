@@ -17,8 +17,8 @@ using namespace detail;
 // ---- checkpoint / resume -----------------------------------------------------------------------
 
 namespace {
-constexpr std::uint32_t kStateMagic = 0x44454d53; // "DEMS"
-constexpr std::uint32_t kStateVersion = 1;
+constexpr std::uint32_t kStateMagic = 0x44454d53;   // "DEMS"
+constexpr std::uint32_t kStateVersion = 2;          // 2: the energy removed particles carried out
 constexpr std::uint32_t kHistoryMagic = 0x44454d48; // "DEMH"
 
 void write_hist(detail::ByteWriter& w, const std::vector<ContactHistory>& h) {
@@ -88,7 +88,8 @@ std::vector<std::byte> Engine::save_state() const {
   w.value(static_cast<std::uint8_t>(need_rebuild_ ? 1 : 0));
   w.value(rebuilds_since_reorder_);
   w.value(next_id_);
-  for (double v : {e_friction_, e_damping_, e_rebound_, e_external_, e_normal_, e_shear_, pe_ref_})
+  for (double v : {e_friction_, e_damping_, e_rebound_, e_external_, e_normal_, e_shear_, pe_ref_,
+                   e_left_, pe_left_})
     w.value(v);
   w.value(static_cast<std::uint8_t>(pe_ref_set_ ? 1 : 0));
   return std::move(w.buffer());
@@ -147,8 +148,8 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   need_rebuild_ = r.value<std::uint8_t>() != 0;
   r.value(rebuilds_since_reorder_);
   r.value(next_id_);
-  for (double* v :
-       {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_, &pe_ref_})
+  for (double* v : {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_,
+                    &pe_ref_, &e_left_, &pe_left_})
     r.value(*v);
   pe_ref_set_ = r.value<std::uint8_t>() != 0;
   if (!r.at_end()) detail::ByteReader::fail("trailing bytes");

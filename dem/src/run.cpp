@@ -63,7 +63,8 @@ struct ThrustTarget {
 
 // Energy budget at the end of a run: printed (spdlog, info) and written to energy_budget.json.
 // Closure error = |ΔE_total| / (|gravity work| + |external work|), ΔE_total the change of
-// kinetic + potential + springs + dissipated − external work since the first probe.
+// kinetic + potential + springs + dissipated + carried out of the scene − external work since
+// the first probe.
 double log_energy_budget(const EnergyBudget& b, double e0, double t,
                          const std::filesystem::path& json_path) {
   const double injected = std::abs(b.gravity_work) + std::abs(b.external_work);
@@ -78,6 +79,7 @@ double log_energy_budget(const EnergyBudget& b, double e0, double t,
       {"friction (dissipated)", b.friction},
       {"damping (dissipated)", b.damping},
       {"rebound (dissipated)", b.rebound},
+      {"left the scene", b.left_scene},
       {"external work", b.external_work},
       {"gravity work", b.gravity_work},
       {"imbalance", imbalance},
@@ -88,9 +90,9 @@ double log_energy_budget(const EnergyBudget& b, double e0, double t,
                "closure error", closure);
   std::string js = "{\n";
   js += fmt::format("  \"time\": {:.17g},\n", t);
-  const char* keys[] = {"kinetic",       "rotational",   "potential_change", "spring_normal",
-                        "spring_shear",  "friction",     "damping",          "rebound",
-                        "external_work", "gravity_work", "imbalance"};
+  const char* keys[] = {"kinetic",      "rotational",    "potential_change", "spring_normal",
+                        "spring_shear", "friction",      "damping",          "rebound",
+                        "left_scene",   "external_work", "gravity_work",     "imbalance"};
   for (std::size_t k = 0; k < std::size(keys); ++k)
     js += fmt::format("  \"{}\": {:.17g},\n", keys[k], rows[k].second);
   js += fmt::format("  \"closure_error\": {:.17g}\n}}\n", closure);
@@ -295,7 +297,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                                      {"time [s]", "kinetic [J]", "rotational [J]", "potential [J]",
                                       "spring_normal [J]", "spring_shear [J]", "friction [J]",
                                       "damping [J]", "rebound [J]", "external_work [J]",
-                                      "gravity_work [J]", "imbalance [J]"},
+                                      "gravity_work [J]", "imbalance [J]", "left_scene [J]"},
                                      csv_opt);
   std::optional<scene::TimeSeriesWriter> struct_csv, wall_csv, surface_csv, loci_csv, coord_csv;
   std::vector<std::pair<std::size_t, scene::TimeSeriesWriter>> pressure_csv; // probe index
@@ -457,7 +459,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // evaluated the contacts, so the springs of an initially packed (overlapping) bed are unknown.
     energy_csv.append({t, b.kinetic, b.rotational, b.potential, b.spring_normal, b.spring_shear,
                        b.friction, b.damping, b.rebound, b.external_work, b.gravity_work,
-                       e0_set ? b.total() - e0 : 0.0});
+                       e0_set ? b.total() - e0 : 0.0, b.left_scene});
     // Blow-up by energy jump: kinetic energy far above everything that was put in.
     energy_scale = std::max(energy_scale, std::abs(b.gravity_work) + std::abs(b.external_work) +
                                               b.spring_normal + b.spring_shear);

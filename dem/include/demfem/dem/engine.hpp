@@ -126,9 +126,13 @@ struct EnergyBudget {
   double rebound = 0.0;       // dissipated by the rebound rule, cumulative [J]
   double external_work = 0.0; // shaking, structure loads, prescribed motions, cumulative [J]
   double gravity_work = 0.0;  // −(potential change) [J]
+  // ½ m v² + ½ I ω² that particles carried out of the scene when they were removed (fell through
+  // an opened wall, the paper's §3 "3D loss"), cumulative [J]. A removed particle's potential stays
+  // in `potential` at the height where it left, so gravity does no work on it afterwards.
+  double left_scene = 0.0;
   [[nodiscard]] double total() const {
     return kinetic + rotational + potential + spring_normal + spring_shear + friction + damping +
-           rebound - external_work;
+           rebound + left_scene - external_work;
   }
 };
 
@@ -368,6 +372,8 @@ private:
   double e_friction_ = 0.0, e_damping_ = 0.0, e_rebound_ = 0.0, e_external_ = 0.0;
   double e_normal_ = 0.0, e_shear_ = 0.0; // spring energies, last step
   double pe_ref_ = 0.0;
+  // Removed particles: their kinetic energy and their m g z when they left (EnergyBudget).
+  double e_left_ = 0.0, pe_left_ = 0.0;
   bool pe_ref_set_ = false;
   // Halo force buffers of the pair loop's parts (fx, fz, torque of the partners beyond each part's
   // range), the parts' owner ranges, and the end of each part's halo (one past its largest
