@@ -300,11 +300,17 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     draw(spec_of(fmt::format("surface — {}", scene.label()), "x [m]", "z [m]",
                  {ser("start", xb, z0), ser("end", xb, z1, "lines", "lw 2")}),
          fig / "surface_profile.png", out);
-    draw(spec_of(fmt::format("surface change (end − start) — {}", scene.label()), "x [m]", "Δz [m]",
-                 {ser("Δz", xb, dz, "linespoints")}),
-         fig / "surface_change.png", out);
-    sum["surface"]["max_subsidence_m"] = max_sub;
-    sum["surface"]["max_rise_m"] = max_rise;
+    if (std::any_of(dz.begin(), dz.end(), [](double v) { return std::isfinite(v); })) {
+      draw(spec_of(fmt::format("surface change (end − start) — {}", scene.label()), "x [m]",
+                   "Δz [m]", {ser("Δz", xb, dz, "linespoints")}),
+           fig / "surface_change.png", out);
+      sum["surface"]["max_subsidence_m"] = max_sub;
+      sum["surface"]["max_rise_m"] = max_rise;
+    } else { // e.g. a slide: the bins that hold soil at the end held none at the start
+      sum["surface"]["change"] =
+          "none: no surface bin holds particles both at the start and at the end (the soil moved "
+          "on; surface_profile.png shows both)";
+    }
   }
 
   // ---- loci -----------------------------------------------------------------------------------
