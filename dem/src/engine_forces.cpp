@@ -49,35 +49,47 @@ inline PairGeometry pair_geometry(const Particles& p, std::uint32_t i, std::uint
   return g;
 }
 
-// Energy sums of a range of pairs: friction, damping, rebound, normal spring, shear spring.
+// Energy sums of a range of pairs: friction, damping, normal spring, shear spring (the rebound's
+// is booked by apply_rebounds).
 struct PairEnergies {
-  double fric = 0.0, damp = 0.0, reb = 0.0, n = 0.0, s = 0.0;
+  static constexpr std::size_t kCount = 4;
+  double fric = 0.0, damp = 0.0, n = 0.0, s = 0.0;
   void add_to(double* e) const {
     e[0] += fric;
     e[1] += damp;
-    e[2] += reb;
-    e[3] += n;
-    e[4] += s;
+    e[2] += n;
+    e[3] += s;
   }
 };
 
-// One pair through the law: its energies are added to `en`; false when the contact ended (no
-// force), else the force on i (fx, fz: eq. 2.15, t = (−n_z, n_x)) and the torque terms l_i f_t,
-// l_j f_t.
+// One pair (i, j) through the law: its energies are added to `en`, a rebound at first touch to
+// `events`; false when the contact ended (no force), else the force on i (fx, fz: eq. 2.15,
+// t = (−n_z, n_x)) and the torque terms l_i f_t, l_j f_t.
 struct PairForce {
   double fx, fz, ti, tj;
 };
 template <class Law>
 inline bool law_on_pair(const Law& law, const PairGeometry& g, const ContactInput& in,
-                        ContactHistory& h, PairEnergies& en, PairForce& f) {
+                        ContactHistory& h, PairEnergies& en, PairForce& f,
+                        std::vector<ReboundEvent>& events, std::uint32_t i, std::uint32_t j) {
   const ContactResult r = law.evaluate(in, h);
   en.fric += r.e_friction;
   if (!r.touching) return false;
   en.damp += r.e_damping;
-  en.reb += r.e_rebound;
   en.n += r.e_normal;
   en.s += r.e_shear;
-  const double fnt = r.fn + r.impulse;
+  if (r.rebound_vn > 0.0) {
+    ReboundEvent ev;
+    ev.i = i;
+    ev.j = j;
+    ev.nx = g.nx;
+    ev.nz = g.nz;
+    ev.vn = r.rebound_vn;
+    ev.to = r.rebound_to;
+    ev.m_eff = in.m_eff;
+    events.push_back(ev);
+  }
+  const double fnt = r.fn;
   f.fx = fnt * g.nx + r.ft * -g.nz;
   f.fz = fnt * g.nz + r.ft * g.nx;
   f.ti = g.li * r.ft;
@@ -96,8 +108,8 @@ inline void note_overlap(double delta, double limit, std::uint32_t i, std::uint3
 }
 
 // Particle–particle forces of the owners i0 ≤ i < i1 (pairs i < j), accumulated into fx, fz, tq
-// (the particle arrays, or one thread's buffers). energies[0..4]: friction, damping, rebound,
-// normal spring, shear spring of these pairs. fail_pair: the first pair above max_overlap
+// (the particle arrays, or one thread's buffers). energies[0..3]: friction, damping, normal
+// spring, shear spring of these pairs (PairEnergies). fail_pair: the first pair above max_overlap
 // (i, j), left unchanged when none.
 template <class Law>
 void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
@@ -145,7 +157,8 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
       }
       in.dt = dt;
       PairForce f;
-      if (!law_on_pair(law, g, in, h, en, f)) continue;
+      if (!law_on_pair(law, g, in, h, en, f, *out.events, static_cast<std::uint32_t>(i), j))
+        continue;
       note_overlap(in.delta, max_ov * std::min(ri, rad[j]), static_cast<std::uint32_t>(i), j,
                    failed, fail_pair);
       fxi += f.fx;
@@ -259,7 +272,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
         in.mu_s = one_material ? kc.mus0 : b.mus[e];
         in.mu_d = one_material ? kc.mud0 : b.mud[e];
         in.dt = kc.dt;
-        if (!law_on_pair(law, g, in, h, en, f)) continue;
+        if (!law_on_pair(law, g, in, h, en, f, *out.events, i, j)) continue;
         note_overlap(in.delta, kc.max_overlap * std::min(rad[i], rad[j]), i, j, failed, fail_pair);
       }
       fxi += f.fx;
@@ -304,14 +317,19 @@ int Engine::threads_in_use() const {
 template <class Law> void Engine::pair_forces(const Law& law) {
   const std::size_t n = p_.size();
   const int T = threads_in_use();
-  double en[5] = {0, 0, 0, 0, 0};
+  constexpr std::size_t kE = PairEnergies::kCount;
+  double en[kE] = {};
   std::uint32_t fail[2] = {~0u, ~0u};
+  if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
   if (T <= 1) {
     std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
     std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
     std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
+    rebound_events_[0].clear();
+    event_parts_ = 1;
     const ForceTarget ft{
-        p_.fx.data(), p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n};
+        p_.fx.data(),       p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n,
+        &rebound_events_[0]};
     pair_range(law, 0, n, ft, en, fail);
   } else {
     // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
@@ -349,7 +367,8 @@ template <class Law> void Engine::pair_forces(const Law& law) {
     std::size_t halo = 0;
     for (std::size_t t = 0; t < tcount; ++t) halo += halo_end_[t] - split_[t + 1];
     if (tbuf_.size() < 3 * halo) tbuf_.resize(3 * halo);
-    double ten[5 * kMaxParts] = {};
+    double ten[kE * kMaxParts] = {};
+    event_parts_ = tcount;
     std::uint32_t tfail[2 * kMaxParts];
     std::fill(tfail, tfail + 2 * tcount, ~0u);
     double* buf = tbuf_.data();
@@ -372,9 +391,16 @@ template <class Law> void Engine::pair_forces(const Law& law) {
         std::fill(fxo + split_[t], fxo + end, 0.0);
         std::fill(fzo + split_[t], fzo + end, 0.0);
         std::fill(tqo + split_[t], tqo + end, 0.0);
-        const ForceTarget ft{fxo, fzo, tqo, hb, hb ? hb + h : nullptr, hb ? hb + 2 * h : nullptr,
-                             end};
-        pair_range(law, split_[t], end, ft, &ten[5 * t], &tfail[2 * t]);
+        rebound_events_[t].clear();
+        const ForceTarget ft{fxo,
+                             fzo,
+                             tqo,
+                             hb,
+                             hb ? hb + h : nullptr,
+                             hb ? hb + 2 * h : nullptr,
+                             end,
+                             &rebound_events_[t]};
+        pair_range(law, split_[t], end, ft, &ten[kE * t], &tfail[2 * t]);
       }
 #pragma omp barrier
       for (std::size_t u = t0 + 1; u < tcount; u += ts) // part u's particles: halos of parts < u
@@ -389,7 +415,7 @@ template <class Law> void Engine::pair_forces(const Law& law) {
         }
     }
     for (std::size_t t = 0; t < tcount; ++t) {
-      for (int q = 0; q < 5; ++q) en[q] += ten[5 * t + static_cast<std::size_t>(q)];
+      for (std::size_t q = 0; q < kE; ++q) en[q] += ten[kE * t + q];
       if (fail[0] == ~0u && tfail[2 * t] != ~0u) {
         fail[0] = tfail[2 * t];
         fail[1] = tfail[2 * t + 1];
@@ -405,16 +431,16 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   }
   e_friction_ += en[0];
   e_damping_ += en[1];
-  e_rebound_ += en[2];
-  e_normal_ = en[3];
-  e_shear_ = en[4];
+  e_normal_ = en[2];
+  e_shear_ = en[3];
 }
 
 template <class Law> void Engine::boundary_forces(const Law& law) {
   const double dt = dt_;
   for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
   for (auto& s : structures_) s.soil_fx = s.soil_fz = s.soil_moment = 0.0;
-  double e_fric = 0.0, e_damp = 0.0, e_reb = 0.0, e_n = 0.0, e_s = 0.0;
+  double e_fric = 0.0, e_damp = 0.0, e_n = 0.0, e_s = 0.0;
+  bnd_events_.clear();
   const std::size_t m = bnd_i_.size();
   for (std::size_t k = 0; k < m; ++k) {
     const std::uint32_t i = bnd_i_[k];
@@ -498,14 +524,28 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
     e_fric += r.e_friction;
     if (!r.touching) continue;
     e_damp += r.e_damping;
-    e_reb += r.e_rebound;
     e_n += r.e_normal;
     e_s += r.e_shear;
     if (delta > config_.max_overlap * ri && failure_.empty())
       failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
                              "boundary '{}'",
                              delta, p_.id[i], B.name);
-    const double fnt = r.fn + r.impulse;
+    if (r.rebound_vn > 0.0) {
+      ReboundEvent ev;
+      ev.i = i;
+      ev.boundary = static_cast<std::int32_t>(F.boundary);
+      ev.nx = nx;
+      ev.nz = nz;
+      ev.vn = r.rebound_vn;
+      ev.to = r.rebound_to;
+      ev.m_eff = in.m_eff;
+      if (st) {
+        ev.rx = qx - (st->px0 + st->ux);
+        ev.rz = qz - (st->pz0 + st->uz);
+      }
+      bnd_events_.push_back(ev);
+    }
+    const double fnt = r.fn;
     const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
     p_.fx[i] += Fx;
     p_.fz[i] += Fz;
@@ -521,7 +561,6 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
   }
   e_friction_ += e_fric;
   e_damping_ += e_damp;
-  e_rebound_ += e_reb;
   e_normal_ += e_n;
   e_shear_ += e_s;
 }
@@ -560,6 +599,99 @@ void Engine::compute_forces() {
         boundary_forces(law);
       },
       law_);
+  apply_rebounds();
+}
+
+void Engine::apply_rebounds() {
+  rebound_all_.clear();
+  for (std::size_t t = 0; t < event_parts_; ++t)
+    rebound_all_.insert(rebound_all_.end(), rebound_events_[t].begin(), rebound_events_[t].end());
+  rebound_all_.insert(rebound_all_.end(), bnd_events_.begin(), bnd_events_.end());
+  const std::size_t n = rebound_all_.size();
+  if (n == 0) return;
+  // The particles the events touch, sorted; rebound_dv_ holds their velocity change so far.
+  rebound_touched_.clear();
+  for (const ReboundEvent& e : rebound_all_) {
+    rebound_touched_.push_back(e.i);
+    if (e.j != ReboundEvent::kBoundary) rebound_touched_.push_back(e.j);
+  }
+  std::sort(rebound_touched_.begin(), rebound_touched_.end());
+  rebound_touched_.erase(std::unique(rebound_touched_.begin(), rebound_touched_.end()),
+                         rebound_touched_.end());
+  rebound_dv_.assign(2 * rebound_touched_.size(), 0.0);
+  auto slot = [&](std::uint32_t i) {
+    return static_cast<std::size_t>(
+        std::lower_bound(rebound_touched_.begin(), rebound_touched_.end(), i) -
+        rebound_touched_.begin());
+  };
+  auto dv_of = [&](std::uint32_t i) { return rebound_dv_.data() + 2 * slot(i); };
+  rebound_count_.assign(rebound_touched_.size(), 0);
+  for (const ReboundEvent& e : rebound_all_) {
+    ++rebound_count_[slot(e.i)];
+    if (e.j != ReboundEvent::kBoundary) ++rebound_count_[slot(e.j)];
+  }
+  stats_.rebound_contacts += static_cast<long long>(n);
+  for (const ReboundEvent& e : rebound_all_)
+    stats_.rebound_shared += (rebound_count_[slot(e.i)] > 1 ||
+                              (e.j != ReboundEvent::kBoundary && rebound_count_[slot(e.j)] > 1))
+                                 ? 1
+                                 : 0;
+  // Each contact's impulse P_k ≥ 0 brings its approach w_k to K v_n (Newton restitution,
+  // contact_laws.hpp) given the others' impulses: projected Gauss–Seidel sweeps in event order.
+  // One event: P = m*(1 − K) v_n in the first sweep. Several on one particle: the sweeps share
+  // the collision between them (two coincident floors: one impulse; a disk on two disks: the
+  // symmetric split, to 1e-12 of m* v_n).
+  rebound_p_.assign(n, 0.0);
+  double e_reb = 0.0;
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    double change = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const ReboundEvent& e = rebound_all_[k];
+      double* dvi = dv_of(e.i);
+      double* dvj = e.j != ReboundEvent::kBoundary ? dv_of(e.j) : nullptr;
+      // approach left by the impulses so far: w = v_n − (Δv_i − Δv_j)·n (eq. 2.5's v_n)
+      double rel = dvi[0] * e.nx + dvi[1] * e.nz;
+      if (dvj) rel -= dvj[0] * e.nx + dvj[1] * e.nz;
+      const double w = e.vn - rel;
+      const double p_new = std::max(0.0, rebound_p_[k] + e.m_eff * (w - e.to));
+      const double dp = p_new - rebound_p_[k];
+      if (dp == 0.0) continue;
+      // kinetic energy the impulse dp along n removes from the two bodies: dp w − dp²/(2 m*)
+      e_reb += dp * w - 0.5 * dp * dp / e.m_eff;
+      rebound_p_[k] = p_new;
+      dvi[0] += dp * e.nx / p_.mass[e.i];
+      dvi[1] += dp * e.nz / p_.mass[e.i];
+      if (dvj) {
+        dvj[0] -= dp * e.nx / p_.mass[e.j];
+        dvj[1] -= dp * e.nz / p_.mass[e.j];
+      }
+      change = std::max(change, std::abs(dp) / (e.m_eff * e.vn));
+    }
+    if (change < 1e-12) break;
+  }
+  e_rebound_ += e_reb;
+  const double dt = dt_;
+  for (std::size_t k = 0; k < n; ++k) { // the impulses act as forces P/Δt over this step
+    const ReboundEvent& e = rebound_all_[k];
+    if (rebound_p_[k] == 0.0) continue;
+    const double Fx = rebound_p_[k] / dt * e.nx, Fz = rebound_p_[k] / dt * e.nz;
+    p_.fx[e.i] += Fx;
+    p_.fz[e.i] += Fz;
+    if (e.j != ReboundEvent::kBoundary) {
+      p_.fx[e.j] -= Fx;
+      p_.fz[e.j] -= Fz;
+      continue;
+    }
+    Boundary& B = boundaries_[static_cast<std::size_t>(e.boundary)];
+    B.reaction_x -= Fx;
+    B.reaction_z -= Fz;
+    if (B.structure >= 0) {
+      StructureState& st = structures_[static_cast<std::size_t>(B.structure)];
+      st.soil_fx -= Fx;
+      st.soil_fz -= Fz;
+      st.soil_moment += e.rx * (-Fz) - e.rz * (-Fx); // (q − P) × (−F)
+    }
+  }
 }
 
 } // namespace demfem::dem

@@ -736,6 +736,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                  e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all,
                  st.team_probes_skipped);
   }
+  if (const auto& st = e.stats(); st.rebound_contacts > 0)
+    spdlog::info(
+        "rebound: {} contacts first touched above V_0, {} of them ({:.2g} %) in collisions "
+        "of several such contacts on one particle in one step (their impulses shared)",
+        st.rebound_contacts, st.rebound_shared,
+        100.0 * static_cast<double>(st.rebound_shared) / static_cast<double>(st.rebound_contacts));
   summary.closure_error = log_energy_budget(e.energy(), e0, e.time(), out / "energy_budget.json");
   // Final state as a particle checkpoint (readable without the engine); a failed write throws.
   {

@@ -219,15 +219,20 @@ TEST(DemStability, RadiusRatioTenCompletes) {
 }
 
 // 20 % initial overlap: 20 disks packed with every neighbour (and the base) overlapping by
-// 0.2 r. The springs' energy (≈ 50 J a contact) is released at once; the energy-jump check
-// counts it as put in and the run completes (measured closure 1.2e-2).
+// 0.2 r. The springs' energy (≈ 50 J a contact, kinetic energy up to 1.6e3 J) is released at
+// once; the energy-jump check counts it as put in and the run completes. The imbalance is held
+// to 1 % of the largest kinetic energy: measured 1.7–9.8 J (0.1–0.6 %) over K_n × (1 ± 4e-4),
+// which turns the disks' later collisions chaotically. (Until 2026-11-26 this asked for a
+// closure below 5 % of the gravity work, 141 J: 1.2e-2 here, but 0.012–0.057 over the same
+// K_n factors, so it passed for this one realisation.)
 TEST(DemStability, TwentyPercentInitialOverlapCompletes) {
   const double r = 0.05, d = 2 * r - 0.2 * r;
   std::vector<P> v;
   for (int k = 0; k < 20; ++k) v.push_back({0.1 + d * (k % 5), r - 0.2 * r + d * (k / 5), r});
   const auto o = run_scene(box_scene("overlap20", v, 1.0e6, 0.5, 1.0), "overlap20");
   ASSERT_TRUE(o.s.ok) << o.s.message;
-  EXPECT_LT(o.closure, 0.05);
+  EXPECT_GT(o.max_kinetic, 1.0e3);
+  EXPECT_LT(o.closure * o.gravity_work, 0.01 * o.max_kinetic);
 }
 
 // The friction cap sees the spring force, not the rebound impulse (contact_laws.hpp,

@@ -57,15 +57,18 @@ struct ContactInput {
 };
 
 struct ContactResult {
-  double fn = 0.0;         // normal force incl. dashpot, compression positive [N]
-  double ft = 0.0;         // shear force [N]
-  double impulse = 0.0;    // extra normal force acting for this one step (rebound impulse/Δt) [N]
-  double e_friction = 0.0; // energy dissipated by friction in this step [J]
-  double e_damping = 0.0;  // energy dissipated by dashpots in this step [J]
-  double e_rebound = 0.0;  // energy dissipated by the rebound rule in this step [J]
-  double e_normal = 0.0;   // normal spring energy after the step [J]
-  double e_shear = 0.0;    // shear spring energy after the step [J]
-  bool touching = false;   // false: the history was reset (contact ended)
+  double fn = 0.0; // normal force incl. dashpot, compression positive [N]
+  double ft = 0.0; // shear force [N]
+  // Rebound at first touch (cundall-rebound): the contact's approach speed v_n and the approach
+  // its impulse leaves, K v_n. The engine applies the impulses after the pair loop, contact by
+  // contact (Engine::apply_rebounds), so that contacts of one particle that first touch in the
+  // same step share one collision; it books the energy. rebound_vn = 0: no rebound.
+  double rebound_vn = 0.0, rebound_to = 0.0; // [m/s]
+  double e_friction = 0.0;                   // energy dissipated by friction in this step [J]
+  double e_damping = 0.0;                    // energy dissipated by dashpots in this step [J]
+  double e_normal = 0.0;                     // normal spring energy after the step [J]
+  double e_shear = 0.0;                      // shear spring energy after the step [J]
+  bool touching = false;                     // false: the history was reset (contact ended)
 };
 
 namespace detail {
@@ -167,6 +170,11 @@ struct StepStiffness {
 // separates at K times its approach speed. Momentum and angular momentum are conserved (the
 // impulse acts along the line of centres); absolute velocities are never rescaled. The energy
 // ½ m* v_n² (1 − K²) is booked as rebound dissipation. Slower contacts stay elastic.
+// Contacts of a particle that first touch in the same step (a disk landing on two disks, or on
+// two walls at once) are one collision: the engine applies their impulses one after the other,
+// each seeing the approach the earlier ones left, P = m* max(0, w − K v_n) with w the current
+// approach (sequential impulses, Engine::apply_rebounds), so no contact's approach is driven
+// below K times its own and the loss is booked once. The law reports v_n and K v_n only.
 // Friction cap (a modelling choice, issue 11): the Coulomb limit μ f_n (eq. 2.13) sees the spring
 // force f_n only, not the rebound impulse P/Δt, so the impulse carries no tangential part. The
 // spring then sees the reduced approach speed K v_n, and the friction acting over the contact is
@@ -203,10 +211,10 @@ struct CundallRebound {
     if (!(h.flags & kHistActive)) { // first touch
       h.flags = kHistActive;
       if (p.tension) h.flags |= kHistBonded;
-      if (in.vn > p.v0) { // Newton restitution, see above
-        r.impulse = in.m_eff * (1.0 - p.rebound) * in.vn / in.dt;
-        r.e_rebound = 0.5 * in.m_eff * in.vn * in.vn * (1.0 - p.rebound * p.rebound);
-        vn_spring = p.rebound * in.vn; // the spring sees the approach after the impulse
+      if (in.vn > p.v0) { // Newton restitution, see above (the engine applies the impulse)
+        r.rebound_vn = in.vn;
+        r.rebound_to = p.rebound * in.vn;
+        vn_spring = r.rebound_to; // the spring sees the approach after the impulse
       }
     }
     // eq. 2.6 (e_n = K_n δ), energy-consistent at touch and release (see above); a bond in

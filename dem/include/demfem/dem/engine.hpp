@@ -150,6 +150,9 @@ struct EngineStats {
   long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
   // Probes of the full team left out because no other CPU had been idle (set_idle_source).
   long long team_probes_skipped = 0;
+  // cundall-rebound: contacts that first touched above V_0; of them, those sharing a particle
+  // with another such contact in the same step (one collision, Engine::apply_rebounds).
+  long long rebound_contacts = 0, rebound_shared = 0;
 };
 
 // Boundary = a wall polyline or a structure outline, made of segment and vertex features.
@@ -165,12 +168,26 @@ struct Boundary {
 };
 
 namespace detail {
+// A contact that first touched above V_0 in this step (cundall-rebound): its impulse is applied
+// after the pair and boundary loops, in a fixed order (Engine::apply_rebounds).
+struct ReboundEvent {
+  static constexpr std::uint32_t kBoundary = ~0u; // j of a particle–boundary contact
+  std::uint32_t i = 0, j = kBoundary;
+  std::int32_t boundary = -1; // boundaries_ index when j == kBoundary
+  double nx = 0.0, nz = 0.0;  // unit normal from j (or the boundary) towards i
+  double vn = 0.0, to = 0.0;  // approach speed at first touch; the approach the impulse leaves
+  double m_eff = 0.0;         // m_i m_j/(m_i + m_j), m_i against a boundary [kg]
+  double rx = 0.0, rz = 0.0;  // structure contact: contact point − pivot [m]
+};
+
 // Where one part of the pair loop adds its forces: the particle arrays for the particles below
-// `end` (its own range), the halo arrays (index j − end) for the partners beyond it.
+// `end` (its own range), the halo arrays (index j − end) for the partners beyond it; the part's
+// rebound events go to `events`.
 struct ForceTarget {
   double *fx, *fz, *tq;
   double *hx, *hz, *ht;
   std::size_t end;
+  std::vector<ReboundEvent>* events;
   void add_to_partner(std::uint32_t j, double Fx, double Fz, double Tj) const {
     const bool own = j < end; // else the halo of partners beyond this part's range
     const std::size_t jj = own ? j : j - end;
@@ -294,6 +311,10 @@ private:
   template <class Law> void pair_forces(const Law& law);
   template <class Law> void boundary_forces(const Law& law);
   void compute_forces();
+  // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
+  // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
+  // contact_laws.hpp, cundall-rebound), added to the forces as P/Δt; books the rebound energy.
+  void apply_rebounds();
   void integrate();
   void update_structures();
   void rebuild();
@@ -379,6 +400,15 @@ private:
   // range), the parts' owner ranges, and the end of each part's halo (one past its largest
   // partner), computed for the list of version parts_version_ (list_version_ counts the lists).
   std::vector<double> tbuf_;
+  // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts_ − 1),
+  // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
+  std::vector<std::vector<detail::ReboundEvent>> rebound_events_;
+  std::vector<detail::ReboundEvent> bnd_events_;
+  std::size_t event_parts_ = 0;
+  std::vector<detail::ReboundEvent> rebound_all_; // all of them, in that order
+  std::vector<double> rebound_p_;                 // their impulses [N·s]
+  std::vector<std::uint32_t> rebound_touched_, rebound_count_;
+  std::vector<double> rebound_dv_;
   std::vector<std::size_t> split_, halo_end_;
   // Friction of the pairs: uniform when every material in use has the same μ_s, μ_d (then the
   // pair loops take them as constants instead of the weaker of the pair's two materials: the
