@@ -4,8 +4,12 @@
 // scene's output.series times (each from the nearest snapshot), three strips of panels:
 //   series_force_chains.png  particles coloured by speed, normal-force chains (width ∝ |f_n|,
 //                            one scale for the whole strip; tension dashed)
-//   series_velocity.png      velocity field, arrows ∝ velocity (one scale for the whole strip)
+//   series_velocity.png      particles coloured by speed; arrows: the mass-weighted mean
+//                            velocity of the particles in each of ≈ 36 cells along the longer
+//                            side (one scale for the whole strip)
 //   series_loci.png          loci of the traced particles from the start up to each time
+// The particles are drawn as images (figures/series/p<k>.png coloured, g<k>.png grey; 640
+// pixels along the longer side), not as one gnuplot circle each.
 // Report-side code, called by write_run_figures.
 #pragma once
 

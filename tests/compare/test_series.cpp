@@ -1,0 +1,182 @@
+// Snapshot series (compare/series.hpp): the particle layer drawn as images, the velocity arrows as
+// cell means. A 40-disk box run for 0.2 s gives three snapshots.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <vtkImageData.h>
+#include <vtkPNGReader.h>
+#include <vtkSmartPointer.h>
+
+#include "../scratch.hpp"
+
+#include "demfem/compare/series.hpp"
+#include "demfem/dem/run.hpp"
+#include "demfem/scene/load.hpp"
+
+namespace fs = std::filesystem;
+using namespace demfem;
+
+namespace {
+
+struct Disk {
+  double x, z, r, vx, vz;
+};
+
+// Four rows of ten disks r = 0.04 m in a 1 m × 1 m box, at rest except the first, which moves.
+std::vector<Disk> box_disks() {
+  std::vector<Disk> d;
+  for (int k = 0; k < 40; ++k)
+    d.push_back({0.06 + 0.098 * (k % 10), 0.05 + 0.085 * (k / 10), 0.04, k == 0 ? 1.5 : 0.0, 0.0});
+  return d;
+}
+
+std::string box_scene(const std::vector<Disk>& disks) {
+  std::string ps;
+  for (const auto& p : disks)
+    ps += fmt::format("{}[{}, {}, {}, {}, {}, 0.0]", ps.empty() ? "" : ", ", p.x, p.z, p.r, p.vx,
+                      p.vz);
+  return fmt::format(R"([scene]
+name = "series-box"
+duration = 0.2
+[domain]
+polygon = [[0, 0], [1, 0], [1, 1], [0, 1]]
+[soil.dem]
+count = {}
+radius = {{ equal = 0.04 }}
+kn = 1e6
+ks = 3e5
+particles = [{}]
+[[wall]]
+name = "box"
+points = [[0, 1], [0, 0], [1, 0], [1, 1]]
+[load]
+gravity = 9.81
+[[probe]]
+kind = "loci"
+points = [[0.5, 0.2], [0.3, 0.1]]
+[output]
+interval = 0.1
+probe_interval = 0.01
+figures = false
+series = [0, 0.1, 0.2]
+)",
+                     disks.size(), ps);
+}
+
+// RGBA of pixel (i, j) (row 0 at the bottom) of a PNG read back through VTK.
+struct Png {
+  vtkSmartPointer<vtkImageData> img;
+  int w = 0, h = 0;
+  const unsigned char* at(int i, int j) const {
+    return static_cast<const unsigned char*>(img->GetScalarPointer(i, j, 0));
+  }
+};
+Png read_png(const fs::path& f) {
+  auto r = vtkSmartPointer<vtkPNGReader>::New();
+  r->SetFileName(f.string().c_str());
+  r->Update();
+  Png p;
+  p.img = r->GetOutput();
+  int dims[3];
+  p.img->GetDimensions(dims);
+  p.w = dims[0];
+  p.h = dims[1];
+  return p;
+}
+
+} // namespace
+
+// The particles are images of 640 pixels along the longer side, opaque inside every disk (the
+// grey layer: #d8d8d8; the coloured one: the palette's colour of the disk's speed, #2c7bb6 for
+// a disk at rest) and transparent outside; the velocity arrows are one per occupied cell, no
+// longer than 0.9 cells.
+TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
+  const auto disks = box_disks();
+  const auto file = scene::parse_scene(box_scene(disks), "series_box.toml");
+  dem::RunOptions o;
+  o.out_dir = test::scratch("series_box");
+  const auto s = dem::run(file.base, o);
+  ASSERT_TRUE(s.ok) << s.message;
+  const auto res = compare::write_snapshot_series(file.base, o.out_dir);
+  for (const auto& p : res.problems) ADD_FAILURE() << p;
+  ASSERT_EQ(res.figures.size(), 3u);
+  for (const auto& f : res.figures) EXPECT_TRUE(fs::file_size(f) > 0) << f;
+  ASSERT_EQ(res.times.size(), 3u);
+  EXPECT_EQ(res.times[0], 0.0);
+
+  const fs::path dat = o.out_dir / "figures" / "series";
+  // the strip's extent (the box's walls and every disk of the three frames), from its script
+  double x0 = NAN, x1 = NAN, z0 = NAN, z1 = NAN;
+  {
+    std::ifstream gp(o.out_dir / "figures" / "series_velocity.gp");
+    std::string l;
+    while (std::getline(gp, l)) {
+      if (l.rfind("set xrange [", 0) == 0) std::sscanf(l.c_str(), "set xrange [%lf:%lf]", &x0, &x1);
+      if (l.rfind("set yrange [", 0) == 0) std::sscanf(l.c_str(), "set yrange [%lf:%lf]", &z0, &z1);
+    }
+  }
+  ASSERT_TRUE(std::isfinite(x0) && std::isfinite(z0)) << "no ranges in series_velocity.gp";
+  EXPECT_NEAR(x0, 0.0, 0.01);
+  EXPECT_NEAR(x1 - x0, 1.0, 0.01);
+  const double ext = std::max(x1 - x0, z1 - z0), px = ext / 640.0;
+  const Png grey = read_png(dat / "g0.png"), col = read_png(dat / "p0.png");
+  EXPECT_EQ(grey.w, static_cast<int>(std::ceil((x1 - x0) / px)) + 1);
+  EXPECT_EQ(grey.h, static_cast<int>(std::ceil((z1 - z0) / px)) + 1);
+  EXPECT_EQ(std::max(grey.w, grey.h), 641);
+  ASSERT_EQ(col.w, grey.w);
+  auto pixel = [&](double x, double z) {
+    return std::pair<int, int>{static_cast<int>(std::floor((x - x0) / px)),
+                               static_cast<int>(std::floor((z - z0) / px))};
+  };
+  int inside = 0;
+  for (std::size_t k = 0; k < disks.size(); ++k) {
+    const auto [i, j] = pixel(disks[k].x, disks[k].z); // t = 0: the listed positions
+    const unsigned char* g = grey.at(i, j);
+    EXPECT_EQ(g[3], 255) << "disk " << k;
+    EXPECT_EQ(g[0], 0xd8);
+    if (k == 0) continue;
+    const unsigned char* c = col.at(i, j); // at rest: the palette's first colour
+    EXPECT_EQ(c[0], 0x2c) << "disk " << k;
+    EXPECT_EQ(c[1], 0x7b);
+    EXPECT_EQ(c[2], 0xb6);
+    EXPECT_EQ(c[3], 255);
+    ++inside;
+  }
+  EXPECT_EQ(inside, 39);
+  const unsigned char* moving =
+      col.at(pixel(disks[0].x, disks[0].z).first, pixel(disks[0].x, disks[0].z).second);
+  EXPECT_NE(moving[2], 0xb6) << "the moving disk is not drawn in the colour of rest";
+  // above the bed (z > 0.4 m) and between two disks of a row: transparent
+  for (const auto& [x, z] : {std::pair{0.5, 0.8}, std::pair{0.1, 0.95}, std::pair{0.109, 0.05}})
+    EXPECT_EQ(grey.at(pixel(x, z).first, pixel(x, z).second)[3], 0) << x << ", " << z;
+
+  // velocity arrows at t = 0.1 s: x, z, dx, dz, centred on their cell's centre; cells of 1/36
+  // of the longer side
+  std::ifstream v(dat / "v1.dat");
+  std::string line;
+  int arrows = 0;
+  const double cell = ext / 36.0;
+  while (std::getline(v, line)) {
+    std::istringstream ls(line);
+    double x, z, dx, dz;
+    if (!(ls >> x >> z >> dx >> dz) || !std::isfinite(x)) continue;
+    ++arrows;
+    EXPECT_LE(std::hypot(dx, dz), 0.9 * cell * (1 + 1e-9));
+    // the arrow is centred on its cell's centre
+    const double cx = (x + 0.5 * dx - x0) / cell, cz = (z + 0.5 * dz - z0) / cell;
+    EXPECT_NEAR(cx - std::floor(cx), 0.5, 1e-5); // the file's 7 digits
+    EXPECT_NEAR(cz - std::floor(cz), 0.5, 1e-5);
+  }
+  EXPECT_GE(arrows, 10);
+  EXPECT_LE(arrows, 40); // one per occupied cell, at most one cell per disk here
+  fs::remove_all(o.out_dir);
+}
