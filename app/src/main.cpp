@@ -1,6 +1,8 @@
 // The `demfem` command: parses arguments, loads scenes, dispatches to the solvers. No physics.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -713,7 +715,18 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
   const bool continuum = a.solver == "continuum";
   std::vector<compare::ProcessTask> prep, runs;
   std::vector<std::string> prep_label, run_label;
+  std::vector<double> prep_cost, run_cost;
   std::set<std::string> shared;
+  // Estimated work of a DEM run over `span` seconds: particles × steps (the automatic step from
+  // the scene's stable bound, as `demfem check` gives it); 0 when unknown (continuum runs).
+  const auto dem_work = [](const scene::Scene& s, double span) {
+    if (!s.soil.dem || !(span > 0.0)) return 0.0;
+    double dt = s.soil.dem->dt;
+    if (!(dt > 0.0))
+      if (const auto b = dem::scene_critical_step(s); b && b->dt > 0.0 && std::isfinite(b->dt))
+        dt = s.soil.dem->dt_safety * b->dt;
+    return dt > 0.0 ? static_cast<double>(s.soil.dem->count) * span / dt : 0.0;
+  };
   for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
     fs::create_directories(out, ec);
@@ -743,6 +756,11 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
         if (!calibrated) pargv.push_back("--target-not-met-ok");
         prep.push_back({pargv, out / (calibrated ? "calibrate.txt" : "pack.txt")});
         prep_label.push_back(fmt::format("{} ({})", s->label(), key.substr(0, key.find(' '))));
+        // a porosity target takes several depositions (1–5, median 3, over the cached packings
+        // of the paper scenes; pack.hpp: at most 10)
+        prep_cost.push_back(calibrated ? 0.0
+                                       : dem_work(*s, s->soil.dem->packing.max_time) *
+                                             (s->soil.dem->packing.target_porosity ? 3.0 : 1.0));
       }
     }
     std::vector<std::string> argv = {exe.string(), "run",       a.scene,
@@ -755,7 +773,35 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     if (a.seed >= 0) argv.insert(argv.end(), {"--seed", std::to_string(a.seed)});
     runs.push_back({with_variant(argv), out / "console.txt"});
     run_label.push_back(s->label());
+    run_cost.push_back(continuum ? 0.0 : dem_work(*s, s->info.duration));
   }
+  // Largest estimated work first (longest-processing-time order), ties in file order: the short
+  // runs fill the end, where one core would otherwise idle while the last long run finishes.
+  const auto largest_first = [&](std::vector<compare::ProcessTask>& tasks,
+                                 std::vector<std::string>& labels, const std::vector<double>& cost,
+                                 const char* what) {
+    std::vector<std::size_t> order(tasks.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t x, std::size_t y) { return cost[x] > cost[y]; });
+    bool moved = false;
+    for (std::size_t k = 0; k < order.size(); ++k) moved = moved || order[k] != k;
+    if (!moved) return;
+    std::vector<compare::ProcessTask> t;
+    std::vector<std::string> l;
+    for (const std::size_t k : order) {
+      t.push_back(std::move(tasks[k]));
+      l.push_back(std::move(labels[k]));
+    }
+    tasks = std::move(t);
+    labels = std::move(l);
+    fmt::print(stderr,
+               "demfem run --jobs {}: {} started largest estimated work (particles × steps) "
+               "first: {}\n",
+               a.jobs, what, fmt::join(labels, ", "));
+  };
+  largest_first(prep, prep_label, prep_cost, "preparations");
+  largest_first(runs, run_label, run_cost, "runs");
   int first_failure = kOk;
   const auto t0 = std::chrono::steady_clock::now();
   const auto stage = [&](const char* what, const std::vector<compare::ProcessTask>& tasks,

@@ -265,8 +265,9 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
 }
 
 // run --jobs 2 (issue 12): the variants run as separate processes, two at once, with outputs
-// byte-identical to one-by-one runs; a failing variant makes the whole command fail and is named
-// with its exit code, while the others still finish.
+// byte-identical to one-by-one runs, the largest estimated work (particles × steps) started first
+// (ties in file order); a failing variant makes the whole command fail and is named with its exit
+// code, while the others still finish.
 TEST(Cli, RunJobsRunsVariantsSideBySideWithTheSameResults) {
   const std::string scene_text = R"(
 [scene]
@@ -307,15 +308,22 @@ set = { "soil.dem.kn" = 4.0e6 }
 [[variant]]
 name = "breaks"
 set = { "soil.dem.max_overlap" = 1.0e-6 }
+[[variant]]
+name = "long"
+set = { "scene.duration" = 0.1 }
 )";
   const fs::path scene = write_temp("jobs.toml", scene_text);
   const fs::path par = demfem::test::scratch("jobs_par"), seq = demfem::test::scratch("jobs_seq");
   fs::remove_all(par);
   fs::remove_all(seq);
-  const std::string good = " --variant slow --variant fast --variant stiff";
+  const std::string good = " --variant slow --variant fast --variant stiff --variant long";
   const auto p = run("run " + scene.string() + good + " --jobs 2 --out " + par.string());
   ASSERT_EQ(p.code, 0) << p.out;
-  EXPECT_NE(p.out.find("[3/3] run jobs/"), std::string::npos) << p.out;
+  EXPECT_NE(p.out.find("[4/4] run jobs/"), std::string::npos) << p.out;
+  EXPECT_NE(p.out.find("runs started largest estimated work (particles × steps) first: jobs/long, "
+                       "jobs/slow, jobs/fast, jobs/stiff"),
+            std::string::npos)
+      << p.out;
   const auto q = run("run " + scene.string() + good + " --out " + seq.string());
   ASSERT_EQ(q.code, 0) << q.out;
   const auto slurp = [](const fs::path& f) {
@@ -324,7 +332,7 @@ set = { "soil.dem.max_overlap" = 1.0e-6 }
     ss << in.rdbuf();
     return ss.str();
   };
-  for (const char* v : {"slow", "fast", "stiff"}) {
+  for (const char* v : {"slow", "fast", "stiff", "long"}) {
     EXPECT_TRUE(fs::exists(par / v / "console.txt")) << v;
     const std::string a = slurp(par / v / "dem" / "energy.csv");
     EXPECT_FALSE(a.empty()) << v;
