@@ -1609,8 +1609,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   run->add_option("--jobs", ra.jobs,
                   "With several variants: run N of them at once, as separate processes (shared "
-                  "packings and calibrations are made first); each child's console goes to "
-                  "<run dir>/console.txt")
+                  "packings and calibrations are made first; the largest estimated work starts "
+                  "first); each child's console goes to <run dir>/console.txt")
       ->default_val(1)
       ->check(CLI::PositiveNumber);
   run->add_option("--refinement", ra.refinement,
