@@ -78,17 +78,14 @@ inline bool law_on_pair(const Law& law, const PairGeometry& g, const ContactInpu
   en.damp += r.e_damping;
   en.n += r.e_normal;
   en.s += r.e_shear;
-  if (r.rebound_vn > 0.0) {
-    ReboundEvent ev;
-    ev.i = i;
-    ev.j = j;
-    ev.nx = g.nx;
-    ev.nz = g.nz;
-    ev.vn = r.rebound_vn;
-    ev.to = r.rebound_to;
-    ev.m_eff = in.m_eff;
-    events.push_back(ev);
-  }
+  if (r.rebound_vn > 0.0)
+    events.push_back({.i = i,
+                      .j = j,
+                      .nx = g.nx,
+                      .nz = g.nz,
+                      .vn = r.rebound_vn,
+                      .to = r.rebound_to,
+                      .m_eff = in.m_eff});
   const double fnt = r.fn;
   f.fx = fnt * g.nx + r.ft * -g.nz;
   f.fz = fnt * g.nz + r.ft * g.nx;
@@ -530,21 +527,16 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
       failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
                              "boundary '{}'",
                              delta, p_.id[i], B.name);
-    if (r.rebound_vn > 0.0) {
-      ReboundEvent ev;
-      ev.i = i;
-      ev.boundary = static_cast<std::int32_t>(F.boundary);
-      ev.nx = nx;
-      ev.nz = nz;
-      ev.vn = r.rebound_vn;
-      ev.to = r.rebound_to;
-      ev.m_eff = in.m_eff;
-      if (st) {
-        ev.rx = qx - (st->px0 + st->ux);
-        ev.rz = qz - (st->pz0 + st->uz);
-      }
-      bnd_events_.push_back(ev);
-    }
+    if (r.rebound_vn > 0.0)
+      bnd_events_.push_back({.i = i,
+                             .boundary = static_cast<std::int32_t>(F.boundary),
+                             .nx = nx,
+                             .nz = nz,
+                             .vn = r.rebound_vn,
+                             .to = r.rebound_to,
+                             .m_eff = in.m_eff,
+                             .rx = st ? qx - (st->px0 + st->ux) : 0.0,
+                             .rz = st ? qz - (st->pz0 + st->uz) : 0.0});
     const double fnt = r.fn;
     const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
     p_.fx[i] += Fx;
