@@ -611,23 +611,29 @@ void Engine::apply_rebounds() {
   rebound_touched_.erase(std::unique(rebound_touched_.begin(), rebound_touched_.end()),
                          rebound_touched_.end());
   rebound_dv_.assign(2 * rebound_touched_.size(), 0.0);
+  // Each event's two slots in rebound_touched_ (j: kNone against a boundary), looked up once.
+  constexpr std::size_t kNone = ~std::size_t{0};
   auto slot = [&](std::uint32_t i) {
     return static_cast<std::size_t>(
         std::lower_bound(rebound_touched_.begin(), rebound_touched_.end(), i) -
         rebound_touched_.begin());
   };
-  auto dv_of = [&](std::uint32_t i) { return rebound_dv_.data() + 2 * slot(i); };
+  rebound_slot_.resize(2 * n);
   rebound_count_.assign(rebound_touched_.size(), 0);
-  for (const ReboundEvent& e : rebound_all_) {
-    ++rebound_count_[slot(e.i)];
-    if (e.j != ReboundEvent::kBoundary) ++rebound_count_[slot(e.j)];
+  for (std::size_t k = 0; k < n; ++k) {
+    const ReboundEvent& e = rebound_all_[k];
+    rebound_slot_[2 * k] = slot(e.i);
+    rebound_slot_[2 * k + 1] = e.j != ReboundEvent::kBoundary ? slot(e.j) : kNone;
+    ++rebound_count_[rebound_slot_[2 * k]];
+    if (rebound_slot_[2 * k + 1] != kNone) ++rebound_count_[rebound_slot_[2 * k + 1]];
   }
   stats_.rebound_contacts += static_cast<long long>(n);
-  for (const ReboundEvent& e : rebound_all_)
-    stats_.rebound_shared += (rebound_count_[slot(e.i)] > 1 ||
-                              (e.j != ReboundEvent::kBoundary && rebound_count_[slot(e.j)] > 1))
-                                 ? 1
-                                 : 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t sj = rebound_slot_[2 * k + 1];
+    stats_.rebound_shared +=
+        (rebound_count_[rebound_slot_[2 * k]] > 1 || (sj != kNone && rebound_count_[sj] > 1)) ? 1
+                                                                                              : 0;
+  }
   // Each contact's impulse P_k ≥ 0 brings its approach w_k to K v_n (Newton restitution,
   // contact_laws.hpp) given the others' impulses: projected Gauss–Seidel sweeps in event order.
   // One event: P = m*(1 − K) v_n in the first sweep. Several on one particle: the sweeps share
@@ -639,8 +645,9 @@ void Engine::apply_rebounds() {
     double change = 0.0;
     for (std::size_t k = 0; k < n; ++k) {
       const ReboundEvent& e = rebound_all_[k];
-      double* dvi = dv_of(e.i);
-      double* dvj = e.j != ReboundEvent::kBoundary ? dv_of(e.j) : nullptr;
+      const std::size_t sj = rebound_slot_[2 * k + 1];
+      double* dvi = rebound_dv_.data() + 2 * rebound_slot_[2 * k];
+      double* dvj = sj != kNone ? rebound_dv_.data() + 2 * sj : nullptr;
       // approach left by the impulses so far: w = v_n − (Δv_i − Δv_j)·n (eq. 2.5's v_n)
       double rel = dvi[0] * e.nx + dvi[1] * e.nz;
       if (dvj) rel -= dvj[0] * e.nx + dvj[1] * e.nz;

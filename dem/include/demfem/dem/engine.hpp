@@ -408,6 +408,7 @@ private:
   std::vector<detail::ReboundEvent> rebound_all_; // all of them, in that order
   std::vector<double> rebound_p_;                 // their impulses [N·s]
   std::vector<std::uint32_t> rebound_touched_, rebound_count_;
+  std::vector<std::size_t> rebound_slot_; // per event: its i's and j's index in rebound_touched_
   std::vector<double> rebound_dv_;
   std::vector<std::size_t> split_, halo_end_;
   // Friction of the pairs: uniform when every material in use has the same μ_s, μ_d (then the
