@@ -453,6 +453,8 @@ int start_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::pa
 // `demfem calibrate` (issue 9): DEM element tests → calibration.json, calibration.toml, figures.
 struct CalibrateArgs {
   int particles = 1000;
+  int specimens = compare::CalibrateOptions{}.specimens;
+  std::vector<double> depths = compare::CalibrateOptions{}.depth_fractions;
   bool cyclic = true;
   bool force = false;
 };
@@ -471,6 +473,8 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
     compare::CalibrateOptions o;
     o.out_dir = out;
     o.particles = ca.particles;
+    o.specimens = ca.specimens;
+    o.depth_fractions = ca.depths;
     o.cyclic = ca.cyclic;
     app::ProgressReporter reporter;
     o.progress = [&](const scene::Progress& p) { reporter(p); };
@@ -484,12 +488,17 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
                  "(mass-matched; mean column top {:.4g} m)\n",
                  c.porosity, c.bulk_density, c.k0, c.surface, c.surface_top_mean);
       for (const auto& t : c.tests)
-        fmt::print("  biaxial σ_c = {:8.4g} kPa: φ_peak {:5.1f}°  φ_cv {:5.1f}°  ψ {:5.1f}°  "
-                   "E50' {:.3g} MPa  ν' {:.3f}  n {:.4f}{}\n",
-                   t.sigma_c / 1e3, t.phi_peak, t.phi_cv, t.psi, t.e50 / 1e6, t.nu_inplane,
-                   t.porosity, t.failure.empty() ? "" : "  FAILED: " + t.failure);
-      fmt::print("  envelope: φ {:.2f}°, c {:.4g} kPa; affine E' {:.3g} MPa, G {:.3g} MPa\n",
-                 c.phi_fit, c.cohesion_fit / 1e3, c.affine_e / 1e6, c.affine_g / 1e6);
+        fmt::print("  biaxial σ_c = {:8.4g} kPa, specimen {}: φ_peak {:5.1f}°  φ_cv {:5.1f}°  ψ "
+                   "{:5.1f}°  E50' {:.3g} MPa  ν' {:.3f}  n {:.4f}{}\n",
+                   t.sigma_c / 1e3, t.specimen + 1, t.phi_peak, t.phi_cv, t.psi, t.e50 / 1e6,
+                   t.nu_inplane, t.porosity, t.failure.empty() ? "" : "  FAILED: " + t.failure);
+      fmt::print("  envelope ({} specimen(s)): φ {:.2f}°, c {:.4g} kPa; affine E' {:.3g} MPa, G "
+                 "{:.3g} MPa\n",
+                 c.specimens, c.phi_fit, c.cohesion_fit / 1e3, c.affine_e / 1e6, c.affine_g / 1e6);
+      for (std::size_t k = 0; k < c.specimen_fits.size(); ++k)
+        fmt::print("    specimen {} (seed {}) alone: φ {:.2f}°, c {:.4g} kPa\n", k + 1,
+                   k < c.specimen_seeds.size() ? c.specimen_seeds[k] : 0ul,
+                   c.specimen_fits[k].first, c.specimen_fits[k].second / 1e3);
       for (const auto& p : c.cyclic)
         fmt::print("  cyclic γ = {:.3g}: G {:.3g} MPa, ξ {:.1f} %\n", p.gamma, p.g / 1e6,
                    100.0 * p.xi);
@@ -1775,6 +1784,19 @@ int main(int argc, char** argv) {
   calibrate->add_option("--particles", ca.particles, "Specimen size (disks)")
       ->default_val(1000)
       ->check(CLI::Range(50, 100000));
+  calibrate
+      ->add_option("--specimens", ca.specimens,
+                   "Specimen realisations, each tested at every confinement (the envelope "
+                   "is fitted to all of them)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 20));
+  calibrate
+      ->add_option("--depths", ca.depths,
+                   "Confinements σ_c = ρ_b g z at these fractions of the bed height "
+                   "(comma-separated)")
+      ->delimiter(',')
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 1.0));
   calibrate->add_flag("!--no-cyclic", ca.cyclic, "Skip the cyclic tests (G/G0, damping)");
   calibrate->add_flag("--force", ca.force, "Recompute even when the calibration is cached");
   calibrate->add_option("--seed", ra.seed, "Packing seed (scene.seed) instead of the file's")

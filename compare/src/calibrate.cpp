@@ -6,6 +6,7 @@
 #include <fstream>
 #include <numbers>
 #include <numeric>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -27,13 +28,23 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 6; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 7; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
 }
 
 using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
+
+// The distinct confinements of the biaxial tests, in test order.
+std::vector<double> confinements(const Calibration& c) {
+  std::vector<double> v;
+  for (const auto& t : c.tests)
+    if (std::none_of(v.begin(), v.end(),
+                     [&](double x) { return std::abs(x - t.sigma_c) <= 1e-9 * x; }))
+      v.push_back(t.sigma_c);
+  return v;
+}
 
 [[noreturn]] void scene_error(const scene::Scene& s, const std::string& key,
                               const std::string& msg) {
@@ -44,15 +55,22 @@ using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
   throw scene::SceneError({d});
 }
 
-// The element-test specimen: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited by
-// the scene's packing procedure (its walls are the box's base and sides).
-scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache) {
+// The packing seed of specimen k: the scene's for the first, then one far from any seed a user
+// would pick next (`--seed 42` after 41 must not reuse a specimen).
+unsigned long specimen_seed(const scene::Scene& s, int k) {
+  return s.info.seed + 1000003ul * static_cast<unsigned long>(k);
+}
+
+// The element-test specimen k: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited
+// by the scene's packing procedure (its walls are the box's base and sides) with specimen_seed.
+scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache, int k = 0) {
   scene::Scene sp = s;
+  sp.info.seed = specimen_seed(s, k);
   auto& d = sp.soil.dem.value();
   d.count = n;
   d.particles.clear();
   d.particles_file.clear();
-  const auto radii = dem::draw_radii(d.radius, n, s.info.seed);
+  const auto radii = dem::draw_radii(d.radius, n, sp.info.seed);
   double area = 0.0;
   for (double r : radii) area += kPi * r * r;
   const double box = area / 0.82; // settled at a packing fraction ≈ 0.82 (2D disks)
@@ -234,7 +252,8 @@ json to_json(const Calibration& c) {
               {"structure_seat_dz_m", c.seat_dz}};
   json tests = json::array();
   for (const auto& t : c.tests)
-    tests.push_back({{"depth_m", t.depth},
+    tests.push_back({{"specimen", t.specimen},
+                     {"depth_m", t.depth},
                      {"sigma_c_pa", t.sigma_c},
                      {"porosity", t.porosity},
                      {"strain_rate", t.strain_rate},
@@ -255,9 +274,16 @@ json to_json(const Calibration& c) {
                      {"s_axial_pa", t.sa},
                      {"s_lateral_pa", t.sl}});
   j["biaxial"] = tests;
-  j["specimen"] = {{"particles", c.particles}, {"porosity_deposited", c.specimen_porosity}};
+  j["specimen"] = {{"particles", c.particles},
+                   {"count", c.specimens},
+                   {"seeds", c.specimen_seeds},
+                   {"porosity_deposited", c.specimen_porosity}};
+  json fits = json::array();
+  for (const auto& [phi, coh] : c.specimen_fits)
+    fits.push_back({{"phi_deg", phi}, {"cohesion_pa", coh}});
   j["envelope"] = {{"phi_deg", c.phi_fit},
                    {"cohesion_pa", c.cohesion_fit},
+                   {"per_specimen", fits},
                    {"phi_cv_deg", c.phi_cv},
                    {"psi_deg", c.psi}};
   j["affine"] = {{"e_inplane_pa", c.affine_e}, {"g_pa", c.affine_g}};
@@ -301,6 +327,7 @@ Calibration from_json(const json& j) {
     c.seat_dz = b.at("structure_seat_dz_m").get<std::vector<std::pair<std::string, double>>>();
   for (const auto& t : j.at("biaxial")) {
     BiaxialCurve x;
+    x.specimen = t.value("specimen", 0);
     x.depth = t.at("depth_m");
     x.sigma_c = t.at("sigma_c_pa");
     x.porosity = t.at("porosity");
@@ -323,11 +350,17 @@ Calibration from_json(const json& j) {
     x.sl = t.at("s_lateral_pa").get<std::vector<double>>();
     c.tests.push_back(std::move(x));
   }
-  c.particles = j.at("specimen").at("particles");
-  c.specimen_porosity = j.at("specimen").at("porosity_deposited");
+  const auto& sp = j.at("specimen");
+  c.particles = sp.at("particles");
+  c.specimens = sp.value("count", 1);
+  c.specimen_seeds = sp.value("seeds", std::vector<unsigned long>{});
+  c.specimen_porosity = sp.at("porosity_deposited");
   const auto& e = j.at("envelope");
   c.phi_fit = e.at("phi_deg");
   c.cohesion_fit = e.at("cohesion_pa");
+  if (e.contains("per_specimen"))
+    for (const auto& f : e.at("per_specimen"))
+      c.specimen_fits.emplace_back(f.at("phi_deg"), f.at("cohesion_pa"));
   c.phi_cv = e.at("phi_cv_deg");
   c.psi = e.at("psi_deg");
   c.affine_e = j.at("affine").at("e_inplane_pa");
@@ -367,7 +400,8 @@ std::string calibration_key(const scene::Scene& s, const CalibrateOptions& o) {
   const int fmt_version = kCalibrationFormat;
   f.bytes(&fmt_version, sizeof fmt_version);
   f.str(dem::packing_key(s)); // the bed: everything that shapes the deposited packing
-  f.str(dem::packing_key(specimen_scene(s, o.particles, {})));
+  for (int k = 0; k < std::max(o.specimens, 1); ++k)
+    f.str(dem::packing_key(specimen_scene(s, o.particles, {}, k)));
   f.bytes(&o.particles, sizeof o.particles);
   for (double v : o.depth_fractions) f.num(v);
   f.num(o.max_axial_strain);
@@ -529,62 +563,84 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   }
   report("calibrate: bed", 0.05);
 
-  // ---- the specimen ------------------------------------------------------------------------
-  const scene::Scene sps = specimen_scene(scene, o.particles, cache);
-  const auto spec = dem::pack_or_load(sps, cache, o.progress);
-  c.specimen_porosity = spec.measure.porosity;
-  calib::Specimen S;
-  S.config = dem::make_config(sps);
-  S.config.gravity = 0.0; // element test: no body force
-  S.config.shaking = false;
-  S.particles = spec.particles;
-  S.thickness = d.thickness;
-  for (double r : S.particles.radius) S.d_mean += 2.0 * r;
-  S.d_mean /= static_cast<double>(std::max<std::size_t>(S.particles.size(), 1));
+  // ---- the specimens -----------------------------------------------------------------------
+  const int nspec = std::max(o.specimens, 1);
+  c.specimens = nspec;
+  std::vector<calib::Specimen> specimens;
+  for (int k = 0; k < nspec; ++k) {
+    const scene::Scene sps = specimen_scene(scene, o.particles, cache, k);
+    const auto spec = dem::pack_or_load(sps, cache, o.progress);
+    c.specimen_porosity += spec.measure.porosity / nspec;
+    c.specimen_seeds.push_back(sps.info.seed);
+    calib::Specimen S;
+    S.config = dem::make_config(sps);
+    S.config.gravity = 0.0; // element test: no body force
+    S.config.shaking = false;
+    S.particles = spec.particles;
+    S.thickness = d.thickness;
+    for (double r : S.particles.radius) S.d_mean += 2.0 * r;
+    S.d_mean /= static_cast<double>(std::max<std::size_t>(S.particles.size(), 1));
+    specimens.push_back(std::move(S));
+  }
   const double g = scene.load.gravity;
   calib::ElementSettings es;
   es.inertial_number = o.inertial_number;
   es.max_axial_strain = o.max_axial_strain;
-  const std::size_t ntest = o.depth_fractions.size() + (o.cyclic ? 1 : 0);
-  for (std::size_t k = 0; k < o.depth_fractions.size(); ++k) {
-    const double z = o.depth_fractions[k] * c.bed_height;
-    const double sigma = c.bulk_density * g * z; // geostatic vertical stress σ_v = ρ_b g z
-    es.progress = [&](const std::string& stage, double f) {
-      report(fmt::format("calibrate: {} σ_c = {:.4g} kPa", stage, sigma / 1e3),
-             0.05 + 0.95 * (static_cast<double>(k) + f) / static_cast<double>(ntest));
-    };
-    const auto r = calib::biaxial(S, sigma, es);
-    c.tests.push_back(evaluate(z, r, o.max_axial_strain));
-    spdlog::info(
-        "{}: biaxial σ_c = {:.4g} kPa: φ_peak {:.1f}°, φ_cv {:.1f}°, ψ {:.1f}°, E50' {:.3g} "
-        "MPa{}",
-        scene.label(), sigma / 1e3, c.tests.back().phi_peak, c.tests.back().phi_cv,
-        c.tests.back().psi, c.tests.back().e50 / 1e6,
-        r.failure.empty() ? "" : " — FAILED: " + r.failure);
-  }
-  // Mohr–Coulomb envelope through the peaks: t = s sin φ + c cos φ.
-  {
+  const std::size_t nbiax = o.depth_fractions.size() * specimens.size();
+  const std::size_t ntest = nbiax + (o.cyclic ? 1 : 0);
+  for (std::size_t q = 0; q < o.depth_fractions.size(); ++q)
+    for (std::size_t k = 0; k < specimens.size(); ++k) {
+      const double z = o.depth_fractions[q] * c.bed_height;
+      const double sigma = c.bulk_density * g * z; // geostatic vertical stress σ_v = ρ_b g z
+      const std::size_t done = q * specimens.size() + k;
+      es.progress = [&](const std::string& stage, double f) {
+        report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, sigma / 1e3,
+                           k + 1, specimens.size()),
+               0.05 + 0.95 * (static_cast<double>(done) + f) / static_cast<double>(ntest));
+      };
+      const auto r = calib::biaxial(specimens[k], sigma, es);
+      c.tests.push_back(evaluate(z, r, o.max_axial_strain));
+      c.tests.back().specimen = static_cast<int>(k);
+      spdlog::info("{}: biaxial σ_c = {:.4g} kPa, specimen {}: φ_peak {:.1f}°, φ_cv {:.1f}°, ψ "
+                   "{:.1f}°, E50' {:.3g} MPa{}",
+                   scene.label(), sigma / 1e3, k + 1, c.tests.back().phi_peak,
+                   c.tests.back().phi_cv, c.tests.back().psi, c.tests.back().e50 / 1e6,
+                   r.failure.empty() ? "" : " — FAILED: " + r.failure);
+    }
+  // Mohr–Coulomb envelope through the peaks: t = s sin φ + c cos φ, over all tests (the
+  // calibration) and over each specimen's alone (its spread).
+  auto envelope = [&](int only) {
     std::vector<double> xs, ys;
-    double cv = 0.0, ps = 0.0;
     for (const auto& t : c.tests) {
-      if (!t.failure.empty() || t.ea.empty()) continue;
+      if (!t.failure.empty() || t.ea.empty() || (only >= 0 && t.specimen != only)) continue;
       xs.push_back(t.s_peak);
       ys.push_back(t.t_peak);
-      cv += t.phi_cv;
-      ps += t.psi;
     }
-    if (!xs.empty()) {
-      c.phi_cv = cv / static_cast<double>(xs.size());
-      c.psi = ps / static_cast<double>(xs.size());
-    }
+    std::pair<double, double> r{0.0, 0.0};
     const Fit f = linear_fit(xs, ys);
     if (f.ok && f.slope > 0.0 && f.slope < 1.0) {
       const double phi = std::asin(f.slope);
-      c.phi_fit = deg(phi);
-      c.cohesion_fit = f.intercept / std::cos(phi);
+      r = {deg(phi), f.intercept / std::cos(phi)};
     } else if (!xs.empty()) { // one test: cohesionless through its peak
-      c.phi_fit = deg(std::asin(std::clamp(ys[0] / xs[0], 0.0, 1.0)));
-      c.cohesion_fit = 0.0;
+      r = {deg(std::asin(std::clamp(ys[0] / xs[0], 0.0, 1.0))), 0.0};
+    }
+    return r;
+  };
+  std::tie(c.phi_fit, c.cohesion_fit) = envelope(-1);
+  if (nspec > 1)
+    for (int k = 0; k < nspec; ++k) c.specimen_fits.push_back(envelope(k));
+  {
+    double cv = 0.0, ps = 0.0;
+    int n = 0;
+    for (const auto& t : c.tests) {
+      if (!t.failure.empty() || t.ea.empty()) continue;
+      cv += t.phi_cv;
+      ps += t.psi;
+      ++n;
+    }
+    if (n > 0) {
+      c.phi_cv = cv / n;
+      c.psi = ps / n;
     }
   }
   // Affine (Voigt) estimate of the in-plane moduli for an isotropic 2D contact network with Z
@@ -597,8 +653,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     c.affine_g = G;
     c.affine_e = 4.0 * G * (lam + G) / (lam + 2.0 * G);
   }
-  // The continuum's E and ν: the test nearest to mid-depth, secant at 50 % of the peak (the
-  // usual Mohr–Coulomb stiffness, e.g. PLAXIS's E50), converted to plane strain.
+  // The continuum's E and ν: the confinement nearest to mid-depth, secant at 50 % of the peak
+  // (the usual Mohr–Coulomb stiffness, e.g. PLAXIS's E50), mean over the specimens, converted to
+  // plane strain.
   {
     std::size_t best = 0;
     for (std::size_t k = 0; k < c.tests.size(); ++k)
@@ -606,13 +663,24 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
           std::abs(c.tests[best].depth - 0.5 * c.bed_height))
         best = k;
     if (!c.tests.empty()) {
-      const auto& t = c.tests[best];
-      const double nup = std::max(0.0, t.nu_inplane);
-      c.poisson = std::min(0.49, nup / (1.0 + nup));   // ν = ν'/(1 + ν')
-      c.young = t.e50 * (1.0 - c.poisson * c.poisson); // E = E'(1 − ν²)
-      c.young_source = fmt::format("secant at 50 % of the peak deviator, biaxial test at σ_c = "
-                                   "{:.4g} kPa (z = {:.3g} m)",
-                                   t.sigma_c / 1e3, t.depth);
+      const double depth = c.tests[best].depth;
+      double e50 = 0.0, nup = 0.0;
+      int n = 0;
+      for (const auto& t : c.tests)
+        if (t.depth == depth && t.failure.empty() && t.e50 > 0.0) {
+          e50 += t.e50;
+          nup += std::max(0.0, t.nu_inplane);
+          ++n;
+        }
+      if (n > 0) {
+        e50 /= n;
+        nup /= n;
+      }
+      c.poisson = std::min(0.49, nup / (1.0 + nup)); // ν = ν'/(1 + ν')
+      c.young = e50 * (1.0 - c.poisson * c.poisson); // E = E'(1 − ν²)
+      c.young_source = fmt::format("secant at 50 % of the peak deviator, biaxial tests at σ_c = "
+                                   "{:.4g} kPa (z = {:.3g} m), mean of {} specimen(s)",
+                                   c.tests[best].sigma_c / 1e3, depth, n);
     }
     c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
     c.cohesion = std::max(0.0, c.cohesion_fit);
@@ -634,7 +702,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       report(fmt::format("calibrate: {} σ_c = {:.4g} kPa", stage, sigma / 1e3),
              0.05 + 0.95 * (static_cast<double>(ntest - 1) + f) / static_cast<double>(ntest));
     };
-    for (const auto& l : calib::cyclic(S, sigma, o.cyclic_amplitudes, es))
+    for (const auto& l : calib::cyclic(specimens.front(), sigma, o.cyclic_amplitudes, es))
       c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping});
     // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
     // the in-plane shear modulus is the same in 2D and in plane strain).
@@ -681,11 +749,11 @@ Calibration load_or_calibrate(const scene::Scene& scene, const CalibrateOptions&
 
 std::string continuum_block(const Calibration& c) {
   std::string s;
-  s += fmt::format("# Calibrated by `demfem calibrate` ({}; key {}): DEM element tests on a "
-                   "{}-disk specimen\n# made by the scene's packing procedure, and its deposited "
-                   "bed. Paste into the scene, or set\n# calibrate = \"dem\" to take these values "
-                   "from the cache.\n",
-                   c.scene_label, c.key, c.particles);
+  s += fmt::format("# Calibrated by `demfem calibrate` ({}; key {}): DEM element tests on {} "
+                   "{}-disk specimen(s)\n# made by the scene's packing procedure, and its "
+                   "deposited bed. Paste into the scene, or set\n# calibrate = \"dem\" to take "
+                   "these values from the cache.\n",
+                   c.scene_label, c.key, c.specimens, c.particles);
   s += "[soil.continuum]\nmodel = \"mohr-coulomb\"\n";
   s += fmt::format("young = {:.4g}   # [Pa] plane strain: {}\n", c.young, c.young_source);
   if (c.young_e50 > 0.0)
@@ -695,13 +763,19 @@ std::string continuum_block(const Calibration& c) {
   s += fmt::format("poisson = {:.3f}   # ν = ν'/(1 + ν'), ν' = −ε_xx/ε_zz at the same point\n",
                    c.poisson);
   std::string sig;
-  for (const auto& t : c.tests)
-    sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", t.sigma_c / 1e3);
+  for (const double v : confinements(c))
+    sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", v / 1e3);
   s += fmt::format("friction_angle = {:.2f}   # [deg] Mohr–Coulomb fit of the biaxial peaks at "
-                   "σ_c = {} kPa (φ_cv = {:.1f}°)\n",
-                   c.friction_angle, sig, c.phi_cv);
+                   "σ_c = {} kPa, {} specimen(s) (φ_cv = {:.1f}°)\n",
+                   c.friction_angle, sig, c.specimens, c.phi_cv);
   s += fmt::format("cohesion = {:.4g}   # [Pa] the fit's intercept c = {:.4g} Pa, ≥ 0\n",
                    c.cohesion, c.cohesion_fit);
+  if (c.specimen_fits.size() > 1) {
+    std::string per;
+    for (const auto& [phi, coh] : c.specimen_fits)
+      per += fmt::format("{}{:.1f}° / {:.3g} kPa", per.empty() ? "" : ", ", phi, coh / 1e3);
+    s += fmt::format("#   each specimen's peaks alone: φ / c = {}\n", per);
+  }
   s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
                    "(clamped to [0, φ])\n",
                    c.dilation_angle);
@@ -746,14 +820,16 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
     else
       out.problems.push_back(err);
   };
-  PlotSpec ss{"Biaxial compression: deviator stress",
+  const std::string by_specimen =
+      c.specimens > 1 ? fmt::format(" ({} specimens: solid, dashed, dotted, …)", c.specimens) : "";
+  PlotSpec ss{"Biaxial compression: deviator stress" + by_specimen,
               "axial strain ε_zz [%]",
               "σ_zz − σ_xx [kPa]",
               {},
               false,
               1000,
               600};
-  PlotSpec vs{"Biaxial compression: volumetric strain (compression positive)",
+  PlotSpec vs{"Biaxial compression: volumetric strain (compression positive)" + by_specimen,
               "axial strain ε_zz [%]",
               "ε_v = ε_zz + ε_xx [%]",
               {},
@@ -770,8 +846,19 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
                600};
   Series pk{"peaks", {}, {}, "points", "pt 7 ps 1.5"};
   double smax = 0.0;
+  const auto sig = confinements(c);
   for (const auto& t : c.tests) {
-    Series a{fmt::format("σ_c = {:.4g} kPa", t.sigma_c / 1e3), {}, {}, "lines", ""};
+    // one colour per confinement, one dash pattern per specimen; the legend names a confinement
+    // once
+    const auto q = static_cast<std::size_t>(
+        std::find_if(sig.begin(), sig.end(),
+                     [&](double v) { return std::abs(v - t.sigma_c) <= 1e-9 * v; }) -
+        sig.begin());
+    Series a{t.specimen == 0 ? fmt::format("σ_c = {:.4g} kPa", t.sigma_c / 1e3) : std::string(),
+             {},
+             {},
+             "lines",
+             fmt::format("lc {} dt {}", q + 1, t.specimen + 1)};
     Series b = a;
     for (std::size_t i = 0; i < t.ea.size(); ++i) {
       a.x.push_back(100.0 * t.ea[i]);
@@ -792,6 +879,15 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
              "lines",
              "dt 2"};
   env.series = {pk, fit};
+  for (std::size_t k = 0; k < c.specimen_fits.size(); ++k) { // the realisation spread
+    const double sk = std::sin(c.specimen_fits[k].first * kPi / 180.0);
+    const double ck = c.specimen_fits[k].second * std::cos(c.specimen_fits[k].first * kPi / 180.0);
+    env.series.push_back({k == 0 ? "each specimen's peaks alone" : "",
+                          {0.0, 1.1 * smax},
+                          {ck / 1e3, 1.1 * smax * sk + ck / 1e3},
+                          "lines",
+                          "lc rgb '#999999' dt 3"});
+  }
   emit(ss, "stress_strain");
   emit(vs, "volumetric_strain");
   emit(env, "failure_envelope");

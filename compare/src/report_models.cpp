@@ -320,7 +320,13 @@ ModelFacts read_model_facts(const fs::path& run_dir) {
         f.cal_young_small = num_or(c["continuum"], "young_small");
         f.cal_young_e50 = num_or(c["continuum"], "young_e50");
       }
-      if (c.contains("specimen")) f.cal_particles = c["specimen"].value("particles", 0);
+      if (c.contains("specimen")) {
+        f.cal_particles = c["specimen"].value("particles", 0);
+        f.cal_specimens = c["specimen"].value("count", 1);
+      }
+      if (c.contains("envelope") && c["envelope"].contains("per_specimen"))
+        for (const auto& ps : c["envelope"]["per_specimen"])
+          f.cal_specimen_fits.emplace_back(num_or(ps, "phi_deg"), num_or(ps, "cohesion_pa"));
     } catch (const std::exception&) {
       f.calibration = false;
     }

@@ -175,9 +175,10 @@ std::string runs_section(const ModelFacts& f, const std::string& command) {
   }
   o += "</table>\n";
   if (f.calibration)
-    o += fmt::format("<p>Calibration {}: {} when computed ({}-disk specimens; cached and reused "
-                     "by every run with the same packing and contact parameters).</p>\n",
-                     h(f.calibration_key), seconds(f.cal_wall_seconds), f.cal_particles);
+    o += fmt::format("<p>Calibration {}: {} when computed ({} specimen(s) of {} disks; cached and "
+                     "reused by every run with the same packing and contact parameters).</p>\n",
+                     h(f.calibration_key), seconds(f.cal_wall_seconds), f.cal_specimens,
+                     f.cal_particles);
   return o;
 }
 
@@ -225,14 +226,23 @@ std::string parameters_section(const fs::path& run_dir, const std::vector<ParamR
     return o + "</p>\n";
   }
   o += fmt::format(
-      "<p>DEM element tests on {}-disk specimens made by the scene's packing procedure "
+      "<p>DEM element tests on {} specimen(s) of {} disks made by the scene's packing procedure "
       "(calibration {}; <a href=\"{}\">calibration.json</a>, <a href=\"{}\">calibration.toml</a>); "
       "the continuum values they gave are in the table above. Also measured: the critical-state "
       "friction angle φ_cv = {:.1f}°, the affine (upper-bound) in-plane E' = {:.3g} MPa and "
       "G = {:.3g} MPa.</p>\n",
-      f.cal_particles, h(f.calibration_key), h(href(run_dir, cal / "calibration.json")),
-      h(href(run_dir, cal / "calibration.toml")), f.cal_phi_cv, f.cal_affine_e / 1e6,
-      f.cal_affine_g / 1e6);
+      f.cal_specimens, f.cal_particles, h(f.calibration_key),
+      h(href(run_dir, cal / "calibration.json")), h(href(run_dir, cal / "calibration.toml")),
+      f.cal_phi_cv, f.cal_affine_e / 1e6, f.cal_affine_g / 1e6);
+  if (f.cal_specimen_fits.size() > 1) {
+    std::string per;
+    for (const auto& [phi, coh] : f.cal_specimen_fits)
+      per += fmt::format("{}{:.1f}° / {:.3g} kPa", per.empty() ? "" : ", ", phi, coh / 1e3);
+    o += fmt::format("<p>Envelope of all peaks: φ = {:.1f}°, c = {:.3g} kPa; each specimen's "
+                     "peaks alone give φ / c = {} (the realisation spread one specimen would "
+                     "carry).</p>\n",
+                     f.cal_phi_fit, f.cal_cohesion_fit / 1e3, h(per));
+  }
   if (!f.cal_cyclic.empty()) {
     o += fmt::format("<table><tr><th colspan=\"3\">cyclic biaxial at σ_c = {:.4g} kPa</th></tr>"
                      "<tr><th>γ</th><th>G [MPa]</th><th>ξ [%]</th></tr>\n",

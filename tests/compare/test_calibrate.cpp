@@ -68,6 +68,7 @@ compare::CalibrateOptions tiny_options(const fs::path& dir) {
   o.out_dir = dir;
   o.cache_dir = dir / "cache";
   o.particles = 200;
+  o.specimens = 1; // one realisation keeps these tests short; PoolsSpecimens… tests several
   o.depth_fractions = {0.5, 1.0};
   o.cyclic_amplitudes = {3e-4, 3e-3};
   o.figures = false;
@@ -238,6 +239,72 @@ TEST(Calibrate, IsDeterministic) {
   EXPECT_EQ(a.tests[0].el, b.tests[0].el);
   EXPECT_EQ(a.k0, b.k0);
   EXPECT_EQ(a.young, b.young);
+}
+
+// Several specimens: each is another realisation (its own seed, porosity and peaks), every one
+// is tested at every confinement, and the continuum's values are fitted to all of them:
+//  * the first specimen is the one-specimen calibration's (same seed, same bits);
+//  * φ, c: the least-squares line t = c cos φ + s sin φ through all peaks, recomputed here;
+//  * each specimen's own fit is reported (the spread), E50' and ν' are means at mid-depth.
+TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
+  const fs::path dir = demfem::test::scratch("calibrate_pool");
+  auto o = tiny_options(dir);
+  o.cyclic = false;
+  o.max_axial_strain = 0.05;
+  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto one = compare::calibrate(file.base, o);
+  o.specimens = 2;
+  const auto two = compare::calibrate(file.base, o);
+  EXPECT_NE(one.key, two.key);
+  ASSERT_EQ(one.tests.size(), 2u);
+  ASSERT_EQ(two.tests.size(), 4u); // by confinement, then by specimen
+  EXPECT_EQ(two.specimens, 2);
+  ASSERT_EQ(two.specimen_seeds.size(), 2u);
+  EXPECT_EQ(two.specimen_seeds[0], file.base.info.seed);
+  EXPECT_NE(two.specimen_seeds[1], two.specimen_seeds[0]);
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(two.tests[k].specimen, static_cast<int>(k % 2));
+    EXPECT_EQ(two.tests[k].sigma_c, one.tests[k / 2].sigma_c);
+  }
+  EXPECT_EQ(two.tests[0].sa, one.tests[0].sa); // specimen 1 is the one-specimen calibration's
+  EXPECT_EQ(two.tests[2].sa, one.tests[1].sa);
+  EXPECT_NE(two.tests[1].porosity, two.tests[0].porosity); // another realisation
+  EXPECT_NE(two.tests[1].t_peak, two.tests[0].t_peak);
+  // the pooled envelope: least squares over the four peaks
+  double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& t : two.tests) {
+    ASSERT_TRUE(t.failure.empty()) << t.failure;
+    n += 1;
+    sx += t.s_peak;
+    sy += t.t_peak;
+    sxx += t.s_peak * t.s_peak;
+    sxy += t.s_peak * t.t_peak;
+  }
+  const double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx), icpt = (sy - slope * sx) / n;
+  EXPECT_NEAR(two.phi_fit, std::asin(slope) * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(two.cohesion_fit, icpt / std::cos(std::asin(slope)), 1e-6 * std::abs(icpt) + 1e-9);
+  // each specimen's own fit; the first is the one-specimen calibration's
+  ASSERT_EQ(two.specimen_fits.size(), 2u);
+  EXPECT_NEAR(two.specimen_fits[0].first, one.phi_fit, 1e-12);
+  EXPECT_NEAR(two.specimen_fits[0].second, one.cohesion_fit, 1e-9);
+  EXPECT_NE(two.specimen_fits[1].first, two.specimen_fits[0].first);
+  // E, ν without the cyclic test: E50', ν' at mid-depth (σ_c at H/2), mean over the specimens
+  const double e50 = 0.5 * (two.tests[0].e50 + two.tests[1].e50);
+  const double nup =
+      0.5 * (std::max(0.0, two.tests[0].nu_inplane) + std::max(0.0, two.tests[1].nu_inplane));
+  EXPECT_NEAR(two.poisson, std::min(0.49, nup / (1.0 + nup)), 1e-12);
+  EXPECT_NEAR(two.young, e50 * (1.0 - two.poisson * two.poisson), 1e-9 * e50);
+  // the spread is written where a user reads it: the TOML block and the JSON
+  const std::string block = compare::continuum_block(two);
+  EXPECT_NE(block.find("each specimen's peaks alone"), std::string::npos) << block;
+  const auto files = compare::write_calibration(two, dir / "out", false);
+  std::ifstream jin(dir / "out" / "calibration.json");
+  const auto j = nlohmann::json::parse(jin);
+  EXPECT_EQ(j.at("specimen").at("count"), 2);
+  EXPECT_EQ(j.at("envelope").at("per_specimen").size(), 2u);
+  const auto back = compare::read_calibration(dir / "out" / "calibration.json");
+  EXPECT_EQ(back.specimen_fits, two.specimen_fits);
+  EXPECT_EQ(back.tests[3].specimen, 1);
 }
 
 TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {

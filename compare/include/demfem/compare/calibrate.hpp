@@ -4,14 +4,19 @@
 //
 //   * Specimen: the scene's [soil.dem] (radius distribution, contact law and stiffnesses, μ_s/μ_D,
 //     rebound, density, seed, packing settings incl. a porosity target) deposited under gravity
-//     by dem::pack into a box W × 1.5 W holding `particles` disks (default 1,000).
-//   * Biaxial compression at σ_c = ρ_b g z for z = H/4, H/2, H (H: the bed's height, ρ_b its bulk
-//     density): isotropic consolidation, then axial compression at a quasi-static rate (inertial
-//     number 1e-3) to 15 % axial strain with σ_c held on the lateral platens (calibrate_element).
-//     Per test: E (initial tangent and secant at 50 % of the peak deviator), ν, φ_peak, φ_cv
-//     (mean over the last quarter of the test), ψ at the peak; over the tests: Mohr–Coulomb fit
-//     of the peak states (φ, c).
-//   * Cyclic biaxial at σ_c(H/2): secant shear modulus G and damping ratio ξ against amplitude.
+//     by dem::pack into a box W × 1.5 W holding `particles` disks (default 1,000); `specimens`
+//     such realisations (default 3; specimen k deposited with seed + k·1,000,003), because one
+//     1,000-disk specimen fixes φ only to ≈ ±1.5° and the φ–c split not at all (cases/README.md,
+//     "Realisation spread of the calibration").
+//   * Biaxial compression of every specimen at σ_c = ρ_b g z for z = H/10, H/4, H/2, H (H: the
+//     bed's height, ρ_b its bulk density; H/10 so that the envelope is measured, not extrapolated,
+//     in the top of the bed): isotropic consolidation, then axial compression at a quasi-static
+//     rate (inertial number 1e-3) to 15 % axial strain with σ_c held on the lateral platens
+//     (calibrate_element). Per test: E (initial tangent and secant at 50 % of the peak deviator),
+//     ν, φ_peak, φ_cv (mean over the last quarter of the test), ψ at the peak; over all tests:
+//     Mohr–Coulomb fit of the peak states (φ, c), and the same fit per specimen for the spread.
+//   * Cyclic biaxial of the first specimen at σ_c(H/2): secant shear modulus G and damping ratio ξ
+//     against amplitude.
 //   * The continuum's E: the small-strain E0 = 2 G0 (1 + ν) of the cyclic test (the scenes load
 //     the soil cyclically; the monotonic E50 is reported beside it), or E50 at mid-depth when
 //     the cyclic test is skipped; ν from the biaxial test at mid-depth (50 % of the peak).
@@ -42,7 +47,8 @@ struct CalibrateOptions {
   std::filesystem::path out_dir;   // calibration.json, calibration.toml, figures/ ("" = none)
   std::filesystem::path cache_dir; // "" = the scene's packing.cache, else <out_dir>/cache
   int particles = 1000;            // specimen size
-  std::vector<double> depth_fractions{0.25, 0.5, 1.0}; // confinements σ_c = ρ_b g (f·H)
+  int specimens = 3;               // specimen realisations, each tested at every confinement
+  std::vector<double> depth_fractions{0.1, 0.25, 0.5, 1.0}; // confinements σ_c = ρ_b g (f·H)
   double max_axial_strain = 0.15;
   double inertial_number = 1e-3;
   bool cyclic = true;
@@ -52,6 +58,7 @@ struct CalibrateOptions {
 };
 
 struct BiaxialCurve {
+  int specimen = 0;                  // which realisation (0 … specimens − 1)
   double depth = 0.0, sigma_c = 0.0; // [m], [Pa]
   double porosity = 0.0;             // after consolidation
   double strain_rate = 0.0;          // [1/s]
@@ -91,11 +98,15 @@ struct Calibration {
   std::vector<std::pair<std::string, double>> seat_dz;
   // specimen and element tests
   int particles = 0;
-  double specimen_porosity = 0.0; // as deposited
-  std::vector<BiaxialCurve> tests;
-  double phi_fit = 0.0, cohesion_fit = 0.0; // Mohr–Coulomb fit of the peaks [deg], [Pa]
-  double phi_cv = 0.0, psi = 0.0;           // means over the tests [deg]
-  double affine_e = 0.0, affine_g = 0.0;    // affine (upper-bound) in-plane E', G [Pa]
+  int specimens = 1;
+  double specimen_porosity = 0.0;            // as deposited, mean over the specimens
+  std::vector<unsigned long> specimen_seeds; // packing seed of each specimen
+  std::vector<BiaxialCurve> tests;           // by confinement, then by specimen
+  double phi_fit = 0.0, cohesion_fit = 0.0;  // Mohr–Coulomb fit of all peaks [deg], [Pa]
+  // The same fit on each specimen's peaks alone (φ [deg], c [Pa]): the realisation spread.
+  std::vector<std::pair<double, double>> specimen_fits;
+  double phi_cv = 0.0, psi = 0.0;        // means over the tests [deg]
+  double affine_e = 0.0, affine_g = 0.0; // affine (upper-bound) in-plane E', G [Pa]
   double cyclic_sigma = 0.0;
   std::vector<CyclicPoint> cyclic;
   // what the continuum takes (plane strain)

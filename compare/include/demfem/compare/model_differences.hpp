@@ -73,7 +73,8 @@ struct ModelFacts {
   double cal_affine_e = 0.0, cal_affine_g = 0.0;
   std::string cal_young_source;
   double cal_young_small = 0.0, cal_young_e50 = 0.0;
-  int cal_particles = 0;
+  int cal_particles = 0, cal_specimens = 1;
+  std::vector<std::pair<double, double>> cal_specimen_fits; // each specimen's φ [deg], c [Pa]
   // the coarse-graining support radius the report used [m] (0: not computed)
   double kernel_width = 0.0;
 };
