@@ -150,9 +150,29 @@ TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
   EXPECT_NE(r.out.find("computed"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(out / "cal" / "calibration.json"));
   EXPECT_TRUE(fs::exists(out / "cal" / "calibration.toml"));
+  // Default: three specimens at four confinements, and each specimen's own envelope.
+  auto count = [](const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count(r.out, "  biaxial σ_c ="), 12u) << r.out;
+  EXPECT_NE(r.out.find("envelope (3 specimen(s))"), std::string::npos) << r.out;
+  EXPECT_EQ(count(r.out, ") alone: φ"), 3u) << r.out;
+  EXPECT_NE(r.out.find("each specimen's peaks alone"), std::string::npos) << r.out; // the TOML
   const auto again = run(args);
   EXPECT_EQ(again.code, 0);
   EXPECT_NE(again.out.find("found in the cache"), std::string::npos) << again.out;
+  // --specimens, --depths: another calibration (another key), one specimen, two confinements
+  const auto one = run("calibrate " + p.string() +
+                       " --particles 100 --no-cyclic --specimens 1 --depths 0.5,1 --out " +
+                       (out / "cal1").string());
+  ASSERT_EQ(one.code, 0) << one.out;
+  EXPECT_NE(one.out.find("computed"), std::string::npos) << one.out;
+  EXPECT_EQ(count(one.out, "  biaxial σ_c ="), 2u) << one.out;
+  EXPECT_EQ(count(one.out, ") alone: φ"), 0u) << one.out;
+  EXPECT_EQ(run("calibrate " + p.string() + " --depths 0").code, 2);
+  EXPECT_EQ(run("calibrate " + p.string() + " --specimens 0").code, 2);
   EXPECT_EQ(run("calibrate " + p.string() + " --variant nope").code, 2);
   fs::remove(p);
 }
