@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <sstream>
@@ -77,7 +78,7 @@ namespace {
 
 using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
-constexpr int kPackingFormat = 1; // bump when the placement or deposition algorithm changes
+constexpr int kPackingFormat = 2; // bump when the placement or deposition algorithm changes
 
 bool carved(const scene::Scene& scene, const scene::Structure& st); // below
 
@@ -713,12 +714,30 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   // With damping the fall speed is capped at g/C, so the fall takes at least drop·C/g.
   const double drop = std::max(pl.top - fb.z0, 0.0);
   const double t_min = g > 0.0 ? std::max(std::sqrt(2.0 * drop / g), drop * c.damping_c / g) : 0.0;
+  // The highest particle lands on the bed's top, not on the fill's bottom, so the bed is usually at
+  // rest well before t_min (the wall's specimens: at ≈ 27 s of a t_min of 58 s). It may stop
+  // there: every particle slower than 1 % of the fall speed (g/C with damping, the free fall
+  // from the top without; a particle still falling moves at it), after at least the free-fall
+  // time over one largest diameter.
+  const double v_fall = c.damping_c > 0.0 ? g / c.damping_c : std::sqrt(2.0 * g * drop);
+  const double v_rest = 0.01 * v_fall;
   const long long chunk = 50;
   auto last_report = std::chrono::steady_clock::now();
-  // Runs until KE < ke_ratio × released PE after t_from, or until t_cap.
+  auto at_rest = [&] {
+    const auto& P = ep->particles();
+    const double v2 = v_rest * v_rest;
+    for (std::size_t i = 0; i < P.size(); ++i) {
+      if (!P.flags.empty() && (P.flags[i] & kFlagRemoved)) continue;
+      if (P.vx[i] * P.vx[i] + P.vz[i] * P.vz[i] >= v2) return false;
+    }
+    return true;
+  };
+  // Runs until KE < ke_ratio × released PE after t_from (or, when `rest_from` is finite, after
+  // rest_from with every particle at rest), or until t_cap.
   double released_before = 0.0; // potential energy released by engines before this one [J]
   long long steps_before = 0;
-  auto settle = [&](double t_from, double t_cap, const char* stage) {
+  auto settle = [&](double t_from, double t_cap, const char* stage,
+                    double rest_from = std::numeric_limits<double>::infinity()) {
     while (true) {
       ep->run_steps(chunk);
       if (ep->failed())
@@ -730,7 +749,9 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
       const double ke = en.kinetic + en.rotational;
       const double released = released_before + en.gravity_work;
       res.ke_ratio = released > 0.0 ? ke / released : 1.0;
-      if (ep->time() >= t_from && res.ke_ratio < d.packing.ke_ratio) return true;
+      if (res.ke_ratio < d.packing.ke_ratio &&
+          (ep->time() >= t_from || (ep->time() >= rest_from && at_rest())))
+        return true;
       if (ep->time() >= t_cap) return false;
       const auto now = std::chrono::steady_clock::now();
       if (progress && now - last_report > std::chrono::milliseconds(500)) {
@@ -748,7 +769,8 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
     }
   };
   const double rmax = pl.r.empty() ? 0.0 : *std::max_element(pl.r.begin(), pl.r.end());
-  res.converged = settle(t_min, d.packing.max_time, "pack");
+  const double t_one = g > 0.0 ? std::sqrt(2.0 * 2.0 * rmax / g) : 0.0;
+  res.converged = settle(t_min, d.packing.max_time, "pack", std::min(t_one, t_min));
   if (scale != 1.0) {
     // The scene's friction back, then settle again: at least 20 free-fall times over one largest
     // diameter, √(2·2r_max/g), for the contacts beyond the restored Coulomb limit to slip.
