@@ -715,10 +715,10 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   const double drop = std::max(pl.top - fb.z0, 0.0);
   const double t_min = g > 0.0 ? std::max(std::sqrt(2.0 * drop / g), drop * c.damping_c / g) : 0.0;
   // The highest particle lands on the bed's top, not on the fill's bottom, so the bed is usually at
-  // rest well before t_min (the wall's specimens: at ≈ 27 s of a t_min of 58 s). It may stop
-  // there: every particle slower than 1 % of the fall speed (g/C with damping, the free fall
-  // from the top without; a particle still falling moves at it), after at least the free-fall
-  // time over one largest diameter.
+  // rest well before t_min (the wall's bed: at ≈ 28 s of a t_min of 58 s). It may stop there:
+  // every particle's translation slower than 1 % of the fall speed (g/C with damping, the free
+  // fall from the top without; a particle still falling moves at it), after at least the
+  // free-fall time over one largest diameter.
   const double v_fall = c.damping_c > 0.0 ? g / c.damping_c : std::sqrt(2.0 * g * drop);
   const double v_rest = 0.01 * v_fall;
   const long long chunk = 50;
