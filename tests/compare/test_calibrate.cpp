@@ -10,8 +10,11 @@
 #include "../scratch.hpp"
 #include <nlohmann/json.hpp>
 
+#include "../../compare/src/report_sections.hpp"
 #include "demfem/compare/calibrate.hpp"
+#include "demfem/compare/model_differences.hpp"
 #include "demfem/scene/load.hpp"
+#include <fmt/format.h>
 
 namespace fs = std::filesystem;
 using namespace demfem;
@@ -305,6 +308,21 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
   const auto back = compare::read_calibration(dir / "out" / "calibration.json");
   EXPECT_EQ(back.specimen_fits, two.specimen_fits);
   EXPECT_EQ(back.tests[3].specimen, 1);
+  // and the comparison report of a run directory holding it says so
+  const fs::path run = dir / "run";
+  fs::create_directories(run / "calibration");
+  fs::copy_file(dir / "out" / "calibration.json", run / "calibration" / "calibration.json",
+                fs::copy_options::overwrite_existing);
+  const auto facts = compare::read_model_facts(run);
+  EXPECT_EQ(facts.cal_specimens, 2);
+  EXPECT_EQ(facts.cal_specimen_fits, two.specimen_fits);
+  const std::string html = compare::detail::parameters_section(
+      run, {compare::ParamRow{"continuum", "friction_angle", "x", "calibrated"}}, facts, nullptr);
+  EXPECT_NE(html.find("2 specimen(s) of 200 disks"), std::string::npos) << html;
+  EXPECT_NE(html.find(fmt::format("{:.1f}° / {:.3g} kPa", two.specimen_fits[1].first,
+                                  two.specimen_fits[1].second / 1e3)),
+            std::string::npos)
+      << html;
 }
 
 TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
