@@ -504,6 +504,17 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                   0.5 * so.load_start, so.load_start, so.load_start)
             : fmt::format("the sample at t = {:.3g} s: the loading starts then", so.load_start),
         so.late_from, so.late_to, so.window, 100 * thr, 100 * thr);
+    // A deposited bed is one realisation of the soil: say so, and how to measure the spread.
+    if (options.scene && options.scene->soil.dem && options.scene->soil.dem->particles.empty() &&
+        options.scene->soil.dem->particles_file.empty()) {
+      const unsigned long s0 = options.scene->info.seed;
+      h += fmt::format(
+          "<p>The DEM column is one realisation of the bed (packing seed {0}); another "
+          "realisation of the same soil gives another DEM answer, and a verdict near the "
+          "threshold can change with it. <code>{1} --seeds {0},{2},{3}</code> runs one comparison "
+          "per seed and reports the spread (ensemble.html).</p>\n",
+          s0, html_escape(detail::default_command(*options.scene)), s0 + 1, s0 + 2);
+    }
     h += "<div style=\"overflow-x:auto\"><table class=\"v\"><tr><th class=\"l\" rowspan=\"2\">"
          "quantity [unit]</th>"
          "<th colspan=\"4\">static (at rest)</th><th colspan=\"4\">mean increment (late)</th>"

@@ -116,6 +116,9 @@ TEST(CompareReport, RecordsRunsAndListsWhatDiffers) {
   EXPECT_FALSE(rows["initial stress"]["matched"].get<bool>());
   EXPECT_NE(html.find("demfem calibrate " + scene.string()), std::string::npos);
   EXPECT_GT(m["run_times"]["dem"]["solver_seconds"].get<double>(), 0.0);
+  // Listed particles are no realisation of anything: no seed ensemble is suggested
+  // (Report.ComparesWallThrustAndPressureProfiles: a deposited bed is one).
+  EXPECT_EQ(html.find("--seeds"), std::string::npos);
 }
 
 // The same scene with snapshots: two rows of disks on the floor. The coarse-grained DEM fields

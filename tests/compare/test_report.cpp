@@ -73,4 +73,15 @@ TEST(Report, ComparesWallThrustAndPressureProfiles) {
   const std::string html((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());
   EXPECT_NE(html.find("wall thrust"), std::string::npos);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+  // No DEM soil here: no seed ensemble is suggested. A deposited bed is one realisation of the
+  // soil: the verdicts say so and give the ensemble command.
+  EXPECT_EQ(html.find("--seeds"), std::string::npos);
+  sc.soil.dem = scene::DemSoil{};
+  sc.info.seed = 7;
+  sc.source_file = "bed.toml";
+  const auto r2 = compare::write_report(run, o);
+  std::ifstream h2(r2.html);
+  const std::string html2((std::istreambuf_iterator<char>(h2)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html2.find("one realisation of the bed (packing seed 7)"), std::string::npos);
+  EXPECT_NE(html2.find("demfem compare bed.toml --seeds 7,8,9</code>"), std::string::npos) << html2;
 }
