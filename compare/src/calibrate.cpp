@@ -747,6 +747,13 @@ Calibration load_or_calibrate(const scene::Scene& scene, const CalibrateOptions&
   return calibrate(scene, o);
 }
 
+std::string specimen_fits_text(const std::vector<std::pair<double, double>>& fits) {
+  std::string per;
+  for (const auto& [phi, coh] : fits)
+    per += fmt::format("{}{:.1f}° / {:.3g} kPa", per.empty() ? "" : ", ", phi, coh / 1e3);
+  return per;
+}
+
 std::string continuum_block(const Calibration& c) {
   std::string s;
   s += fmt::format("# Calibrated by `demfem calibrate` ({}; key {}): DEM element tests on {} "
@@ -770,12 +777,9 @@ std::string continuum_block(const Calibration& c) {
                    c.friction_angle, sig, c.specimens, c.phi_cv);
   s += fmt::format("cohesion = {:.4g}   # [Pa] the fit's intercept c = {:.4g} Pa, ≥ 0\n",
                    c.cohesion, c.cohesion_fit);
-  if (c.specimen_fits.size() > 1) {
-    std::string per;
-    for (const auto& [phi, coh] : c.specimen_fits)
-      per += fmt::format("{}{:.1f}° / {:.3g} kPa", per.empty() ? "" : ", ", phi, coh / 1e3);
-    s += fmt::format("#   each specimen's peaks alone: φ / c = {}\n", per);
-  }
+  if (c.specimen_fits.size() > 1)
+    s += fmt::format("#   each specimen's peaks alone: φ / c = {}\n",
+                     specimen_fits_text(c.specimen_fits));
   s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
                    "(clamped to [0, φ])\n",
                    c.dilation_angle);

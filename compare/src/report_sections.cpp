@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/error_study.hpp"
 #include "html.hpp"
 
@@ -234,15 +235,12 @@ std::string parameters_section(const fs::path& run_dir, const std::vector<ParamR
       f.cal_specimens, f.cal_particles, h(f.calibration_key),
       h(href(run_dir, cal / "calibration.json")), h(href(run_dir, cal / "calibration.toml")),
       f.cal_phi_cv, f.cal_affine_e / 1e6, f.cal_affine_g / 1e6);
-  if (f.cal_specimen_fits.size() > 1) {
-    std::string per;
-    for (const auto& [phi, coh] : f.cal_specimen_fits)
-      per += fmt::format("{}{:.1f}° / {:.3g} kPa", per.empty() ? "" : ", ", phi, coh / 1e3);
+  if (f.cal_specimen_fits.size() > 1)
     o += fmt::format("<p>Envelope of all peaks: φ = {:.1f}°, c = {:.3g} kPa; each specimen's "
                      "peaks alone give φ / c = {} (the realisation spread one specimen would "
                      "carry).</p>\n",
-                     f.cal_phi_fit, f.cal_cohesion_fit / 1e3, h(per));
-  }
+                     f.cal_phi_fit, f.cal_cohesion_fit / 1e3,
+                     h(specimen_fits_text(f.cal_specimen_fits)));
   if (!f.cal_cyclic.empty()) {
     o += fmt::format("<table><tr><th colspan=\"3\">cyclic biaxial at σ_c = {:.4g} kPa</th></tr>"
                      "<tr><th>γ</th><th>G [MPa]</th><th>ξ [%]</th></tr>\n",

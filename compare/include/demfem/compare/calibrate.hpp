@@ -144,6 +144,9 @@ CalibrationFiles write_calibration(const Calibration& c, const std::filesystem::
                                    bool figures);
 // The [soil.continuum] block with provenance comments.
 [[nodiscard]] std::string continuum_block(const Calibration& c);
+// Each specimen's envelope (Calibration::specimen_fits) as "14.8° / 0.67 kPa, …": the TOML
+// comment and the report's calibration paragraph.
+[[nodiscard]] std::string specimen_fits_text(const std::vector<std::pair<double, double>>& fits);
 
 // [soil.continuum] calibrate = "dem": sets every calibrated key the scene does not state
 // (young, poisson, friction_angle, cohesion, dilation_angle, density, k0, surface) and records
