@@ -318,7 +318,8 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
   if (!dem_body.empty())
     table("DEM",
           "Outcome: completed, refused at setup (the cause), or stopped (step, time, particle, "
-          "cause). Energy closure: |imbalance| / (|gravity work| + |external work|) at the end. "
+          "cause). Energy closure: |imbalance| / the largest energy put in (gravity and external "
+          "work, springs) at the end. "
           "Overlap: the largest δ/r seen at the probes.",
           {"row", "change", "outcome", "Δt [s]", "Δt / limit", "energy closure", "max δ/r", "steps",
            "wall [s]", "cause"},
