@@ -500,8 +500,8 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
                    k < c.specimen_seeds.size() ? c.specimen_seeds[k] : 0ul,
                    c.specimen_fits[k].first, c.specimen_fits[k].second / 1e3);
       for (const auto& p : c.cyclic)
-        fmt::print("  cyclic γ = {:.3g}: G {:.3g} MPa, ξ {:.1f} %\n", p.gamma, p.g / 1e6,
-                   100.0 * p.xi);
+        fmt::print("  cyclic γ = {:.3g}: G {:.3g} MPa, ξ {:.1f} %, ν' {:.3f}\n", p.gamma, p.g / 1e6,
+                   100.0 * p.xi, p.nu);
       fmt::print("{}", compare::continuum_block(c));
       for (const auto& f : files.written) fmt::print("  wrote {}\n", f.string());
       for (const auto& p : files.problems) fmt::print(stderr, "figure: {}\n", p);

@@ -28,7 +28,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 7; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 8; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -288,21 +288,28 @@ json to_json(const Calibration& c) {
                    {"psi_deg", c.psi}};
   j["affine"] = {{"e_inplane_pa", c.affine_e}, {"g_pa", c.affine_g}};
   json cyc = json::array();
-  for (const auto& p : c.cyclic) cyc.push_back({{"gamma", p.gamma}, {"g_pa", p.g}, {"xi", p.xi}});
+  for (const auto& p : c.cyclic)
+    cyc.push_back({{"gamma", p.gamma},
+                   {"g_pa", p.g},
+                   {"xi", p.xi},
+                   {"nu_inplane", std::isfinite(p.nu) ? json(p.nu) : json(nullptr)}});
   j["cyclic"] = {{"sigma_c_pa", c.cyclic_sigma}, {"loops", cyc}};
-  j["continuum"] = {{"young", c.young},
-                    {"poisson", c.poisson},
-                    {"friction_angle_deg", c.friction_angle},
-                    {"cohesion", c.cohesion},
-                    {"dilation_angle_deg", c.dilation_angle},
-                    {"dilation_cutoff",
-                     std::isfinite(c.dilation_cutoff) ? json(c.dilation_cutoff) : json(nullptr)},
-                    {"density", c.bulk_density},
-                    {"k0", c.k0},
-                    {"surface", c.surface},
-                    {"young_source", c.young_source},
-                    {"young_small", c.young_small},
-                    {"young_e50", c.young_e50}};
+  j["continuum"] = {
+      {"young", c.young},
+      {"poisson", c.poisson},
+      {"friction_angle_deg", c.friction_angle},
+      {"cohesion", c.cohesion},
+      {"dilation_angle_deg", c.dilation_angle},
+      {"dilation_cutoff",
+       std::isfinite(c.dilation_cutoff) ? json(c.dilation_cutoff) : json(nullptr)},
+      {"density", c.bulk_density},
+      {"k0", c.k0},
+      {"surface", c.surface},
+      {"young_source", c.young_source},
+      {"young_small", c.young_small},
+      {"young_e50", c.young_e50},
+      {"poisson_source", c.poisson_source},
+      {"poisson_e50", std::isfinite(c.poisson_e50) ? json(c.poisson_e50) : json(nullptr)}};
   return j;
 }
 
@@ -366,8 +373,11 @@ Calibration from_json(const json& j) {
   c.affine_e = j.at("affine").at("e_inplane_pa");
   c.affine_g = j.at("affine").at("g_pa");
   c.cyclic_sigma = j.at("cyclic").at("sigma_c_pa");
-  for (const auto& p : j.at("cyclic").at("loops"))
+  for (const auto& p : j.at("cyclic").at("loops")) {
     c.cyclic.push_back({p.at("gamma"), p.at("g_pa"), p.at("xi")});
+    if (p.contains("nu_inplane") && p.at("nu_inplane").is_number())
+      c.cyclic.back().nu = p.at("nu_inplane");
+  }
   const auto& k = j.at("continuum");
   c.young = k.at("young");
   c.poisson = k.at("poisson");
@@ -379,6 +389,9 @@ Calibration from_json(const json& j) {
   c.young_source = k.at("young_source");
   c.young_small = k.at("young_small");
   c.young_e50 = k.at("young_e50");
+  c.poisson_source = k.value("poisson_source", std::string());
+  if (k.contains("poisson_e50") && k.at("poisson_e50").is_number())
+    c.poisson_e50 = k.at("poisson_e50");
   return c;
 }
 
@@ -681,6 +694,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       c.young_source = fmt::format("secant at 50 % of the peak deviator, biaxial tests at σ_c = "
                                    "{:.4g} kPa (z = {:.3g} m), mean of {} specimen(s)",
                                    c.tests[best].sigma_c / 1e3, depth, n);
+      c.poisson_source = fmt::format("ν'/(1 + ν'), ν' = −ε_xx/ε_zz at 50 % of the peak, biaxial "
+                                     "tests at σ_c = {:.4g} kPa, mean of {} specimen(s)",
+                                     c.tests[best].sigma_c / 1e3, n);
     }
     c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
     c.cohesion = std::max(0.0, c.cohesion_fit);
@@ -703,10 +719,22 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
              0.05 + 0.95 * (static_cast<double>(ntest - 1) + f) / static_cast<double>(ntest));
     };
     for (const auto& l : calib::cyclic(specimens.front(), sigma, o.cyclic_amplitudes, es))
-      c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping});
+      c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping, l.nu_inplane});
     // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
     // the in-plane shear modulus is the same in 2D and in plane strain).
     if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
+      // ν from the same small-strain cycle as G0, so that E0 and ν describe one elastic state:
+      // the biaxial tests' ν' at 50 % of the peak is mostly plastic flow and varies ± 20 % between
+      // beds (0.24–0.36 over four wall beds), the cycle's ± 4 % (0.29–0.31; cases/README.md).
+      const double nup = c.cyclic.front().nu;
+      if (std::isfinite(nup) && nup > 0.0) {
+        c.poisson_e50 = c.poisson;
+        c.poisson = std::min(0.49, nup / (1.0 + nup)); // ν = ν'/(1 + ν') (plane strain)
+        c.poisson_source = fmt::format("ν'/(1 + ν'), ν' = −ε_xx/ε_zz of the cyclic biaxial test at "
+                                       "σ_c = {:.4g} kPa, γ = {:.2g} "
+                                       "(the biaxial tests at 50 % of the peak: {:.3f})",
+                                       c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.poisson_e50);
+      }
       c.young_small = 2.0 * c.cyclic.front().g * (1.0 + c.poisson);
       // The continuum's elastic part stands for the soil before yield, and the scenes load it
       // cyclically (shaking, rocking): the cyclic small-strain modulus, not the monotonic E50
@@ -767,8 +795,7 @@ std::string continuum_block(const Calibration& c) {
     s += fmt::format("#   monotonic: E50 = E50'(1 − ν²) = {:.4g} Pa (secant at 50 % of the peak "
                      "deviator, σ_c at mid-depth)\n",
                      c.young_e50);
-  s += fmt::format("poisson = {:.3f}   # ν = ν'/(1 + ν'), ν' = −ε_xx/ε_zz at the same point\n",
-                   c.poisson);
+  s += fmt::format("poisson = {:.3f}   # {}\n", c.poisson, c.poisson_source);
   std::string sig;
   for (const double v : confinements(c))
     sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", v / 1e3);
@@ -965,8 +992,7 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     lines.push_back(fmt::format("{} = {}: {}", key, given ? "(scene)" : shown, note));
   };
   set("young", s.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
-  set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson),
-      "ν'/(1 + ν') at the same point");
+  set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
   set("friction_angle", s.friction_angle, c.friction_angle * kPi / 180.0,
       fmt::format("{:.2f}°", c.friction_angle), "Mohr–Coulomb fit of the biaxial peaks");
   set("cohesion", s.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),

@@ -370,12 +370,17 @@ std::vector<CyclicLoop> cyclic(const Specimen& sp, double sigma_c,
         amp = std::hypot(b, cc);
         phase = std::atan2(cc, b);
       };
-      double ga = 0.0, gp = 0.0, ta = 0.0, tp = 0.0;
+      double ga = 0.0, gp = 0.0, ta = 0.0, tp = 0.0, aa = 0.0, ap = 0.0, la = 0.0, lp = 0.0;
       harmonic([](const Sample& q) { return q.e_axial - q.e_lateral; }, ga, gp);
       harmonic([](const Sample& q) { return 0.5 * (q.s_axial - q.s_lateral); }, ta, tp);
+      harmonic([](const Sample& q) { return q.e_axial; }, aa, ap);
+      harmonic([](const Sample& q) { return q.e_lateral; }, la, lp);
       loop.gamma_amplitude = ga;
       loop.g_secant = ga > 0.0 ? ta / ga : 0.0;
       loop.damping = 0.5 * std::sin(tp - gp);
+      // In-plane Poisson's ratio of the cycle: ν' = −ε_xx/ε_zz under constant lateral stress
+      // (2D elasticity), from the part of ε_xx's first harmonic in phase with ε_zz's.
+      loop.nu_inplane = aa > 0.0 ? -la * std::cos(lp - ap) / aa : 0.0;
     }
     loops.push_back(std::move(loop));
   }

@@ -58,6 +58,7 @@ struct CyclicLoop {
   double gamma_amplitude = 0.0; // amplitude of γ = ε_zz − ε_xx (first harmonic)
   double g_secant = 0.0;        // τ_a / γ_a, τ = (σ_zz − σ_xx)/2
   double damping = 0.0;         // ξ = W_D / (4π W_S) of the fitted first harmonic (½ sin δ)
+  double nu_inplane = 0.0;      // ν' = −ε_xx/ε_zz, first harmonics, in phase with ε_zz
   std::vector<Sample> samples;  // the measured (last) cycle
 };
 

@@ -79,6 +79,7 @@ struct CyclicPoint {
   double gamma = 0.0; // shear strain amplitude γ = ε_zz − ε_xx
   double g = 0.0;     // secant shear modulus [Pa]
   double xi = 0.0;    // damping ratio
+  double nu = std::numeric_limits<double>::quiet_NaN(); // in-plane ν' = −ε_xx/ε_zz of the cycle
 };
 
 struct Calibration {
@@ -114,9 +115,12 @@ struct Calibration {
          dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]
   // dilatancy cut-off: mean of the tests' `dilation` (NaN: none measured, or an older file)
   double dilation_cutoff = std::numeric_limits<double>::quiet_NaN();
-  std::string young_source; // which test and measure E comes from
-  double young_small = 0.0; // 2 G0 (1 + ν): G0 of the smallest cyclic amplitude [Pa]
-  double young_e50 = 0.0;   // E50 (plane strain) at mid-depth when E is E0 [Pa]
+  std::string young_source;   // which test and measure E comes from
+  double young_small = 0.0;   // 2 G0 (1 + ν): G0 of the smallest cyclic amplitude [Pa]
+  double young_e50 = 0.0;     // E50 (plane strain) at mid-depth when E is E0 [Pa]
+  std::string poisson_source; // which test and measure ν comes from
+  // ν of the biaxial tests at mid-depth (50 % of the peak) when ν is the cyclic test's (NaN: not)
+  double poisson_e50 = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Digest of everything that shapes the calibration (16 hex digits).
