@@ -490,8 +490,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       // One state per row: a step's soil forces and applied loads come from the pose at its
       // start, x_n = x_{n+1} − v_{n+1} Δt (symplectic Euler, Engine::update_structures), so the
       // row writes that pose. (It wrote x_{n+1}: the moment lagged the rotation by one step and
-      // the moment–rotation loops lost an area ∝ Δt, 35 % of a rocking cycle at the default
-      // step; bench/RESULTS.md, seventeenth session.)
+      // the moment–rotation loops lost an area ∝ Δt, 5–55 % of a rocking cycle's at the
+      // default step; bench/RESULTS.md, seventeenth session.)
       const double dtf = forces.dt();
       std::vector<double> row{t};
       for (const auto& f : forces.structures())
