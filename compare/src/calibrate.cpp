@@ -28,7 +28,7 @@ using nlohmann::json;
 
 namespace {
 
-constexpr int kCalibrationFormat = 8; // bump when the tests or their evaluation change
+constexpr int kCalibrationFormat = 9; // bump when the tests or their evaluation change
 constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
   return rad * 180.0 / kPi;
@@ -293,7 +293,17 @@ json to_json(const Calibration& c) {
                    {"g_pa", p.g},
                    {"xi", p.xi},
                    {"nu_inplane", std::isfinite(p.nu) ? json(p.nu) : json(nullptr)}});
-  j["cyclic"] = {{"sigma_c_pa", c.cyclic_sigma}, {"loops", cyc}};
+  json per = json::array();
+  for (const auto& sp : c.cyclic_per_specimen) {
+    json a = json::array();
+    for (const auto& p : sp)
+      a.push_back({{"gamma", p.gamma},
+                   {"g_pa", p.g},
+                   {"xi", p.xi},
+                   {"nu_inplane", std::isfinite(p.nu) ? json(p.nu) : json(nullptr)}});
+    per.push_back(a);
+  }
+  j["cyclic"] = {{"sigma_c_pa", c.cyclic_sigma}, {"loops", cyc}, {"per_specimen", per}};
   j["continuum"] = {
       {"young", c.young},
       {"poisson", c.poisson},
@@ -373,11 +383,17 @@ Calibration from_json(const json& j) {
   c.affine_e = j.at("affine").at("e_inplane_pa");
   c.affine_g = j.at("affine").at("g_pa");
   c.cyclic_sigma = j.at("cyclic").at("sigma_c_pa");
-  for (const auto& p : j.at("cyclic").at("loops")) {
-    c.cyclic.push_back({p.at("gamma"), p.at("g_pa"), p.at("xi")});
-    if (p.contains("nu_inplane") && p.at("nu_inplane").is_number())
-      c.cyclic.back().nu = p.at("nu_inplane");
-  }
+  auto cycle = [](const json& p) {
+    CyclicPoint q{p.at("gamma"), p.at("g_pa"), p.at("xi")};
+    if (p.contains("nu_inplane") && p.at("nu_inplane").is_number()) q.nu = p.at("nu_inplane");
+    return q;
+  };
+  for (const auto& p : j.at("cyclic").at("loops")) c.cyclic.push_back(cycle(p));
+  if (j.at("cyclic").contains("per_specimen"))
+    for (const auto& one : j.at("cyclic").at("per_specimen")) {
+      c.cyclic_per_specimen.emplace_back();
+      for (const auto& p : one) c.cyclic_per_specimen.back().push_back(cycle(p));
+    }
   const auto& k = j.at("continuum");
   c.young = k.at("young");
   c.poisson = k.at("poisson");
@@ -600,7 +616,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   es.inertial_number = o.inertial_number;
   es.max_axial_strain = o.max_axial_strain;
   const std::size_t nbiax = o.depth_fractions.size() * specimens.size();
-  const std::size_t ntest = nbiax + (o.cyclic ? 1 : 0);
+  const std::size_t ntest = nbiax + (o.cyclic ? specimens.size() : 0);
   for (std::size_t q = 0; q < o.depth_fractions.size(); ++q)
     for (std::size_t k = 0; k < specimens.size(); ++k) {
       const double z = o.depth_fractions[q] * c.bed_height;
@@ -714,26 +730,49 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   if (o.cyclic && !o.cyclic_amplitudes.empty()) {
     const double sigma = c.bulk_density * g * 0.5 * c.bed_height;
     c.cyclic_sigma = sigma;
-    es.progress = [&](const std::string& stage, double f) {
-      report(fmt::format("calibrate: {} σ_c = {:.4g} kPa", stage, sigma / 1e3),
-             0.05 + 0.95 * (static_cast<double>(ntest - 1) + f) / static_cast<double>(ntest));
-    };
-    for (const auto& l : calib::cyclic(specimens.front(), sigma, o.cyclic_amplitudes, es))
-      c.cyclic.push_back({l.gamma_amplitude, l.g_secant, l.damping, l.nu_inplane});
+    // Every specimen, as the biaxial tests: G0, ξ and ν of one realisation scatter (G0 ± 7 %
+    // over four wall beds); the continuum takes the means per amplitude.
+    for (std::size_t k = 0; k < specimens.size(); ++k) {
+      es.progress = [&](const std::string& stage, double f) {
+        report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, sigma / 1e3,
+                           k + 1, specimens.size()),
+               0.05 + 0.95 * (static_cast<double>(nbiax + k) + f) / static_cast<double>(ntest));
+      };
+      auto& mine = c.cyclic_per_specimen.emplace_back();
+      for (const auto& l : calib::cyclic(specimens[k], sigma, o.cyclic_amplitudes, es))
+        mine.push_back({l.gamma_amplitude, l.g_secant, l.damping, l.nu_inplane});
+    }
+    // Means over the specimens, amplitude by amplitude, as far as every specimen got.
+    std::size_t na = o.cyclic_amplitudes.size();
+    for (const auto& sp : c.cyclic_per_specimen) na = std::min(na, sp.size());
+    for (std::size_t a = 0; a < na; ++a) {
+      CyclicPoint m{0.0, 0.0, 0.0, 0.0};
+      for (const auto& sp : c.cyclic_per_specimen) {
+        m.gamma += sp[a].gamma;
+        m.g += sp[a].g;
+        m.xi += sp[a].xi;
+        m.nu += sp[a].nu;
+      }
+      const double n = static_cast<double>(c.cyclic_per_specimen.size());
+      c.cyclic.push_back({m.gamma / n, m.g / n, m.xi / n, m.nu / n});
+    }
     // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
     // the in-plane shear modulus is the same in 2D and in plane strain).
     if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
       // ν from the same small-strain cycle as G0, so that E0 and ν describe one elastic state:
       // the biaxial tests' ν' at 50 % of the peak is mostly plastic flow and varies ± 20 % between
-      // beds (0.24–0.36 over four wall beds), the cycle's ± 4 % (0.29–0.31; cases/README.md).
+      // beds (0.24–0.36 over four wall beds), one specimen's cycle ± 4 % (0.29–0.31;
+      // cases/README.md).
       const double nup = c.cyclic.front().nu;
       if (std::isfinite(nup) && nup > 0.0) {
         c.poisson_e50 = c.poisson;
         c.poisson = std::min(0.49, nup / (1.0 + nup)); // ν = ν'/(1 + ν') (plane strain)
-        c.poisson_source = fmt::format("ν'/(1 + ν'), ν' = −ε_xx/ε_zz of the cyclic biaxial test at "
-                                       "σ_c = {:.4g} kPa, γ = {:.2g} "
-                                       "(the biaxial tests at 50 % of the peak: {:.3f})",
-                                       c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.poisson_e50);
+        c.poisson_source =
+            fmt::format("ν'/(1 + ν'), ν' = −ε_xx/ε_zz of the cyclic biaxial tests at "
+                        "σ_c = {:.4g} kPa, γ = {:.2g}, mean of {} specimen(s) "
+                        "(the biaxial tests at 50 % of the peak: {:.3f})",
+                        c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.cyclic_per_specimen.size(),
+                        c.poisson_e50);
       }
       c.young_small = 2.0 * c.cyclic.front().g * (1.0 + c.poisson);
       // The continuum's elastic part stands for the soil before yield, and the scenes load it
@@ -742,9 +781,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       c.young_e50 = c.young;
       c.young = c.young_small;
       c.young_source = fmt::format(
-          "small-strain E0 = 2 G0 (1 + ν), G0 of the cyclic biaxial test at σ_c = {:.4g} kPa, "
-          "γ = {:.2g} (E50 = {:.4g} Pa)",
-          c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.young_e50);
+          "small-strain E0 = 2 G0 (1 + ν), G0 of the cyclic biaxial tests at σ_c = {:.4g} kPa, "
+          "γ = {:.2g}, mean of {} specimen(s) (E50 = {:.4g} Pa)",
+          c.cyclic_sigma / 1e3, c.cyclic.front().gamma, c.cyclic_per_specimen.size(), c.young_e50);
     }
   }
   c.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -795,6 +834,15 @@ std::string continuum_block(const Calibration& c) {
     s += fmt::format("#   monotonic: E50 = E50'(1 − ν²) = {:.4g} Pa (secant at 50 % of the peak "
                      "deviator, σ_c at mid-depth)\n",
                      c.young_e50);
+  if (c.cyclic_per_specimen.size() > 1) { // the realisation spread of the small-strain values
+    std::string g0, nu;
+    for (const auto& one : c.cyclic_per_specimen)
+      if (!one.empty()) {
+        g0 += fmt::format("{}{:.3g}", g0.empty() ? "" : ", ", one.front().g / 1e6);
+        nu += fmt::format("{}{:.3f}", nu.empty() ? "" : ", ", one.front().nu);
+      }
+    s += fmt::format("#   each specimen's smallest cycle: G0 = {} MPa, ν' = {}\n", g0, nu);
+  }
   s += fmt::format("poisson = {:.3f}   # {}\n", c.poisson, c.poisson_source);
   std::string sig;
   for (const double v : confinements(c))

@@ -337,6 +337,42 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
       << html;
 }
 
+// The cyclic test runs on every specimen too: G0, ξ and ν' of the continuum are the means per
+// amplitude; each specimen's cycles are kept (the spread), its first is the one-specimen
+// calibration's, and ν and E0 come from the pooled smallest cycle.
+TEST(Calibrate, PoolsTheCyclicTestsOfTheSpecimens) {
+  const fs::path dir = demfem::test::scratch("calibrate_pool_cyclic");
+  auto o = tiny_options(dir);
+  o.depth_fractions = {0.5};
+  o.cyclic_amplitudes = {3e-4};
+  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto one = compare::calibrate(file.base, o);
+  o.specimens = 2;
+  const auto two = compare::calibrate(file.base, o);
+  ASSERT_EQ(one.cyclic_per_specimen.size(), 1u);
+  ASSERT_EQ(two.cyclic_per_specimen.size(), 2u);
+  ASSERT_EQ(two.cyclic.size(), 1u);
+  const auto& a = two.cyclic_per_specimen[0][0];
+  const auto& b = two.cyclic_per_specimen[1][0];
+  EXPECT_EQ(a.g, one.cyclic[0].g); // specimen 1 is the one-specimen calibration's
+  EXPECT_EQ(a.nu, one.cyclic[0].nu);
+  EXPECT_NE(b.g, a.g); // another realisation
+  EXPECT_DOUBLE_EQ(two.cyclic[0].g, 0.5 * (a.g + b.g));
+  EXPECT_DOUBLE_EQ(two.cyclic[0].xi, 0.5 * (a.xi + b.xi));
+  EXPECT_DOUBLE_EQ(two.cyclic[0].nu, 0.5 * (a.nu + b.nu));
+  EXPECT_DOUBLE_EQ(two.poisson, two.cyclic[0].nu / (1.0 + two.cyclic[0].nu));
+  EXPECT_DOUBLE_EQ(two.young, 2.0 * two.cyclic[0].g * (1.0 + two.poisson));
+  EXPECT_NE(two.young_source.find("mean of 2 specimen(s)"), std::string::npos) << two.young_source;
+  EXPECT_NE(compare::continuum_block(two).find("each specimen's smallest cycle"),
+            std::string::npos);
+  // the JSON keeps each specimen's cycles
+  (void)compare::write_calibration(two, dir / "out", false);
+  const auto back = compare::read_calibration(dir / "out" / "calibration.json");
+  ASSERT_EQ(back.cyclic_per_specimen.size(), 2u);
+  EXPECT_DOUBLE_EQ(back.cyclic_per_specimen[1][0].g, b.g);
+  EXPECT_DOUBLE_EQ(back.cyclic_per_specimen[1][0].nu, b.nu);
+}
+
 TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
   const std::string text = "[scene]\nname = \"x\"\nduration = 1\nsolvers = [\"continuum\"]\n"
                            "[domain]\npolygon = [[0, 0], [1, 0], [1, 1], [0, 1]]\n"

@@ -109,7 +109,8 @@ struct Calibration {
   double phi_cv = 0.0, psi = 0.0;        // means over the tests [deg]
   double affine_e = 0.0, affine_g = 0.0; // affine (upper-bound) in-plane E', G [Pa]
   double cyclic_sigma = 0.0;
-  std::vector<CyclicPoint> cyclic;
+  std::vector<CyclicPoint> cyclic; // by amplitude: the means over the specimens
+  std::vector<std::vector<CyclicPoint>> cyclic_per_specimen; // each specimen's cycles
   // what the continuum takes (plane strain)
   double young = 0.0, poisson = 0.0, friction_angle = 0.0, cohesion = 0.0,
          dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]
