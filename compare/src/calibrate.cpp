@@ -287,23 +287,19 @@ json to_json(const Calibration& c) {
                    {"phi_cv_deg", c.phi_cv},
                    {"psi_deg", c.psi}};
   j["affine"] = {{"e_inplane_pa", c.affine_e}, {"g_pa", c.affine_g}};
-  json cyc = json::array();
-  for (const auto& p : c.cyclic)
-    cyc.push_back({{"gamma", p.gamma},
-                   {"g_pa", p.g},
-                   {"xi", p.xi},
-                   {"nu_inplane", std::isfinite(p.nu) ? json(p.nu) : json(nullptr)}});
-  json per = json::array();
-  for (const auto& sp : c.cyclic_per_specimen) {
+  auto cycles = [](const std::vector<CyclicPoint>& v) { // the reader's `cycle` inverted
     json a = json::array();
-    for (const auto& p : sp)
+    for (const auto& p : v)
       a.push_back({{"gamma", p.gamma},
                    {"g_pa", p.g},
                    {"xi", p.xi},
                    {"nu_inplane", std::isfinite(p.nu) ? json(p.nu) : json(nullptr)}});
-    per.push_back(a);
-  }
-  j["cyclic"] = {{"sigma_c_pa", c.cyclic_sigma}, {"loops", cyc}, {"per_specimen", per}};
+    return a;
+  };
+  json per = json::array();
+  for (const auto& sp : c.cyclic_per_specimen) per.push_back(cycles(sp));
+  j["cyclic"] = {
+      {"sigma_c_pa", c.cyclic_sigma}, {"loops", cycles(c.cyclic)}, {"per_specimen", per}};
   j["continuum"] = {
       {"young", c.young},
       {"poisson", c.poisson},
