@@ -9,7 +9,9 @@
 // Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
 //        [kernel=simd|portable|scalar] [order=columns|morton]
 // adaptive=1: the adaptive team as `demfem run` has it (probes of the full team only when another
-// CPU was idle, Engine::set_idle_source); adaptive=2: adaptive, probing without that reading;
+// CPU was idle, and starting on the full team when its CPUs are free at the first step,
+// Engine::set_idle_source); adaptive=3: as 1 but always starting on one thread (the engine
+// before that start, for comparison); adaptive=2: adaptive, probing without the idle reading;
 // adaptive=0: the full team of `threads` always (no adaptive team, EngineConfig::adaptive_threads);
 // adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
@@ -94,7 +96,8 @@ int main(int argc, char** argv) {
   for (const auto& w : sc.walls) e.add_wall(w);
   e.set_dt(sc.soil.dem->dt > 0.0 ? sc.soil.dem->dt : e.auto_dt());
   if (adaptive < 0) e.set_team(-adaptive); // a fixed team of −adaptive threads
-  if (adaptive == 1) e.set_idle_source(dem::idle_cpu_seconds);
+  if (adaptive == 1) e.set_idle_source(dem::idle_cpu_seconds, dem::free_cpus_now);
+  if (adaptive == 3) e.set_idle_source(dem::idle_cpu_seconds);
   std::vector<dem::ContactView> buf;
   const double z0 = coordination(e, buf); // no contacts listed before the first step
   (void)z0;

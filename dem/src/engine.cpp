@@ -495,15 +495,22 @@ void Engine::step() {
 void Engine::start_team(std::chrono::steady_clock::time_point now) {
   // Start with one thread and probe the full team after the first window (once the idle reading
   // says another CPU is free): a stalled full team is what costs, so it is only ever tried for
-  // short probes, and not for the first step, before any measurement.
+  // short probes, and not for the first step, before any measurement. When the CPUs the full
+  // team needs are free at this instant, start on the full team instead and probe one thread
+  // after the first window (a probe of one thread never stalls; a full team that meets a busy
+  // core in its first window loses that probe).
   auto& tu = tuner_;
   tu.started = true;
   tu.t0 = now;
   tu.steps = 0;
-  tu.current = 1;
-  team_ = 1;
-  tu.until_probe = 1;
-  tu.probe_every = 1;
+  const int need = threads_in_use() - 1;
+  const bool free = free_now_ && free_now_() >= need;
+  tu.current = free ? 0 : 1;
+  team_ = tu.current;
+  // The full team's first window carries the thread pool's start: its probe of one thread waits
+  // for the fourth window, as after a probe lost.
+  tu.probe_every = free ? 4 : 1;
+  tu.until_probe = tu.probe_every;
   if (idle_source_) {
     tu.idle_t = now;
     tu.idle_s = idle_source_();

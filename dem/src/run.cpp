@@ -176,7 +176,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   // ---- build ------------------------------------------------------------------------------
   Engine e(make_config(scene));
   e.set_threads(options.threads);
-  e.set_idle_source(idle_cpu_seconds); // the adaptive team probes 2 threads only when a CPU idles
+  // the adaptive team probes 2 threads only when a CPU idles; it starts on 2 when one is free now
+  e.set_idle_source(idle_cpu_seconds, free_cpus_now);
   const auto ckpt_path = out / "checkpoint.ckpt";
   std::optional<io::Checkpoint> resume_from;
   if (options.resume) {

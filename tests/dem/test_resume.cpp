@@ -373,6 +373,44 @@ TEST(DemThreads, TheFullTeamIsProbedOnlyWhenAnotherCpuIdles) {
   EXPECT_GT(run({}).team_full_steps, 0);
 }
 
+// The first choice: with the full team's CPUs free at the first step (set_idle_source's second
+// reading) the run starts on the full team; else on one thread, as before that reading existed.
+// The race's 10⁴ disks had spent their first 132 of 2,000 steps on one thread on an idle machine.
+TEST(DemThreads, StartsOnTheFullTeamWhenItsCpusAreFreeNow) {
+  auto first_steps = [](std::function<int()> free_now) {
+    dem::Engine e(team_test_config(2));
+    add_shaken_lattice(e, 1000, 40, 7);
+    e.set_idle_source([] { return std::numeric_limits<double>::quiet_NaN(); }, std::move(free_now));
+    e.run_steps(4); // within the first window: no probe yet
+    EXPECT_FALSE(e.failed()) << e.failure();
+    return std::pair{e.stats().team_full_steps, e.stats().team_one_steps};
+  };
+  EXPECT_EQ(first_steps([] { return 1; }), (std::pair{4LL, 0LL})); // one CPU free besides ours
+  EXPECT_EQ(first_steps([] { return 3; }), (std::pair{4LL, 0LL}));
+  EXPECT_EQ(first_steps([] { return 0; }), (std::pair{0LL, 4LL}));  // the other CPU busy
+  EXPECT_EQ(first_steps([] { return -1; }), (std::pair{0LL, 4LL})); // unknown
+  EXPECT_EQ(first_steps({}), (std::pair{0LL, 4LL}));
+  // This machine: a count, or −1 where /proc cannot be read.
+  EXPECT_GE(dem::free_cpus_now(), -1);
+}
+
+// /proc/stat's procs_running and a task's state in /proc/<pid>/task/<tid>/stat.
+TEST(CpuIdle, ReadsRunnableTasks) {
+  EXPECT_EQ(dem::procs_running_from_proc_stat("cpu  1 2 3 4\nctxt 9\nprocs_running 3\n"
+                                              "procs_blocked 0\n"),
+            3);
+  EXPECT_EQ(dem::procs_running_from_proc_stat("procs_running 12"), 12);
+  EXPECT_EQ(dem::procs_running_from_proc_stat("cpu  1 2 3 4\nprocs_blocked 0\n"), -1);
+  EXPECT_EQ(dem::procs_running_from_proc_stat("procs_running x\n"), -1);
+  EXPECT_TRUE(dem::task_stat_is_running("4711 (demfem) R 1 4711 4711 0 -1"));
+  EXPECT_FALSE(dem::task_stat_is_running("4711 (demfem) S 1 4711 4711 0 -1"));
+  EXPECT_TRUE(dem::task_stat_is_running("9 (a) b) S) R 1 2")); // ')' and states in the name
+  EXPECT_FALSE(dem::task_stat_is_running("9 (x"));
+  EXPECT_FALSE(dem::task_stat_is_running(""));
+  const int others = dem::other_runnable_tasks();
+  EXPECT_GE(others, -1);
+}
+
 // /proc/stat: the idle and iowait columns of the per-CPU lines in the affinity mask, in seconds.
 TEST(CpuIdle, ReadsIdleAndIowaitOfTheAllowedCpus) {
   const std::string text = "cpu  400 0 200 9000 100 0 0 0 0 0\n"

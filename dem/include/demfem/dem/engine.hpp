@@ -255,7 +255,14 @@ public:
   // would need (T − 1 CPUs) since the last decision: on a machine whose other cores are busy, a
   // probe can only stall (bench/RESULTS.md, "busy core"). Without one (the default, and for a
   // counter that reads NaN) every probe is made.
-  void set_idle_source(std::function<double()> source) { idle_source_ = std::move(source); }
+  // `free_now` (optional; dem::free_cpus_now): CPUs free at this instant besides the caller's, −1
+  // unknown. Read once, before the first step: with T − 1 free the run starts on the full team
+  // (probing one thread after the first window) instead of on one thread, which would need a
+  // span of the idle counter (≥ 0.05 s) before its first probe of the full team.
+  void set_idle_source(std::function<double()> source, std::function<int()> free_now = {}) {
+    idle_source_ = std::move(source);
+    free_now_ = std::move(free_now);
+  }
 
   // ---- checkpoint / resume ----------------------------------------------------------------
   // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
@@ -352,6 +359,7 @@ private:
     double idle_s = std::numeric_limits<double>::quiet_NaN();
   } tuner_;
   std::function<double()> idle_source_;
+  std::function<int()> free_now_;
   // Whether the other CPUs were idle enough since the last reading for a probe of the full team:
   // 1 yes (or unknown), 0 no, −1 too short a span to tell.
   int others_idle(std::chrono::steady_clock::time_point now);
