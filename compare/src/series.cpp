@@ -306,9 +306,17 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   if (!(zmax > zmin)) zmin = 0, zmax = 1;
   const double aspect = (zmax - zmin) / (xmax - xmin);
   const std::size_t n = frames.size();
-  const std::size_t cols = aspect < 0.5 ? std::min<std::size_t>(2, n) : std::min<std::size_t>(3, n);
+  // Columns: 2 for a long, low domain; else 3, or 4 where that leaves fewer empty panels (the
+  // wall's 7 frames: 4 + 3 in 2,800 × 1,200 pixels instead of 3 + 3 + 1 in 2,700 × 2,200, which
+  // was 45 % white and cost twice the drawing and PNG encoding).
+  std::size_t cols = 2;
+  if (aspect >= 0.5) {
+    const std::size_t empty3 = (3 - n % 3) % 3, empty4 = (4 - n % 4) % 4;
+    cols = n <= 3 ? n : (n == 4 ? 2 : (empty4 <= empty3 && n > 6 ? 4 : 3));
+  }
+  cols = std::max<std::size_t>(1, std::min(cols, n));
   const std::size_t rows = (n + cols - 1) / cols;
-  const int pw = 900;
+  const int pw = cols >= 4 ? 700 : 900;
   const int ph = std::clamp(static_cast<int>(pw * aspect) + 90, 260, 1000);
 
   const fs::path fig = run_dir / "figures";
