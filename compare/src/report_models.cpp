@@ -110,16 +110,24 @@ std::string contact_law(const scene::DemSoil& d) {
   return s;
 }
 
+// E as the report states it: "30 MPa", or "30 MPa × (p/1.08 MPa)^0.25" for a stress-dependent
+// modulus (scene.hpp, ContinuumSoil::modulus_exponent).
+std::string modulus_text(const scene::ContinuumSoil& c) {
+  if (c.modulus_exponent == 0.0 || !c.modulus_reference_stress) return pa(c.young);
+  return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(c.young),
+                     pa(*c.modulus_reference_stress), g3(c.modulus_exponent));
+}
+
 // Soil model of the continuum (continuum/src/run.cpp: elastic or Mohr–Coulomb, mohr_coulomb.cpp).
 std::string continuum_model(const scene::ContinuumSoil& c) {
   const bool cal = calibrated(c, "young") || calibrated(c, "friction_angle");
   if (c.model == scene::ContinuumModel::Elastic)
-    return fmt::format("linear elastic, E = {}, ν = {}{}; never yields", pa(c.young), g3(c.poisson),
-                       cal ? " (calibrated)" : "");
+    return fmt::format("linear elastic, E = {}, ν = {}{}; never yields", modulus_text(c),
+                       g3(c.poisson), cal ? " (calibrated)" : "");
   return fmt::format(
       "Mohr–Coulomb, perfectly plastic, non-associated: E = {}, ν = {}, φ = {}, c = {}, "
       "ψ = {}{}{}{}",
-      pa(c.young), g3(c.poisson), deg(c.friction_angle), pa(c.cohesion), deg(c.dilation_angle),
+      modulus_text(c), g3(c.poisson), deg(c.friction_angle), pa(c.cohesion), deg(c.dilation_angle),
       c.dilation_cutoff && c.dilation_angle > 0.0
           ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(*c.dilation_cutoff))
           : std::string(c.dilation_angle > 0.0 ? " without limit" : ""),
@@ -890,6 +898,11 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
     rows.push_back({"continuum", "soil.continuum.model",
                     scene::keyword(scene::kContinuumModelNames, c.model), "scene (" + file + ")"});
     add("young", pa(c.young));
+    if (c.modulus_exponent != 0.0) {
+      add("modulus_exponent", g3(c.modulus_exponent));
+      if (c.modulus_reference_stress)
+        add("modulus_reference_stress", pa(*c.modulus_reference_stress));
+    }
     add("poisson", fmt::format("{:.3f}", c.poisson));
     if (c.model == scene::ContinuumModel::MohrCoulomb) {
       add("friction_angle", deg(c.friction_angle));

@@ -8,6 +8,9 @@
 // Sign convention and Voigt order as in mohr_coulomb.hpp: tension positive, (xx, zz, γxz).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <string>
 #include <variant>
 
@@ -22,7 +25,35 @@ struct State {
   double syy = 0.0;               // out-of-plane stress
   double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
   bool plastic = false;           // the last update returned to the yield surface
+  // Multiplier of the material's Young's modulus at this point (a stress-dependent modulus,
+  // E = E_ref (p/p_ref)^n, fixed from the point's initial stress: StressDependentModulus); 1: E.
+  double stiffness = 1.0;
 };
+
+// E = E_ref (p/p_ref)^n for a point of in-plane mean stress p = −(σxx + σzz)/2 (compression
+// positive, the 2D DEM's confinement σ_c), with p below `min_stress` taken as min_stress and
+// the factor capped at `max_factor` (Janbu 1963; Hardin & Richart 1963: G0 ∝ p^n). exponent 0:
+// a uniform modulus.
+struct StressDependentModulus {
+  double exponent = 0.0;
+  double reference_stress = 0.0; // p_ref [Pa]: where E_ref (the material's young) holds
+  double min_stress = 0.0;       // [Pa]
+  double max_factor = std::numeric_limits<double>::infinity();
+  [[nodiscard]] bool active() const { return exponent != 0.0 && reference_stress > 0.0; }
+  // The factor E/E_ref at in-plane mean stress p (compression positive) [Pa].
+  [[nodiscard]] double factor(double p) const {
+    if (!active()) return 1.0;
+    const double f = std::pow(std::max(p, min_stress) / reference_stress, exponent);
+    return std::min(f, max_factor);
+  }
+};
+
+// The parameters with Young's modulus × f.
+inline mc::Parameters with_stiffness(const mc::Parameters& p, double f) {
+  mc::Parameters q = p;
+  q.young *= f;
+  return q;
+}
 
 // Linear isotropic elasticity (Hooke).
 struct Elastic {
@@ -70,13 +101,17 @@ public:
   // plane it sits on, see mc::integrate). Returns the return-map region.
   mc::Return update(const State& c0, const mc::Vec3& deps, State& s, mc::Mat3* tangent,
                     bool predictor = false) const {
+    s.stiffness = c0.stiffness;
+    const bool scaled = c0.stiffness != 1.0;
     if (const auto* e = std::get_if<Elastic>(&model_)) {
+      mc::Parameters own;
+      const mc::Parameters& p = scaled ? (own = with_stiffness(e->p, c0.stiffness)) : e->p;
       s.ee = c0.ee;
       for (int k = 0; k < 3; ++k) s.ee.in_plane[k] += deps[k];
-      mc::elastic_stress(e->p, s.ee, s.stress, s.syy);
+      mc::elastic_stress(p, s.ee, s.stress, s.syy);
       for (int k = 0; k < 4; ++k) s.eps_p[k] = c0.eps_p[k];
       s.plastic = false;
-      if (tangent) *tangent = mc::elastic_tangent(e->p);
+      if (tangent) *tangent = mc::elastic_tangent(p);
       return mc::Return::Elastic;
     }
     const auto& m = std::get<MohrCoulomb>(model_);
@@ -85,7 +120,9 @@ public:
     // Dilatancy cut-off (mohr_coulomb.hpp): decided on the committed state, so that a step's
     // Newton iterations see one flow rule.
     const bool cut = plastic_volumetric_strain(c0) >= m.p.dilation_cutoff;
-    const mc::Result r = mc::integrate(cut ? m.p_cut : m.p, trial, predictor && c0.plastic);
+    const mc::Parameters& pm = cut ? m.p_cut : m.p;
+    const mc::Result r = mc::integrate(scaled ? with_stiffness(pm, c0.stiffness) : pm, trial,
+                                       predictor && c0.plastic);
     s.ee = r.elastic;
     s.stress = r.stress;
     s.syy = r.stress_yy;

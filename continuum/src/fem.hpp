@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "constitutive.hpp"
 #include "demfem/scene/time_function.hpp"
 #include "mohr_coulomb.hpp"
 
@@ -153,6 +154,10 @@ struct Problem {
   // isochoric plastic flow (φ = ψ = 0) and near-incompressible soil do not lock
   bool bbar = true;
   mc::Parameters soil;
+  // Stress-dependent modulus of the soil (constitutive.hpp): each soil point's E is
+  // soil.young × factor(p) of its in-plane mean stress after the initial-stress procedure
+  // (initialise_gravity: the K0 stresses, and again after seating); exponent 0: uniform E.
+  constitutive::StressDependentModulus soil_modulus;
   double density = 1700.0;
   std::vector<Region> regions; // material id k+1
   // Soil–structure interface. < 0: tied (the soil next to a structure is ordinary soil). ≥ 0:

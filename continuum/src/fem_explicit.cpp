@@ -616,6 +616,17 @@ double Model::Impl::explicit_stable_step() {
   CellB cb;
   std::map<std::array<long long, 3>, double> cache;
   double lmax = 0.0;
+  // A stress-dependent soil modulus (pb.soil_modulus): the eigenvalue scales with E, so the soil
+  // cells are bounded with the largest factor of the soil's points (before they are set: the
+  // law's cap, which run.cpp sets at the deepest geostatic stress)
+  double fsoil = 1.0;
+  if (pb.soil_modulus.active() && stiffness_set) {
+    double f = 0.0;
+    for (const auto& s : committed) f = std::max(f, s.stiffness);
+    fsoil = Utilities::MPI::max(f, comm);
+  } else if (pb.soil_modulus.active() && std::isfinite(pb.soil_modulus.max_factor)) {
+    fsoil = pb.soil_modulus.max_factor;
+  }
   for (const auto& cell : dof.active_cell_iterators()) {
     const auto id = cell->material_id();
     if (id > 0 && pb.regions[id - 1].rigid) continue;
@@ -623,8 +634,9 @@ double Model::Impl::explicit_stable_step() {
     const std::array<long long, 3> key{{std::llround(dx.norm() * 1e9),
                                         std::llround(dz.norm() * 1e9),
                                         (long long)(id)*2 + iface_cell[cell->active_cell_index()]}};
+    const double scale = id == 0 ? fsoil : 1.0;
     if (auto it = cache.find(key); it != cache.end()) {
-      lmax = std::max(lmax, it->second);
+      lmax = std::max(lmax, scale * it->second);
       continue;
     }
     fv.reinit(cell);
@@ -665,7 +677,7 @@ double Model::Impl::explicit_stable_step() {
       if (done) break;
     }
     cache[key] = lam;
-    lmax = std::max(lmax, lam);
+    lmax = std::max(lmax, scale * lam);
   }
   ex.omega_max = std::sqrt(lmax);
   const double w = ex.omega_max;
@@ -723,8 +735,9 @@ void Model::Impl::explicit_accel(double dt) {
         for (unsigned i = 0; i < n; ++i)
           for (int k = 0; k < 3; ++k) rate[k] += vl[i] * B[3 * i + k];
         const mc::Mat3& De = e.cell_De[c];
+        const double bf = beta * s.stiffness; // the point's modulus (stress-dependent)
         for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) sig[a] += beta * De[a][b] * rate[b];
+          for (int b = 0; b < 3; ++b) sig[a] += bf * De[a][b] * rate[b];
       }
       const double w = e.cell_w[c * nqp + q];
       for (unsigned i = 0; i < n; ++i)

@@ -352,6 +352,10 @@ struct Model::Impl {
   bool is_explicit() const { return pb.integrator == "explicit"; }
   void explicit_setup();
   double explicit_stable_step();
+  // Each soil point's modulus factor from its current stress (pb.soil_modulus; no-op when
+  // inactive), its elastic strain re-derived so that the stress is unchanged.
+  void set_stiffness_from_stress();
+  bool stiffness_set = false;     // set_stiffness_from_stress has run
   void explicit_accel(double dt); // a from u, v at time t (dt: the step, for prescribed motion)
   void explicit_gather_classes(); // several ranks: the dof classes of every rank's owned dofs
   void explicit_contact_setup();  // contact nodes of Problem::contacts (after the dof classes)

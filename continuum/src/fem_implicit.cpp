@@ -415,6 +415,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
         s.ee = mc::elastic_strain_from_stress(m.mat[id], s.stress, s.syy);
       }
     }
+    m.set_stiffness_from_stress(); // the stress-dependent modulus at the K0 stresses
     m.trial = m.committed;
     // the soil's weight balances the K0 stresses (up to the correction); the structures are
     // weightless here and their weight acts from the first dynamic step on, as in the DEM scenes,
@@ -507,8 +508,30 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   // displacements restart from zero; stresses stay
   m.u = 0;
   for (auto& s : m.committed) s.eps = mc::Vec3{{0, 0, 0}};
+  // the stress-dependent modulus at the stresses the dynamics start from (a seated structure's
+  // weight included)
+  m.set_stiffness_from_stress();
   m.trial = m.committed;
   return total;
+}
+
+void Model::Impl::set_stiffness_from_stress() {
+  const auto& law = pb.soil_modulus;
+  if (!law.active()) return;
+  stiffness_set = true;
+  for (const auto& cell : dof.active_cell_iterators()) {
+    if (!cell->is_locally_owned() || cell->material_id() != 0) continue; // the soil only
+    const std::size_t base = cell->active_cell_index() * nq();
+    const mc::Parameters& P = iface_cell[cell->active_cell_index()] ? iface_mat : mat[0];
+    for (unsigned q = 0; q < nq(); ++q) {
+      QpState& s = committed[base + q];
+      // E = E_ref (p/p_ref)^n at the in-plane mean stress (compression positive); the elastic
+      // strain is re-derived so that the stress stays as it is (inverse Hooke with the new E)
+      s.stiffness = law.factor(-0.5 * (s.stress[0] + s.stress[1]));
+      s.ee = mc::elastic_strain_from_stress(constitutive::with_stiffness(P, s.stiffness), s.stress,
+                                            s.syy);
+    }
+  }
 }
 
 const std::vector<Seating>& Model::seating() const {

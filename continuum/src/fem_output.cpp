@@ -382,10 +382,10 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   Vec vg(m.owned, m.relevant, m.comm);
   vg = m.v;
   const std::size_t nc = m.tria.n_active_cells();
-  std::vector<dealii::Vector<float>> cd(9, dealii::Vector<float>(nc));
-  const char* names[9] = {"stress_xx", "stress_zz",      "stress_xz",
-                          "stress_yy", "plastic_strain", "volumetric_strain",
-                          "rotation",  "material",       "subdomain"};
+  std::vector<dealii::Vector<float>> cd(10, dealii::Vector<float>(nc));
+  const char* names[10] = {"stress_xx",      "stress_zz",         "stress_xz", "stress_yy",
+                           "plastic_strain", "volumetric_strain", "rotation",  "material",
+                           "subdomain",      "young_modulus"};
   FEValues<2> fv(m.mapping, m.fe, m.quad, update_gradients | update_JxW_values);
   const FEValuesExtractors::Vector disp(0);
   std::vector<Tensor<2, 2>> grad(m.nq());
@@ -395,7 +395,7 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
     fv[disp].get_function_gradients(m.u_ghost, grad);
     const auto c = cell->active_cell_index();
     double a = 0;
-    double acc[7] = {0, 0, 0, 0, 0, 0, 0};
+    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (unsigned q = 0; q < m.nq(); ++q) {
       const QpState& s = m.committed[c * m.nq() + q];
       const double w = fv.JxW(q);
@@ -410,8 +410,11 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
       acc[4] += std::sqrt(2.0 / 3.0 * e2) * w;
       acc[5] += (grad[q][0][0] + grad[q][1][1]) * w;
       acc[6] += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w;
+      acc[7] += s.stiffness * w; // × the material's E below (stress-dependent modulus)
     }
     for (int k = 0; k < 7; ++k) cd[k][c] = float(acc[k] / a);
+    const mc::Parameters& P = m.iface_cell[c] ? m.iface_mat : m.mat[cell->material_id()];
+    cd[9][c] = float(P.young * acc[7] / a);
     // material: 0 soil, k structure k, n_regions + 1 the interface layer
     cd[7][c] = m.iface_cell[c] ? float(m.pb.regions.size() + 1) : float(cell->material_id());
     cd[8][c] = float(cell->subdomain_id());
@@ -423,7 +426,7 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   out.add_data_vector(m.u_ghost, std::vector<std::string>(2, "displacement"),
                       DataOut<2>::type_dof_data, vec);
   out.add_data_vector(vg, std::vector<std::string>(2, "velocity"), DataOut<2>::type_dof_data, vec);
-  for (int k = 0; k < 9; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
+  for (int k = 0; k < 10; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
   out.build_patches(m.mapping, static_cast<unsigned>(m.pb.degree));
   // The pieces "<basename>_<index>.<rank>.vtu" and the record "<basename>_<index>.pvtu" (the names
   // DataOut::write_vtu_with_pvtu_record gives), each through a checked atomic write.

@@ -283,6 +283,23 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   if (soil.dilation_cutoff) pb.soil.dilation_cutoff = *soil.dilation_cutoff;
   pb.soil.tension_cutoff = soil.tension_cutoff > 0.0 ? soil.tension_cutoff : -1.0;
   pb.density = soil.density;
+  if (soil.modulus_exponent != 0.0 && soil.modulus_reference_stress) {
+    // E = young (p/p_ref)^n (scene.hpp, constitutive.hpp), capped at the deepest geostatic
+    // in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with that factor)
+    auto& law = pb.soil_modulus;
+    law.exponent = soil.modulus_exponent;
+    law.reference_stress = *soil.modulus_reference_stress;
+    law.min_stress = soil.modulus_min_stress.value_or(0.01 * law.reference_stress);
+    const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky
+    double zlo = 1e300, zhi = -1e300;
+    for (const auto& p : domain) {
+      zlo = std::min(zlo, p.z);
+      zhi = std::max(zhi, p.z);
+    }
+    const double p_max = soil.density * scene.load.gravity * std::max(zhi - zlo, 0.0) * 0.5 *
+                         (1.0 + std::max(k0, 1.0));
+    law.max_factor = std::pow(std::max(p_max, law.min_stress) / law.reference_stress, law.exponent);
+  }
   for (const auto& s : scene.structures) {
     fem::Region r;
     r.name = s.name;

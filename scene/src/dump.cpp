@@ -191,6 +191,13 @@ std::string to_toml(const Scene& s) {
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
     if (c->dilation_cutoff)
       soil.get_as<toml::table>("continuum")->insert("dilation_cutoff", *c->dilation_cutoff);
+    if (c->modulus_exponent != 0.0)
+      soil.get_as<toml::table>("continuum")->insert("modulus_exponent", c->modulus_exponent);
+    if (c->modulus_reference_stress)
+      soil.get_as<toml::table>("continuum")
+          ->insert("modulus_reference_stress", *c->modulus_reference_stress);
+    if (c->modulus_min_stress)
+      soil.get_as<toml::table>("continuum")->insert("modulus_min_stress", *c->modulus_min_stress);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
     if (!c->provenance.empty()) { // where each value came from (issue 9)
       toml::table prov;

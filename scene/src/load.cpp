@@ -636,6 +636,10 @@ ContinuumSoil read_continuum_soil(Reader& r) {
     r.error("dilation_angle", "dilation angle must not exceed the friction angle");
   s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
   if (r.has("dilation_cutoff")) s.dilation_cutoff = r.in_range("dilation_cutoff", 0.0, 0.0, 1.0);
+  s.modulus_exponent = r.in_range("modulus_exponent", s.modulus_exponent, 0.0, 1.0);
+  if (r.has("modulus_reference_stress"))
+    s.modulus_reference_stress = r.positive("modulus_reference_stress", 1.0);
+  if (r.has("modulus_min_stress")) s.modulus_min_stress = r.non_negative("modulus_min_stress", 0.0);
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
@@ -647,16 +651,22 @@ ContinuumSoil read_continuum_soil(Reader& r) {
                                        "`demfem calibrate`) or \"none\"",
                                        *cal));
   }
-  for (const char* k : {"young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-                        "dilation_cutoff", "density", "k0", "surface"})
+  // E = young (p/p_ref)^n needs p_ref; a calibrated soil gets both from the calibration
+  if (s.modulus_exponent != 0.0 && !s.modulus_reference_stress && !s.calibrate_dem)
+    r.error("modulus_exponent",
+            "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
+            "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
+  for (const char* k :
+       {"young", "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
+        "modulus_exponent", "modulus_reference_stress", "density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
   // Written by the resolved dump (where each calibrated value came from); informational.
   if (const auto* pv = r.table("provenance"))
     for (auto&& [k, v] : *pv)
       s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
   r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "dilation_cutoff", "tension_cutoff", "density", "k0", "surface", "calibrate",
-            "provenance"});
+            "dilation_cutoff", "modulus_exponent", "modulus_reference_stress", "modulus_min_stress",
+            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
   return s;
 }
 
@@ -1105,9 +1115,17 @@ std::string apply_override(toml::table& root, const std::string& dotted, toml::n
       if (last) {
         // With calibrate = "dem" the calibrated keys exist implicitly (their values come from
         // `demfem calibrate`): a variant may state one.
-        static constexpr std::array<std::string_view, 9> kCalibrated{
-            "young",   "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
-            "density", "k0",      "surface"};
+        static constexpr std::array<std::string_view, 11> kCalibrated{"young",
+                                                                      "poisson",
+                                                                      "friction_angle",
+                                                                      "cohesion",
+                                                                      "dilation_angle",
+                                                                      "dilation_cutoff",
+                                                                      "modulus_exponent",
+                                                                      "modulus_reference_stress",
+                                                                      "density",
+                                                                      "k0",
+                                                                      "surface"};
         const bool calibrated =
             walked == "soil.continuum" && (*t)["calibrate"].value<std::string>() == "dem" &&
             std::find(kCalibrated.begin(), kCalibrated.end(), p) != kCalibrated.end();

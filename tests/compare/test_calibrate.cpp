@@ -144,6 +144,19 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_TRUE(std::isfinite(c.poisson_e50));
   EXPECT_NE(c.poisson, c.poisson_e50);
   EXPECT_NE(c.poisson_source.find("cyclic"), std::string::npos) << c.poisson_source;
+  // The smallest amplitude again at σ_c(H/10): the bed of linear-contact disks is softer at the
+  // lower confinement, so the continuum's modulus follows E ∝ p^n, n = ln(G0/G0_s)/ln(σ/σ_s),
+  // with p_ref the mid-depth confinement E0 comes from.
+  ASSERT_EQ(c.cyclic_shallow.size(), 1u);
+  EXPECT_NEAR(c.cyclic_shallow_sigma, 0.1 / 0.5 * c.cyclic_sigma, 1e-9 * c.cyclic_sigma);
+  EXPECT_LT(c.cyclic_shallow[0].g, c.cyclic[0].g);
+  EXPECT_NEAR(c.modulus_exponent,
+              std::log(c.cyclic[0].g / c.cyclic_shallow[0].g) /
+                  std::log(c.cyclic_sigma / c.cyclic_shallow_sigma),
+              1e-12);
+  EXPECT_GT(c.modulus_exponent, 0.0);
+  EXPECT_LT(c.modulus_exponent, 1.0);
+  EXPECT_DOUBLE_EQ(c.modulus_reference_stress, c.cyclic_sigma);
 
   const auto t0 = std::chrono::steady_clock::now();
   const auto d = compare::load_or_calibrate(s, o);
@@ -159,6 +172,10 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_EQ(d.tests[0].ea, c.tests[0].ea);
   ASSERT_EQ(d.cyclic.size(), c.cyclic.size());
   EXPECT_DOUBLE_EQ(d.cyclic[0].nu, c.cyclic[0].nu); // the cache keeps ν' of the cycles
+  EXPECT_DOUBLE_EQ(d.modulus_exponent, c.modulus_exponent);
+  EXPECT_DOUBLE_EQ(d.modulus_reference_stress, c.modulus_reference_stress);
+  ASSERT_EQ(d.cyclic_shallow.size(), 1u);
+  EXPECT_DOUBLE_EQ(d.cyclic_shallow[0].g, c.cyclic_shallow[0].g);
 
   // Outputs: JSON, the TOML block (parses as a scene fragment), figures off here.
   const auto files = compare::write_calibration(c, dir / "out", false);
@@ -167,6 +184,8 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   const std::string block((std::istreambuf_iterator<char>(tin)), std::istreambuf_iterator<char>());
   EXPECT_NE(block.find("[soil.continuum]"), std::string::npos);
   EXPECT_NE(block.find("young = "), std::string::npos);
+  EXPECT_NE(block.find("modulus_exponent = "), std::string::npos);
+  EXPECT_NE(block.find("modulus_reference_stress = "), std::string::npos);
 
   // calibrate = "dem": the calibrated values fill what the scene does not state; stated ones win.
   const auto stated =
@@ -174,8 +193,11 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = compare::apply_calibration(r, d);
-  EXPECT_EQ(lines.size(), 10u); // 9 parameters and the damping
+  EXPECT_EQ(lines.size(), 12u); // 11 parameters and the damping
   EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
+  EXPECT_DOUBLE_EQ(r.soil.continuum->modulus_exponent, d.modulus_exponent);
+  ASSERT_TRUE(r.soil.continuum->modulus_reference_stress.has_value());
+  EXPECT_DOUBLE_EQ(*r.soil.continuum->modulus_reference_stress, d.modulus_reference_stress);
   // Dilatancy cut-off: the mean of the tests' dilation (densest point to the end), which a
   // dilating specimen has (ψ > 0 above), cached and passed to the continuum.
   {

@@ -226,3 +226,45 @@ TEST(ContinuumStatic, StripFootingRockingStiffness) {
               m.n_dofs(), K, exact, (K - exact) / exact, seconds_since(t0));
   EXPECT_NEAR(K, exact, 0.05 * exact);
 }
+
+// Stress-dependent modulus (Problem::soil_modulus): a laterally confined column whose E follows
+// (p/p_ref)^n of the K0 stresses, loaded by a surface pressure q, settles by
+// ∫ q / (M_ref f(s)) ds over the depth s, M_ref = E(1 − ν)/((1 + ν)(1 − 2ν)) the constrained
+// modulus and f(s) = (max(c s, p_min)/p_ref)^n, c s = ρ g s (1 + K0)/2 the in-plane mean stress
+// (one-dimensional compression). With s_min = p_min/c:
+// ∫0^H ds/f = s_min (p_ref/p_min)^n + (p_ref/c)^n (H^{1−n} − s_min^{1−n})/(1 − n).
+TEST(ContinuumStatic, ColumnWithStressDependentModulusSettlesAsTheIntegralOfItsCompliance) {
+  const double H = 10.0, rho = 2000.0, g = 9.81, nu = 0.3, E = 2.0e7, q = 2.0e4;
+  const double k0 = nu / (1.0 - nu); // the elastic column's own K0: no correction on top
+  const double Mref = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu));
+  auto settle = [&](double n) {
+    Problem pb;
+    pb.mesh.dx = {1.0};
+    pb.mesh.dz = uniform(H, 20);
+    pb.mesh.refinement = 1;
+    pb.soil = elastic(E, nu);
+    pb.density = rho;
+    pb.gravity = g;
+    pb.soil_modulus.exponent = n;
+    pb.soil_modulus.reference_stress = 5.0e4;
+    pb.soil_modulus.min_stress = 2.0e3;
+    pb.tractions.push_back({{0.0, H}, {1.0, H}, q});
+    Model m(pb);
+    EXPECT_TRUE(m.initialise_gravity(true, k0, 1).converged);
+    EXPECT_TRUE(m.static_step(1.0).converged);
+    return -m.displacement({0.5, H}).z;
+  };
+  const double c = rho * g * (1 + k0) / 2, pref = 5.0e4, pmin = 2.0e3;
+  for (const double n : {0.0, 0.5}) {
+    const double smin = pmin / c;
+    const double integral =
+        n == 0.0
+            ? H
+            : smin * std::pow(pref / pmin, n) +
+                  std::pow(pref / c, n) * (std::pow(H, 1 - n) - std::pow(smin, 1 - n)) / (1 - n);
+    const double exact = q / Mref * integral;
+    const double got = settle(n);
+    std::printf("column, E ∝ p^%.1f: settlement %.6e m, closed form %.6e m\n", n, got, exact);
+    EXPECT_NEAR(got, exact, 0.01 * exact) << "n = " << n;
+  }
+}

@@ -15,8 +15,10 @@
 //     (calibrate_element). Per test: E (initial tangent and secant at 50 % of the peak deviator),
 //     ν, φ_peak, φ_cv (mean over the last quarter of the test), ψ at the peak; over all tests:
 //     Mohr–Coulomb fit of the peak states (φ, c), and the same fit per specimen for the spread.
-//   * Cyclic biaxial of the first specimen at σ_c(H/2): secant shear modulus G and damping ratio ξ
-//     against amplitude.
+//   * Cyclic biaxial of every specimen at σ_c(H/2): secant shear modulus G, damping ratio ξ and
+//     in-plane ν' against amplitude; the smallest amplitude again at σ_c(H/10), so that the
+//     continuum's modulus follows the bed's confinement, E ∝ p^n (n = ln(G0(H/2)/G0(H/10)) /
+//     ln 5; Janbu 1963, Hardin & Richart 1963).
 //   * The continuum's E: the small-strain E0 = 2 G0 (1 + ν) of the cyclic test (the scenes load
 //     the soil cyclically; the monotonic E50 is reported beside it), or E50 at mid-depth when
 //     the cyclic test is skipped; ν from the biaxial test at mid-depth (50 % of the peak).
@@ -53,6 +55,9 @@ struct CalibrateOptions {
   double inertial_number = 1e-3;
   bool cyclic = true;
   std::vector<double> cyclic_amplitudes{1e-4, 3e-4, 1e-3, 3e-3}; // axial strain amplitudes
+  // The smallest amplitude again at σ_c = ρ_b g (f·H), f = this (0: not), for the modulus's
+  // stress exponent n of E ∝ p^n between there and mid-depth
+  double cyclic_shallow_fraction = 0.1;
   bool figures = true;
   scene::ProgressFn progress; // may be empty
 };
@@ -111,6 +116,13 @@ struct Calibration {
   double cyclic_sigma = 0.0;
   std::vector<CyclicPoint> cyclic; // by amplitude: the means over the specimens
   std::vector<std::vector<CyclicPoint>> cyclic_per_specimen; // each specimen's cycles
+  // The smallest amplitude at the shallow confinement (CalibrateOptions::cyclic_shallow_fraction),
+  // each specimen's; 0 / empty when not run
+  double cyclic_shallow_sigma = 0.0;
+  std::vector<CyclicPoint> cyclic_shallow;
+  // Stress-dependent modulus E = young (p/p_ref)^n: n from G0 at the two confinements,
+  // p_ref = cyclic_sigma (where young's G0 is measured); n = 0: uniform (no shallow test)
+  double modulus_exponent = 0.0, modulus_reference_stress = 0.0;
   // what the continuum takes (plane strain)
   double young = 0.0, poisson = 0.0, friction_angle = 0.0, cohesion = 0.0,
          dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]

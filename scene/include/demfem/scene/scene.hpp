@@ -150,13 +150,23 @@ struct ContinuumSoil {
   // dilatancy cut-off: plastic volumetric strain (dilation positive) after which a point flows
   // with ψ = 0 (continuum mohr_coulomb.hpp); unset: none (ψ for ever), unless calibrated
   std::optional<double> dilation_cutoff;
+  // Stress-dependent modulus (Janbu 1963; Hardin & Richart 1963: G0 ∝ p^n): each point's E is
+  // young × (p/p_ref)^modulus_exponent at its in-plane mean stress p = −(σxx + σzz)/2 after the
+  // initial stresses (K0 procedure, seating), p below modulus_min_stress taken as that; young is
+  // E at p_ref = modulus_reference_stress [Pa]. Exponent 0 (the default): a uniform E. A granular
+  // bed of linear-contact disks stiffens with confinement (measured: the cyclic G0 of the
+  // foundation bed's specimens 18 / 24 / 29 / 32 MPa at 108 / 216 / 540 / 1080 kPa).
+  double modulus_exponent = 0.0;
+  std::optional<double> modulus_reference_stress; // [Pa]; needed when the exponent is not 0
+  std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
   double density = 1700.0; // [kg/m³]
   double k0 = -1.0;        // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
   // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
   // height of the deposited DEM bed); unset: the whole domain polygon
   std::optional<double> surface;
   // calibrate = "dem" (issue 9): young, poisson, friction_angle, cohesion, dilation_angle,
-  // dilation_cutoff, density, k0 and surface come from `demfem calibrate` (the app fills them in
+  // dilation_cutoff, modulus_exponent, modulus_reference_stress, density, k0 and surface come
+  // from `demfem calibrate` (the app fills them in
   // before the continuum runs, compare::apply_calibration); a value stated in the file wins.
   bool calibrate_dem = false;
   std::vector<std::string> given; // the keys stated in the file (or set by a variant)
