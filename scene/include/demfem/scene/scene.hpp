@@ -155,7 +155,9 @@ struct ContinuumSoil {
   // initial stresses (K0 procedure, seating), p below modulus_min_stress taken as that; young is
   // E at p_ref = modulus_reference_stress [Pa]. Exponent 0 (the default): a uniform E. A granular
   // bed of linear-contact disks stiffens with confinement (measured: the cyclic G0 of the
-  // foundation bed's specimens 18 / 24 / 29 / 32 MPa at 108 / 216 / 540 / 1080 kPa).
+  // foundation bed's specimens 18 / 24 / 29 / 32 MPa at 108 / 216 / 540 / 1080 kPa). The
+  // stiffness-proportional Rayleigh damping of the explicit integrator follows each point's E; the
+  // implicit integrator's (β K0) and the Lysmer dashpots use `young` throughout.
   double modulus_exponent = 0.0;
   std::optional<double> modulus_reference_stress; // [Pa]; needed when the exponent is not 0
   std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
