@@ -36,6 +36,13 @@ double deg(double rad) {
 
 using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
+// Mean G of a list of cycles (the shallow confinement's smallest cycle over the specimens).
+double mean_g(const std::vector<CyclicPoint>& v) {
+  double g = 0.0;
+  for (const auto& q : v) g += q.g / static_cast<double>(v.size());
+  return g;
+}
+
 // The distinct confinements of the biaxial tests, in test order.
 std::vector<double> confinements(const Calibration& c) {
   std::vector<double> v;
@@ -786,9 +793,7 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
           c.cyclic_shallow.push_back({l.front().gamma_amplitude, l.front().g_secant,
                                       l.front().damping, l.front().nu_inplane});
       }
-      double g_shallow = 0.0;
-      for (const auto& q : c.cyclic_shallow)
-        g_shallow += q.g / static_cast<double>(c.cyclic_shallow.size());
+      const double g_shallow = mean_g(c.cyclic_shallow);
       if (!c.cyclic.empty() && c.cyclic.front().g > 0.0 && g_shallow > 0.0 && sigma > ss) {
         // G0 = G0_ref (σ/σ_ref)^n through the two confinements (Janbu 1963), n within [0, 1]
         c.modulus_exponent =
@@ -888,9 +893,7 @@ std::string continuum_block(const Calibration& c) {
     s += fmt::format("#   each specimen's smallest cycle: G0 = {} MPa, ν' = {}\n", g0, nu);
   }
   if (c.modulus_exponent > 0.0 && c.modulus_reference_stress > 0.0) {
-    double g_shallow = 0.0;
-    for (const auto& q : c.cyclic_shallow)
-      g_shallow += q.g / static_cast<double>(c.cyclic_shallow.size());
+    const double g_shallow = mean_g(c.cyclic_shallow);
     s += fmt::format("modulus_exponent = {:.3f}   # E ∝ p^n: G0 = {:.3g} MPa at σ_c = {:.4g} kPa, "
                      "{:.3g} MPa at {:.4g} kPa (cyclic, smallest amplitude)\n",
                      c.modulus_exponent, g_shallow / 1e6, c.cyclic_shallow_sigma / 1e3,
