@@ -36,6 +36,11 @@ double deg(double rad) {
 
 using Fnv = dem::KeyHash; // the cache key (key_hash.hpp)
 
+// A cyclic test's loop as the calibration keeps it.
+CyclicPoint point_of(const calib::CyclicLoop& l) {
+  return {l.gamma_amplitude, l.g_secant, l.damping, l.nu_inplane};
+}
+
 // Mean G of a list of cycles (the shallow confinement's smallest cycle over the specimens).
 double mean_g(const std::vector<CyclicPoint>& v) {
   double g = 0.0;
@@ -634,16 +639,21 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   const std::size_t nbiax = o.depth_fractions.size() * specimens.size();
   const bool shallow = o.cyclic && !o.cyclic_amplitudes.empty() && o.cyclic_shallow_fraction > 0.0;
   const std::size_t ntest = nbiax + (o.cyclic ? specimens.size() : 0) * (shallow ? 2 : 1);
+  // Progress of element test number `done` (of ntest): specimen k at confinement sigma.
+  auto test_progress = [&](double sigma, std::size_t k, std::size_t done) {
+    return [&report, sigma, k, done, nspec = specimens.size(), ntest](const std::string& stage,
+                                                                      double f) {
+      report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, sigma / 1e3,
+                         k + 1, nspec),
+             0.05 + 0.95 * (static_cast<double>(done) + f) / static_cast<double>(ntest));
+    };
+  };
   for (std::size_t q = 0; q < o.depth_fractions.size(); ++q)
     for (std::size_t k = 0; k < specimens.size(); ++k) {
       const double z = o.depth_fractions[q] * c.bed_height;
       const double sigma = c.bulk_density * g * z; // geostatic vertical stress σ_v = ρ_b g z
       const std::size_t done = q * specimens.size() + k;
-      es.progress = [&](const std::string& stage, double f) {
-        report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, sigma / 1e3,
-                           k + 1, specimens.size()),
-               0.05 + 0.95 * (static_cast<double>(done) + f) / static_cast<double>(ntest));
-      };
+      es.progress = test_progress(sigma, k, done);
       const auto r = calib::biaxial(specimens[k], sigma, es);
       c.tests.push_back(evaluate(z, r, o.max_axial_strain));
       c.tests.back().specimen = static_cast<int>(k);
@@ -750,14 +760,10 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
     // Every specimen, as the biaxial tests: G0, ξ and ν of one realisation scatter (G0 ± 7 %
     // over four wall beds); the continuum takes the means per amplitude.
     for (std::size_t k = 0; k < specimens.size(); ++k) {
-      es.progress = [&](const std::string& stage, double f) {
-        report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, sigma / 1e3,
-                           k + 1, specimens.size()),
-               0.05 + 0.95 * (static_cast<double>(nbiax + k) + f) / static_cast<double>(ntest));
-      };
+      es.progress = test_progress(sigma, k, nbiax + k);
       auto& mine = c.cyclic_per_specimen.emplace_back();
       for (const auto& l : calib::cyclic(specimens[k], sigma, o.cyclic_amplitudes, es))
-        mine.push_back({l.gamma_amplitude, l.g_secant, l.damping, l.nu_inplane});
+        mine.push_back(point_of(l));
     }
     // Means over the specimens, amplitude by amplitude, as far as every specimen got.
     std::size_t na = o.cyclic_amplitudes.size();
@@ -782,16 +788,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
       const double ss = c.bulk_density * g * o.cyclic_shallow_fraction * c.bed_height;
       c.cyclic_shallow_sigma = ss;
       for (std::size_t k = 0; k < specimens.size(); ++k) {
-        es.progress = [&](const std::string& stage, double f) {
-          report(fmt::format("calibrate: {} σ_c = {:.4g} kPa, specimen {}/{}", stage, ss / 1e3,
-                             k + 1, specimens.size()),
-                 0.05 + 0.95 * (static_cast<double>(nbiax + specimens.size() + k) + f) /
-                            static_cast<double>(ntest));
-        };
+        es.progress = test_progress(ss, k, nbiax + specimens.size() + k);
         const auto l = calib::cyclic(specimens[k], ss, {o.cyclic_amplitudes.front()}, es);
-        if (!l.empty())
-          c.cyclic_shallow.push_back({l.front().gamma_amplitude, l.front().g_secant,
-                                      l.front().damping, l.front().nu_inplane});
+        if (!l.empty()) c.cyclic_shallow.push_back(point_of(l.front()));
       }
       const double g_shallow = mean_g(c.cyclic_shallow);
       if (!c.cyclic.empty() && c.cyclic.front().g > 0.0 && g_shallow > 0.0 && sigma > ss) {

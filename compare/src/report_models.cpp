@@ -113,7 +113,7 @@ std::string contact_law(const scene::DemSoil& d) {
 // E as the report states it: "30 MPa", or "30 MPa × (p/1.08 MPa)^0.25" for a stress-dependent
 // modulus (scene.hpp, ContinuumSoil::modulus_exponent).
 std::string modulus_text(const scene::ContinuumSoil& c) {
-  if (c.modulus_exponent == 0.0 || !c.modulus_reference_stress) return pa(c.young);
+  if (!c.stress_dependent_modulus()) return pa(c.young);
   return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(c.young),
                      pa(*c.modulus_reference_stress), g3(c.modulus_exponent));
 }
@@ -358,15 +358,15 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
   // 1. soil model
   {
     DiffRow r{"soil model (constitutive behaviour)", contact_law(d), continuum_model(c), "", false};
-    const bool by_stress = c.modulus_exponent != 0.0 && c.modulus_reference_stress;
     if (mc)
       r.consequence = fmt::format(
           "The granular bed's stiffness grows with confinement and falls with strain amplitude, "
           "and it compacts under shaking; the continuum's E {} and does not fall with strain, "
           "and it changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up "
           "to its dilatancy cut-off) — it cannot densify.",
-          by_stress ? "follows the initial confinement as p^" + g3(c.modulus_exponent)
-                    : "is the same at every depth");
+          c.stress_dependent_modulus()
+              ? "follows the initial confinement as p^" + g3(c.modulus_exponent)
+              : "is the same at every depth");
     else
       r.consequence = "The continuum never yields or slides: every permanent deformation and all "
                       "sliding at failure are DEM-only.";

@@ -283,7 +283,7 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   if (soil.dilation_cutoff) pb.soil.dilation_cutoff = *soil.dilation_cutoff;
   pb.soil.tension_cutoff = soil.tension_cutoff > 0.0 ? soil.tension_cutoff : -1.0;
   pb.density = soil.density;
-  if (soil.modulus_exponent != 0.0 && soil.modulus_reference_stress) {
+  if (soil.stress_dependent_modulus()) {
     // E = young (p/p_ref)^n (scene.hpp, constitutive.hpp), capped at the deepest geostatic
     // in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with that factor)
     auto& law = pb.soil_modulus;

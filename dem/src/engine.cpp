@@ -497,8 +497,8 @@ void Engine::start_team(std::chrono::steady_clock::time_point now) {
   // says another CPU is free): a stalled full team is what costs, so it is only ever tried for
   // short probes, and not for the first step, before any measurement. When the CPUs the full
   // team needs are free at this instant, start on the full team instead and probe one thread
-  // after the first window (a probe of one thread never stalls; a full team that meets a busy
-  // core in its first window loses that probe).
+  // after the fourth window (a probe of one thread never stalls; a full team that meets a busy
+  // core loses that probe).
   auto& tu = tuner_;
   tu.started = true;
   tu.t0 = now;

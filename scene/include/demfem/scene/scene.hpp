@@ -161,8 +161,11 @@ struct ContinuumSoil {
   double modulus_exponent = 0.0;
   std::optional<double> modulus_reference_stress; // [Pa]; needed when the exponent is not 0
   std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
-  double density = 1700.0;                        // [kg/m³]
-  double k0 = -1.0; // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
+  [[nodiscard]] bool stress_dependent_modulus() const {
+    return modulus_exponent != 0.0 && modulus_reference_stress.has_value();
+  }
+  double density = 1700.0; // [kg/m³]
+  double k0 = -1.0;        // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
   // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
   // height of the deposited DEM bed); unset: the whole domain polygon
   std::optional<double> surface;
