@@ -223,6 +223,8 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
           b.mus[m] = std::min(ma.mu_s, mb.mu_s);
           b.mud[m] = std::min(ma.mu_d, mb.mu_d);
         }
+        b.dx[m] = dx;
+        b.dz[m] = dz;
         b.ft[m] = h.ft;
         b.fl[m] = h.flags;
         b.i[m] = i;

@@ -18,9 +18,7 @@ constexpr std::int64_t kSlideBit = kHistSliding;
 template <bool OneMaterial>
 [[gnu::always_inline]] inline void kernel_body(const ReboundConstants& c, const ParticleArrays& p,
                                                PairBlock& __restrict b, std::size_t m) {
-  const double kn = c.kn, ks = c.ks, dt = c.dt, max_ov = c.max_overlap;
-  const double* __restrict x = p.x;
-  const double* __restrict z = p.z;
+  const double kn = c.kn, ks = c.ks, dt = c.dt, max_ov = c.max_overlap, dt2 = c.dt * c.dt;
   const double* __restrict vx = p.vx;
   const double* __restrict vz = p.vz;
   const double* __restrict om = p.omega;
@@ -28,7 +26,7 @@ template <bool OneMaterial>
   const double* __restrict mass = p.mass;
   for (std::size_t e = 0; e < m; ++e) {
     const std::uint32_t i = b.i[e], j = b.j[e];
-    const double dx = x[i] - x[j], dz = z[i] - z[j], ri = rad[i], rj = rad[j];
+    const double dx = b.dx[e], dz = b.dz[e], ri = rad[i], rj = rad[j]; // x_i − x_j (gather)
     const double rsum = ri + rj;
     const double d2 = dx * dx + dz * dz;
     const double dist = std::sqrt(d2);
@@ -43,16 +41,13 @@ template <bool OneMaterial>
     const double vn = -(dvx * nx + dvz * nz);                          // eq. 2.5
     const double vs = dvx * tx + dvz * tz - (li * om[i] + lj * om[j]); // eq. 2.5
     const double mi = mass[i], mj = mass[j];
-    const double meff = mi * mj / (mi + mj);
     // A closed contact that stays closed: f_n = K_n δ (eq. 2.6; linear_spring_force's first case)
     const double fc = kn * delta;
-    const double A = dt * dt / meff;
-    const double d_prev = delta - vn * dt;
-    const double d_next = delta + vn * dt - fc * A;
     const std::int64_t fl = b.fl[e];
     const double rmin = ri < rj ? ri : rj;
-    const bool fast = ((fl & kHistActive) >= 1) & (delta > 0.0) & (d_prev >= 0.0) &
-                      (d_next >= 0.0) & (fc > 0.0) & !(delta > max_ov * rmin);
+    const bool fast = ((fl & kHistActive) >= 1) & (delta > 0.0) & (fc > 0.0) &
+                      detail::stays_closed(delta, vn, dt, dt2, fc, mi, mj) &
+                      !(delta > max_ov * rmin);
     // Shear spring and Coulomb limit (eqs. 2.9, 2.13; detail::coulomb with f_n > 0)
     const double ft_trial = b.ft[e] - ks * vs * dt;
     const bool sliding = (fl & kHistSliding) != 0;
@@ -60,10 +55,11 @@ template <bool OneMaterial>
     const double limit = (sliding ? mud : mus) * fc;
     const bool over = std::abs(ft_trial) > limit;
     const double ftc = std::copysign(mud * fc, ft_trial);
-    const double ef_slide = std::abs(ftc * (ft_trial - ftc)) / ks;
-    const double ef_stick = 0.5 * (ft_trial * ft_trial - ftc * ftc) / ks;
+    // detail::coulomb's two energies share its division: (s ? a : b)/k = s ? a/k : b/k exactly
+    const double ef_num =
+        sliding ? std::abs(ftc * (ft_trial - ftc)) : 0.5 * (ft_trial * ft_trial - ftc * ftc);
     const double ft = over ? ftc : ft_trial;
-    const double ef = sliding ? ef_slide : ef_stick;
+    const double ef = ef_num / ks;
     b.e_fric[e] = over ? ef : 0.0;
     const std::int64_t slide_bit = over ? std::int64_t{kSlideBit} : 0;
     const std::int64_t slow_bit = fast ? 0 : std::int64_t{PairBlock::kSlow};

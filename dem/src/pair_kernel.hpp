@@ -1,8 +1,9 @@
 // Internal to the DEM engine: the blocked pair kernel of the paper's law (cundall-rebound without
 // tension), issue 12 item 3. The pair loop runs in three passes over blocks of list entries:
-//   1. gather (engine_forces.cpp): for kSize consecutive list entries, the pair (i, j), the entry
-//      and its history are written into the block, and the block count advances only for a
-//      touching entry or one with history (branch-free compaction);
+//   1. gather (engine_forces.cpp): for kSize consecutive list entries, the pair (i, j), the entry,
+//      x_i − x_j (computed for the touching test) and its history are written into the block, and
+//      the block count advances only for a touching entry or one with history (branch-free
+//      compaction);
 //   2. kernel (this file, pair_kernel.cpp): geometry, kinematics and the law of a closed, already
 //      active contact — the case of nearly every entry in a dense bed — reading the particle
 //      arrays through i and j, without branches, so that the compiler vectorises it (AVX2 where
@@ -12,9 +13,12 @@
 //   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
 //      histories written back; a kSlow entry is evaluated there by the scalar law
 //      (CundallRebound::evaluate) on the geometry the one-pass loop computes (pair_geometry).
-// Every operation of the kernel is the scalar law's, in the same order and without contraction
-// into fused multiply-adds, and the scatter adds in the scalar loop's order: results are
-// bit-identical to the one-pass loop (test DemPairKernel.BlockedLoopBitIdenticalToScalar).
+// Every operation of the kernel that reaches a result is the scalar law's, in the same order and
+// without contraction into fused multiply-adds, and the scatter adds in the scalar loop's order:
+// results are bit-identical to the one-pass loop (test
+// DemPairKernel.BlockedLoopBitIdenticalToScalar). Only the kernel's test of its case differs: it
+// drops the law's two divisions of m* and A with a margin that leaves every doubtful entry to the
+// scalar law (detail::stays_closed).
 #pragma once
 
 #include <cstddef>
@@ -27,11 +31,12 @@ namespace demfem::dem::detail {
 struct PairBlock {
   static constexpr std::size_t kSize = 128;
   // inputs (gather): the history, and the pair's friction when the particles have several
-  // materials; the kernel reads positions, velocities, radii and masses through i and j
+  // materials; the kernel reads velocities, radii and masses through i and j
   alignas(64) double mus[kSize]; // friction of the pair
   alignas(64) double mud[kSize];
-  alignas(64) double ft[kSize];       // history: shear spring force [N]
-  alignas(64) std::int64_t fl[kSize]; // history flags
+  alignas(64) double dx[kSize], dz[kSize]; // x_i − x_j, z_i − z_j [m]
+  alignas(64) double ft[kSize];            // history: shear spring force [N]
+  alignas(64) std::int64_t fl[kSize];      // history flags
   std::uint32_t i[kSize], j[kSize], k[kSize];
   // results of an entry without kSlow (kernel)
   alignas(64) double fx[kSize], fz[kSize]; // force on i [N]
@@ -59,6 +64,5 @@ struct ParticleArrays {
 // and test switch); true: the widest instruction set the processor has.
 void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
                     bool simd);
-
 
 } // namespace demfem::dem::detail

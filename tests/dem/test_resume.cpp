@@ -593,3 +593,39 @@ TEST(DemPairKernel, UniformFrictionOfAnEventEqualsOneMaterial) {
     EXPECT_NE(one.en.friction, half.en.friction);
   }
 }
+
+// The kernel's division-free "closed contact stays closed" test (detail::stays_closed) is true
+// only where linear_spring_force's arithmetic has d_prev ≥ 0 and d_next ≥ 0 (else the kernel
+// would apply K_n δ where the law applies its release root): scanned over the few thousand
+// doubles of v_n around d_next = 0 for several masses, steps and overlaps, and it still says
+// "closed" a relative 1e-9 inside.
+TEST(DemPairKernel, StaysClosedTestImpliesTheLaws) {
+  const double kn = 1.0e6;
+  std::size_t open = 0, left_to_the_law = 0;
+  for (const double mi : {1.3, 0.02, 7.0e3})
+    for (const double mj : {0.7, 0.02, 2.0e5})
+      for (const double dt : {1.0e-3, 8.4e-5})
+        for (const double delta : {1.5e-4, 3.0e-6}) {
+          const double fc = kn * delta, dt2 = dt * dt;
+          const double meff = mi * mj / (mi + mj); // as linear_spring_force computes them
+          const double A = dt * dt / meff;
+          const double vn0 = (fc * A - delta) / dt; // d_next = 0
+          if (!(delta - vn0 * dt >= 0.0)) continue; // d_prev < 0: the touch step, not this case
+          double vn = vn0;
+          for (int k = 0; k < 3000; ++k) vn = std::nextafter(vn, -1e300);
+          for (int k = 0; k < 6000; ++k, vn = std::nextafter(vn, 1e300)) {
+            const double d_prev = delta - vn * dt;
+            const double d_next = delta + vn * dt - fc * A;
+            const bool law = d_prev >= 0.0 && d_next >= 0.0;
+            const bool kernel = dem::detail::stays_closed(delta, vn, dt, dt2, fc, mi, mj);
+            ASSERT_TRUE(!kernel || law) << "m " << mi << ", " << mj << " dt " << dt << " delta "
+                                        << delta << " vn " << vn << ": d_next " << d_next;
+            open += law ? 0u : 1u;
+            left_to_the_law += (law && !kernel) ? 1u : 0u;
+          }
+          const double vn_in = vn0 + 1e-9 * std::abs(fc * A) / dt; // clearly closed
+          EXPECT_TRUE(dem::detail::stays_closed(delta, vn_in, dt, dt2, fc, mi, mj));
+        }
+  EXPECT_GT(open, 0u);            // the scan crosses the law's d_next = 0
+  EXPECT_GT(left_to_the_law, 0u); // and the kernel's margin
+}

@@ -117,6 +117,23 @@ inline double linear_spring_force(double delta, double vn, double dt, double kn,
   return f_closed;
 }
 
+// linear_spring_force's first case, d_prev ≥ 0 and d_next ≥ 0, as the vectorised pair kernel
+// tests it (dem/src/pair_kernel.cpp), for f_n = K_n δ > 0 and finite masses m_i, m_j: without the
+// two divisions of m* and A, d_next ≥ 0 is (δ + v_n Δt) m_i m_j ≥ f_n Δt² (m_i + m_j), taken with
+// a relative margin of 1e-12, far above the few roundings by which the two forms differ. True
+// only where linear_spring_force's own arithmetic has d_next ≥ 0 too (test
+// DemPairKernel.StaysClosedTestImpliesTheLaws); a contact inside the margin is left to the
+// scalar law. Branch-free, so that it vectorises. dt2 = Δt·Δt.
+[[gnu::always_inline]] inline bool stays_closed(double delta, double vn, double dt, double dt2,
+                                                double fc, double mi, double mj) {
+  constexpr double kMargin = 1.0 + 1e-12;
+  const double d_prev = delta - vn * dt;
+  const double lhs = (delta + vn * dt) * (mi * mj);
+  const double rhs = fc * dt2 * (mi + mj);
+  // rhs inside [1e-290, 1e300]: no underflow or overflow spoils the relative margin
+  return (d_prev >= 0.0) & (lhs >= rhs * kMargin) & (rhs >= 1e-290) & (rhs <= 1e300);
+}
+
 // Shear spring with static/dynamic Coulomb limit (paper eqs. 2.9, 2.12, 2.13).
 // ft_trial is the spring force after the elastic increment; returns the admissible force and
 // adds the energy taken out of the spring to e_fric.
