@@ -521,7 +521,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
         const double ri = p.radius[c.i];
         if (c.j >= 0) {
           const auto j = static_cast<std::size_t>(c.j);
-          const double d = std::hypot(p.x[c.i] - p.x[j], p.z[c.i] - p.z[j]);
+          const double dx = p.x[c.i] - p.x[j], dz = p.z[c.i] - p.z[j];
+          const double d = std::sqrt(dx * dx + dz * dz);
           summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
                                                (ri + p.radius[j] - d) / std::min(ri, p.radius[j]));
         } else if (linear && c.fn > 0.0) {
