@@ -241,7 +241,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
     detail::rebound_kernel(kc, pa, b, m, simd);
     // 3. scatter in list order; entries outside the kernel's case go through the scalar law
     for (std::size_t e = 0; e < m; ++e) {
-      const std::uint32_t i = b.i[e], j = b.j[e];
+      const auto i = static_cast<std::uint32_t>(b.i[e]), j = static_cast<std::uint32_t>(b.j[e]);
       const bool next_owner = i != cur;
       double* sx = next_owner ? fx + cur : spill;
       double* sz = next_owner ? fz + cur : spill + 1;

@@ -25,7 +25,7 @@ template <bool OneMaterial>
   const double* __restrict rad = p.radius;
   const double* __restrict mass = p.mass;
   for (std::size_t e = 0; e < m; ++e) {
-    const std::uint32_t i = b.i[e], j = b.j[e];
+    const std::uint64_t i = b.i[e], j = b.j[e];
     const double dx = b.dx[e], dz = b.dz[e], ri = rad[i], rj = rad[j]; // x_i − x_j (gather)
     const double rsum = ri + rj;
     const double d2 = dx * dx + dz * dz;

@@ -34,10 +34,11 @@ struct PairBlock {
   // materials; the kernel reads velocities, radii and masses through i and j
   alignas(64) double mus[kSize]; // friction of the pair
   alignas(64) double mud[kSize];
-  alignas(64) double dx[kSize], dz[kSize]; // x_i − x_j, z_i − z_j [m]
-  alignas(64) double ft[kSize];            // history: shear spring force [N]
-  alignas(64) std::int64_t fl[kSize];      // history flags
-  std::uint32_t i[kSize], j[kSize], k[kSize];
+  alignas(64) double dx[kSize], dz[kSize];      // x_i − x_j, z_i − z_j [m]
+  alignas(64) double ft[kSize];                 // history: shear spring force [N]
+  alignas(64) std::int64_t fl[kSize];           // history flags
+  alignas(64) std::uint64_t i[kSize], j[kSize]; // 64 bits: the kernel vectorises 4 entries at once
+  std::uint32_t k[kSize];
   // results of an entry without kSlow (kernel)
   alignas(64) double fx[kSize], fz[kSize]; // force on i [N]
   alignas(64) double ti[kSize], tj[kSize]; // l_i f_t, l_j f_t [N·m]
