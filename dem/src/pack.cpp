@@ -1053,10 +1053,21 @@ PackResult pack(const scene::Scene& scene, const fs::path& out_dir,
         }
       }
     } else if (!bracketed) { // too loose: lower the friction (0 = frictionless deposition)
+      // × ½ first, the bisection's first point, then 0 if the bed is still too loose: the wall's
+      // loose-case-11 (μ 1.0; target 0.175 ± 0.005) deposited at × 1, 0, ½ (0.1927, 0.1263,
+      // 0.1783), where × ½ alone meets it; a target beyond the frictionless bed costs one
+      // deposition more than before.
       hi = 1.0;
-      const double e = consider(run_trial(0.0));
-      lo = 0.0;
-      bracketed = e <= tol;
+      for (const double s : {0.5, 0.0}) {
+        if (trials >= kMaxTrials) break;
+        const double e = consider(run_trial(s));
+        if (e <= tol) { // dense enough: the target lies in [s, hi]
+          lo = s;
+          bracketed = true;
+          break;
+        }
+        hi = s;
+      }
     }
     if (bracketed)
       while (std::abs(err(best)) > tol && trials < kMaxTrials) {

@@ -105,3 +105,27 @@ TEST(PackRest, StopsWhenTheBedIsAtRestNotAtTheFallBound) {
   EXPECT_NEAR(a.measure.porosity, b.measure.porosity, 1e-3);
   EXPECT_NEAR(a.surface_max, b.surface_max, 0.1 * 0.02); // a tenth of r_min
 }
+
+TEST(PackTarget, DenserTargetTriesHalfTheFrictionFirst) {
+  // This bed packs to 0.2043 at × 1 and 0.1793 at × ½: a target of 0.18 is met by the second
+  // deposition (a frictionless one first, as before, made it the third).
+  const auto met = dem::pack(
+      scene::parse_scene(bed("placement = \"random\"\ntarget = { porosity = 0.18, tolerance = "
+                             "0.003 }"),
+                         "bed.toml")
+          .base,
+      fresh_dir("d"));
+  EXPECT_TRUE(met.target_met);
+  EXPECT_EQ(met.trials, 2);
+  EXPECT_EQ(met.friction_scale, 0.5);
+  // Denser than any deposition can make it: × 1, ½, then frictionless, reported not met.
+  const auto dense = dem::pack(
+      scene::parse_scene(bed("placement = \"random\"\ntarget = { porosity = 0.05, tolerance = "
+                             "0.003 }"),
+                         "bed.toml")
+          .base,
+      fresh_dir("e"));
+  EXPECT_FALSE(dense.target_met);
+  EXPECT_EQ(dense.trials, 3);
+  EXPECT_EQ(dense.friction_scale, 0.0); // the densest bed, nearest to the target
+}

@@ -26,7 +26,7 @@
 // restored and the bed settles again (at least 20 √(2 r_max / g), then until KE < ke_ratio × PE
 // released), and the porosity is measured on the settled bed. s is bracketed (1, then doubled up
 // to 16 for looser targets, stopping early when a doubling closes less than a tenth of the gap to
-// the target; 0, i.e. frictionless deposition, for denser ones) and bisected until
+// the target; ½, then 0, i.e. frictionless deposition, for denser ones) and bisected until
 // |n − target| ≤ tolerance (at most 10 depositions); the packing nearest to the target is kept.
 // Deterministic: every trial starts from the same placement.
 //
