@@ -184,8 +184,8 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   const bool one_material = friction_uniform_; // every pair: friction_mus_, friction_mud_
   const detail::ReboundConstants kc{law.p.kn,     law.p.ks,      dt_,          config_.max_overlap,
                                     one_material, friction_mus_, friction_mud_};
-  const detail::ParticleArrays pa{p_.x.data(),     p_.z.data(),      p_.vx.data(),  p_.vz.data(),
-                                  p_.omega.data(), p_.radius.data(), p_.mass.data()};
+  const detail::ParticleArrays pa{p_.vx.data(), p_.vz.data(), p_.omega.data(), p_.radius.data(),
+                                  p_.mass.data()};
   const bool simd = config_.pair_kernel == EngineConfig::PairKernel::simd;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();

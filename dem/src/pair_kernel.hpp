@@ -58,7 +58,7 @@ struct ReboundConstants {
 
 // The particle arrays the kernel reads (Particles' vectors).
 struct ParticleArrays {
-  const double *x, *z, *vx, *vz, *omega, *radius, *mass;
+  const double *vx, *vz, *omega, *radius, *mass;
 };
 
 // Pass 2 over entries 0 … m−1 of the block. `simd` false: the portable build only (a benchmark
