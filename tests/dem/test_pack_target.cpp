@@ -107,24 +107,19 @@ TEST(PackRest, StopsWhenTheBedIsAtRestNotAtTheFallBound) {
 }
 
 TEST(PackTarget, DenserTargetTriesHalfTheFrictionFirst) {
+  auto pack_to = [](const char* porosity, const char* dir) {
+    const std::string packing = std::string("placement = \"random\"\ntarget = { porosity = ") +
+                                porosity + ", tolerance = 0.003 }";
+    return dem::pack(scene::parse_scene(bed(packing), "bed.toml").base, fresh_dir(dir));
+  };
   // This bed packs to 0.2043 at × 1 and 0.1793 at × ½: a target of 0.18 is met by the second
   // deposition (a frictionless one first, as before, made it the third).
-  const auto met = dem::pack(
-      scene::parse_scene(bed("placement = \"random\"\ntarget = { porosity = 0.18, tolerance = "
-                             "0.003 }"),
-                         "bed.toml")
-          .base,
-      fresh_dir("d"));
+  const auto met = pack_to("0.18", "d");
   EXPECT_TRUE(met.target_met);
   EXPECT_EQ(met.trials, 2);
   EXPECT_EQ(met.friction_scale, 0.5);
   // Denser than any deposition can make it: × 1, ½, then frictionless, reported not met.
-  const auto dense = dem::pack(
-      scene::parse_scene(bed("placement = \"random\"\ntarget = { porosity = 0.05, tolerance = "
-                             "0.003 }"),
-                         "bed.toml")
-          .base,
-      fresh_dir("e"));
+  const auto dense = pack_to("0.05", "e");
   EXPECT_FALSE(dense.target_met);
   EXPECT_EQ(dense.trials, 3);
   EXPECT_EQ(dense.friction_scale, 0.0); // the densest bed, nearest to the target
