@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -808,11 +809,14 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
         double xi_shallow = 0.0;
         for (const auto& q : c.cyclic_shallow) xi_shallow += q.xi;
         xi_shallow /= static_cast<double>(std::max<std::size_t>(c.cyclic_shallow.size(), 1));
-        if (xi_shallow > 0.1 || c.modulus_exponent >= 1.0)
-          spdlog::warn("{}: the shallow cycles at σ_c = {:.4g} kPa dissipate (mean ξ = {:.3f}) or "
-                       "give n at its bound ({:.3f}): the bed is not elastic there, and E ∝ p^n "
-                       "overstates how fast the stiffness falls towards the surface",
-                       scene.label(), ss / 1e3, xi_shallow, c.modulus_exponent);
+        std::vector<std::string> why;
+        if (xi_shallow > 0.1) why.push_back(fmt::format("dissipate (mean ξ = {:.3f})", xi_shallow));
+        if (c.modulus_exponent >= 1.0) why.push_back("give n at its bound, 1");
+        if (!why.empty())
+          spdlog::warn("{}: the shallow cycles at σ_c = {:.4g} kPa {}: the bed is not elastic "
+                       "there, and E ∝ p^n overstates how fast its stiffness falls towards the "
+                       "surface",
+                       scene.label(), ss / 1e3, fmt::join(why, " and "));
       }
     }
     // Small-strain Young's modulus of the continuum: E0 = 2 G0 (1 + ν) (isotropic elasticity;
