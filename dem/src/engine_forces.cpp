@@ -239,46 +239,63 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
       gather(std::false_type{});
     // 2. geometry and the law of closed, active contacts, vectorised
     detail::rebound_kernel(kc, pa, b, m, simd);
-    // 3. scatter in list order; entries outside the kernel's case go through the scalar law
-    for (std::size_t e = 0; e < m; ++e) {
-      const auto i = static_cast<std::uint32_t>(b.i[e]), j = static_cast<std::uint32_t>(b.j[e]);
-      const bool next_owner = i != cur;
-      double* sx = next_owner ? fx + cur : spill;
-      double* sz = next_owner ? fz + cur : spill + 1;
-      double* st = next_owner ? tq + cur : spill + 2;
-      *sx += fxi;
-      *sz += fzi;
-      *st += ti;
-      fxi = next_owner ? 0.0 : fxi;
-      fzi = next_owner ? 0.0 : fzi;
-      ti = next_owner ? 0.0 : ti;
-      cur = i;
-      ContactHistory& h = hist[b.k[e]];
-      PairForce f;
-      if ((b.fl_new[e] & detail::PairBlock::kSlow) == 0) {
-        en.fric += b.e_fric[e];
-        en.n += b.e_n[e];
-        en.s += b.e_s[e];
-        h.ft = b.ft_new[e];
-        h.flags = static_cast<std::uint8_t>(b.fl_new[e]);
-        h.fn = static_cast<float>(b.fn[e]);
-        f = {b.fx[e], b.fz[e], b.ti[e], b.tj[e]};
-      } else { // the scalar law, on the geometry as the one-pass loop computes it
-        const double dx = x[i] - x[j], dz = z[i] - z[j];
-        const double rsum = rad[i] + rad[j];
-        const PairGeometry g = pair_geometry(p_, i, j, dx, dz, rsum, dx * dx + dz * dz);
-        ContactInput in = g.in;
-        in.mu_s = one_material ? kc.mus0 : b.mus[e];
-        in.mu_d = one_material ? kc.mud0 : b.mud[e];
-        in.dt = kc.dt;
-        if (!law_on_pair(law, g, in, h, en, f, *out.events, i, j)) continue;
-        note_overlap(in.delta, kc.max_overlap * std::min(rad[i], rad[j]), i, j, failed, fail_pair);
+    // 3. scatter in list order; entries outside the kernel's case go through the scalar law.
+    //    Without a halo (one part, or a part whose partners all lie in its own range) the partner
+    //    forces go straight into the arrays, without the per-entry test of ForceTarget.
+    auto scatter = [&](auto with_halo) {
+      const detail::ForceTarget o = out; // a copy: the byte-sized flag stores below may alias
+                                         // anything reached through a reference
+      for (std::size_t e = 0; e < m; ++e) {
+        const auto i = static_cast<std::uint32_t>(b.i[e]), j = static_cast<std::uint32_t>(b.j[e]);
+        const bool next_owner = i != cur;
+        double* sx = next_owner ? fx + cur : spill;
+        double* sz = next_owner ? fz + cur : spill + 1;
+        double* st = next_owner ? tq + cur : spill + 2;
+        *sx += fxi;
+        *sz += fzi;
+        *st += ti;
+        fxi = next_owner ? 0.0 : fxi;
+        fzi = next_owner ? 0.0 : fzi;
+        ti = next_owner ? 0.0 : ti;
+        cur = i;
+        ContactHistory& h = hist[b.k[e]];
+        PairForce f;
+        if ((b.fl_new[e] & detail::PairBlock::kSlow) == 0) {
+          en.fric += b.e_fric[e];
+          en.n += b.e_n[e];
+          en.s += b.e_s[e];
+          h.ft = b.ft_new[e];
+          h.flags = static_cast<std::uint8_t>(b.fl_new[e]);
+          h.fn = static_cast<float>(b.fn[e]);
+          f = {b.fx[e], b.fz[e], b.ti[e], b.tj[e]};
+        } else { // the scalar law, on the geometry as the one-pass loop computes it
+          const double dx = x[i] - x[j], dz = z[i] - z[j];
+          const double rsum = rad[i] + rad[j];
+          const PairGeometry g = pair_geometry(p_, i, j, dx, dz, rsum, dx * dx + dz * dz);
+          ContactInput in = g.in;
+          in.mu_s = one_material ? kc.mus0 : b.mus[e];
+          in.mu_d = one_material ? kc.mud0 : b.mud[e];
+          in.dt = kc.dt;
+          if (!law_on_pair(law, g, in, h, en, f, *o.events, i, j)) continue;
+          note_overlap(in.delta, kc.max_overlap * std::min(rad[i], rad[j]), i, j, failed,
+                       fail_pair);
+        }
+        fxi += f.fx;
+        fzi += f.fz;
+        ti -= f.ti;
+        if constexpr (decltype(with_halo)::value) {
+          o.add_to_partner(j, f.fx, f.fz, f.tj);
+        } else {
+          fx[j] -= f.fx;
+          fz[j] -= f.fz;
+          tq[j] -= f.tj;
+        }
       }
-      fxi += f.fx;
-      fzi += f.fz;
-      ti -= f.ti;
-      out.add_to_partner(j, f.fx, f.fz, f.tj);
-    }
+    };
+    if (out.hx)
+      scatter(std::true_type{});
+    else
+      scatter(std::false_type{});
   }
   if (kend > start[i0]) {
     fx[cur] += fxi;
