@@ -198,10 +198,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   bool failed = fail_pair[0] != ~0u;
   const std::uint32_t* __restrict owner = nbr_i_.data();
   // The owner whose forces are being summed: its sums are added to its arrays when the owner
-  // changes (without a branch: the sums of an unchanged owner go to `spill`).
+  // changes. (A branch-free form, the sums of an unchanged owner written to a spill slot, was
+  // compiled back into this branch, the slot's stores being dead; forced branch-free it measured
+  // no faster: bench/RESULTS.md, nineteenth session.)
   std::size_t cur = i0;
   double fxi = 0.0, fzi = 0.0, ti = 0.0;
-  double spill[3] = {0.0, 0.0, 0.0};
   std::uint32_t k = start[i0];
   const std::uint32_t kend = start[i1];
   while (k < kend) {
@@ -247,17 +248,13 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
                                          // anything reached through a reference
       for (std::size_t e = 0; e < m; ++e) {
         const auto i = static_cast<std::uint32_t>(b.i[e]), j = static_cast<std::uint32_t>(b.j[e]);
-        const bool next_owner = i != cur;
-        double* sx = next_owner ? fx + cur : spill;
-        double* sz = next_owner ? fz + cur : spill + 1;
-        double* st = next_owner ? tq + cur : spill + 2;
-        *sx += fxi;
-        *sz += fzi;
-        *st += ti;
-        fxi = next_owner ? 0.0 : fxi;
-        fzi = next_owner ? 0.0 : fzi;
-        ti = next_owner ? 0.0 : ti;
-        cur = i;
+        if (i != cur) {
+          fx[cur] += fxi;
+          fz[cur] += fzi;
+          tq[cur] += ti;
+          fxi = fzi = ti = 0.0;
+          cur = i;
+        }
         ContactHistory& h = hist[b.k[e]];
         PairForce f;
         if ((b.fl_new[e] & detail::PairBlock::kSlow) == 0) {
