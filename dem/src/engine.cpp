@@ -117,6 +117,7 @@ std::uint32_t Engine::add_particle(double x, double z, double r, double vx, doub
   p_.material.push_back(material);
   p_.flags.push_back(kFlagNone);
   friction_dirty_ = true;
+  disp_valid_ = false;
   compute_mass(i);
   r_min_ = i == 0 ? r : std::min(r_min_, r);
   r_max_ = i == 0 ? r : std::max(r_max_, r);
@@ -266,10 +267,10 @@ void Engine::set_dt(double dt) {
 
 // ---- integration --------------------------------------------------------------------------------
 
-// Integrates particles i0 ≤ i < i1. sums[0]: external work, sums[1]: damping dissipation;
-// *bad: the first non-finite particle index (unchanged when none).
+// Integrates particles i0 ≤ i < i1 into `out` (its external work, damping loss, first non-finite
+// particle, and the two largest squared displacements since the last rebuild).
 void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
-                             double* sums, std::size_t* bad) {
+                             IntegratedPart& out) {
   const double dt = dt_;
   const double g = config_.gravity;
   const double C = config_.damping_c, D = config_.damping_d;
@@ -289,7 +290,7 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
   const double* __restrict inv_inertia = p_.inv_inertia.data();
   const std::uint32_t* __restrict flags = p_.flags.data();
   double w_ext = 0.0, e_damp = 0.0;
-  std::size_t first_bad = *bad;
+  std::size_t first_bad = IntegratedPart::kNone;
   const double Cd = C > 0.0 ? C : 0.0, Dd = D > 0.0 ? D : 0.0; // dissipation of C, D ≥ 0
   // One particle's step; returns x + z + ω (finite unless the state blew up), its external work
   // and its damping loss.
@@ -343,7 +344,7 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
         any_bad += std::abs(a.s) <= std::numeric_limits<double>::max() ? 0.0 : 1.0;
       }
       if (!(any_bad == 0.0))
-        for (std::size_t i = i0; i < i1 && first_bad == ~std::size_t{0}; ++i)
+        for (std::size_t i = i0; i < i1 && first_bad == IntegratedPart::kNone; ++i)
           if (!std::isfinite(x[i] + z[i] + om[i])) first_bad = i;
     } else { // a removed particle keeps its state
       for (std::size_t i = i0; i < i1; ++i) {
@@ -351,7 +352,7 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
         const Advanced a = advance(i, damped);
         w_ext += a.w;
         e_damp += a.ed;
-        if (!std::isfinite(a.s) && first_bad == ~std::size_t{0}) first_bad = i;
+        if (!std::isfinite(a.s) && first_bad == IntegratedPart::kNone) first_bad = i;
       }
     }
   };
@@ -359,45 +360,69 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
     run(std::true_type{});
   else
     run(std::false_type{});
-  *bad = first_bad;
-  sums[0] += w_ext;
-  sums[1] += e_damp;
+  out.work = w_ext;
+  out.damping = e_damp;
+  out.bad = first_bad;
+  // The next step's rebuild test (check_rebuild) reads these instead of passing over the
+  // particles again; removed particles count, as there.
+  detail::Top2 top;
+  if (x_ref_.size() == p_.size()) {
+    const double* __restrict xr = x_ref_.data();
+    const double* __restrict zr = z_ref_.data();
+    for (std::size_t i = i0; i < i1; ++i) {
+      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+      top.add(dx * dx + dz * dz);
+    }
+  }
+  out.top_a = top.a;
+  out.top_b = top.b;
 }
 
-void Engine::integrate() {
-  const std::size_t n = p_.size();
+std::pair<double, double> Engine::body_acceleration() const {
   double ax_body = 0.0, az_body = 0.0;
   if (config_.shaking) {
     const double a = config_.shaking_acceleration(time_); // body force m·A·sin(2πft) (paper §6)
     (config_.shaking_direction == 'z' ? az_body : ax_body) = a;
   }
-  const std::size_t none = ~std::size_t{0};
-  double sums[2] = {0.0, 0.0};
-  std::size_t bad = none;
-  const int T = threads_in_use();
-  if (T <= 1) {
-    integrate_range(0, n, ax_body, az_body, sums, &bad);
+  return {ax_body, az_body};
+}
+
+void Engine::integrate() {
+  const std::size_t n = p_.size();
+  const auto [ax_body, az_body] = body_acceleration();
+  std::size_t parts = 1;
+  if (integrated_parts_ > 0) { // done inside the force loop (contact_forces)
+    parts = integrated_parts_;
+  } else if (threads_in_use() <= 1) {
+    integrate_range(0, n, ax_body, az_body, integrated_[0]);
   } else {
-    // Static contiguous chunks; partial sums combined in thread order (deterministic per count).
-    const auto tcount = std::min(static_cast<std::size_t>(T), kMaxParts);
-    double ts[2 * kMaxParts] = {};
-    std::size_t tb[kMaxParts];
-    std::fill(tb, tb + tcount, none);
+    // The force loop's parts (each particle on the thread that computed its forces: its data is
+    // in that core's cache), or equal chunks before the first list; partial sums combined in part
+    // order (deterministic per count).
+    parts = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
+    const bool own = split_.size() == parts + 1 && split_[parts] == n;
 #pragma omp parallel num_threads(team_size())
     {
       const auto [t0, tstride] = team_member();
-      for (std::size_t t = t0; t < tcount; t += tstride)
-        integrate_range(n * t / tcount, n * (t + 1) / tcount, ax_body, az_body, &ts[2 * t], &tb[t]);
-    }
-    for (std::size_t t = 0; t < tcount; ++t) {
-      sums[0] += ts[2 * t];
-      sums[1] += ts[2 * t + 1];
-      if (bad == none) bad = tb[t];
+      for (std::size_t t = t0; t < parts; t += tstride)
+        integrate_range(own ? split_[t] : n * t / parts, own ? split_[t + 1] : n * (t + 1) / parts,
+                        ax_body, az_body, integrated_[t]);
     }
   }
-  e_external_ += sums[0];
-  e_damping_ += sums[1];
-  if (bad != none && failure_.empty())
+  integrated_parts_ = 0;
+  std::size_t bad = IntegratedPart::kNone;
+  detail::Top2 top;
+  for (std::size_t t = 0; t < parts; ++t) {
+    e_external_ += integrated_[t].work;
+    e_damping_ += integrated_[t].damping;
+    if (bad == IntegratedPart::kNone) bad = integrated_[t].bad;
+    top.add(integrated_[t].top_a);
+    top.add(integrated_[t].top_b);
+  }
+  disp_a_ = top.a;
+  disp_b_ = top.b;
+  disp_valid_ = x_ref_.size() == n;
+  if (bad != IntegratedPart::kNone && failure_.empty())
     failure_ = fmt::format("non-finite position or velocity of particle {}", p_.id[bad]);
 }
 

@@ -327,12 +327,15 @@ int Engine::threads_in_use() const {
   return std::max(t, 1);
 }
 
-template <class Law> void Engine::pair_forces(const Law& law) {
+template <class Law> void Engine::contact_forces(const Law& law) {
   const std::size_t n = p_.size();
   const int T = threads_in_use();
   constexpr std::size_t kE = PairEnergies::kCount;
   double en[kE] = {};
   std::uint32_t fail[2] = {~0u, ~0u};
+  std::size_t parts = 0;
+  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
+  for (auto& st : structures_) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
   if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
   if (T <= 1) {
     std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
@@ -344,6 +347,9 @@ template <class Law> void Engine::pair_forces(const Law& law) {
         p_.fx.data(),       p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n,
         &rebound_events_[0]};
     pair_range(law, 0, n, ft, en, fail);
+    if (bnd_sums_.empty()) bnd_sums_.resize(1);
+    boundary_range(law, 0, bnd_i_.size(), bnd_sums_[0]);
+    parts = 1;
   } else {
     // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
     // (equal shares of pair entries). Computed once per list.
@@ -384,6 +390,21 @@ template <class Law> void Engine::pair_forces(const Law& law) {
     event_parts_ = tcount;
     std::uint32_t tfail[2 * kMaxParts];
     std::fill(tfail, tfail + 2 * tcount, ~0u);
+    // Part t's boundary entries: those of its particles (bnd_i_ is sorted by particle).
+    bnd_split_.resize(tcount + 1);
+    for (std::size_t t = 0; t <= tcount; ++t)
+      bnd_split_[t] = static_cast<std::size_t>(
+          std::lower_bound(bnd_i_.begin(), bnd_i_.end(), static_cast<std::uint32_t>(split_[t])) -
+          bnd_i_.begin());
+    bnd_split_[tcount] = bnd_i_.size();
+    if (bnd_sums_.size() < tcount) bnd_sums_.resize(tcount);
+    parts = tcount;
+    const auto body = body_acceleration();
+    auto quiet = [&] { // no rebound impulse in any part
+      for (std::size_t t = 0; t < tcount; ++t)
+        if (!rebound_events_[t].empty() || !bnd_sums_[t].events.empty()) return false;
+      return true;
+    };
     double* buf = tbuf_.data();
     double* fxo = p_.fx.data();
     double* fzo = p_.fz.data();
@@ -416,7 +437,9 @@ template <class Law> void Engine::pair_forces(const Law& law) {
         pair_range(law, split_[t], end, ft, &ten[kE * t], &tfail[2 * t]);
       }
 #pragma omp barrier
-      for (std::size_t u = t0 + 1; u < tcount; u += ts) // part u's particles: halos of parts < u
+      // Part u's particles, on the thread that computed their pair forces (and will integrate
+      // them, integrate()): the halos of parts < u, then their boundary contacts.
+      for (std::size_t u = t0; u < tcount; u += ts) {
         for (std::size_t t = 0; t < u; ++t) {
           const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
           const double* hx = halo_of(t);
@@ -426,7 +449,17 @@ template <class Law> void Engine::pair_forces(const Law& law) {
             tqo[i] += hx[2 * h + i - end];
           }
         }
+        boundary_range(law, bnd_split_[u], bnd_split_[u + 1], bnd_sums_[u]);
+      }
+      // Without rebound impulses (apply_rebounds changes the forces of any particle) each part's
+      // forces are final now: the thread integrates its parts without leaving the region
+      // (integrate() then only adds up the parts).
+#pragma omp barrier
+      if (quiet())
+        for (std::size_t u = t0; u < tcount; u += ts)
+          integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
     }
+    integrated_parts_ = quiet() ? tcount : 0;
     for (std::size_t t = 0; t < tcount; ++t) {
       for (std::size_t q = 0; q < kE; ++q) en[q] += ten[kE * t + q];
       if (fail[0] == ~0u && tfail[2 * t] != ~0u) {
@@ -446,16 +479,43 @@ template <class Law> void Engine::pair_forces(const Law& law) {
   e_damping_ += en[1];
   e_normal_ = en[2];
   e_shear_ = en[3];
+  add_boundary_sums(parts);
 }
 
-template <class Law> void Engine::boundary_forces(const Law& law) {
+void Engine::add_boundary_sums(std::size_t parts) {
+  event_bnd_parts_ = parts;
+  for (std::size_t t = 0; t < parts; ++t) {
+    const BoundarySums& s = bnd_sums_[t];
+    e_friction_ += s.e_friction;
+    e_damping_ += s.e_damping;
+    e_normal_ += s.e_normal;
+    e_shear_ += s.e_shear;
+    for (std::size_t b = 0; b < boundaries_.size(); ++b) {
+      boundaries_[b].reaction_x += s.reaction[2 * b];
+      boundaries_[b].reaction_z += s.reaction[2 * b + 1];
+    }
+    for (std::size_t q = 0; q < structures_.size(); ++q) {
+      structures_[q].soil_fx += s.soil[3 * q];
+      structures_[q].soil_fz += s.soil[3 * q + 1];
+      structures_[q].soil_moment += s.soil[3 * q + 2];
+    }
+    if (s.fail != ~std::size_t{0} && failure_.empty())
+      failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
+                             "boundary '{}'",
+                             s.fail_delta, p_.id[bnd_i_[s.fail]],
+                             boundaries_[features_[bnd_f_[s.fail]].boundary].name);
+  }
+}
+
+template <class Law>
+void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, BoundarySums& s) {
   const double dt = dt_;
-  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
-  for (auto& s : structures_) s.soil_fx = s.soil_fz = s.soil_moment = 0.0;
+  s.reaction.assign(2 * boundaries_.size(), 0.0);
+  s.soil.assign(3 * structures_.size(), 0.0);
+  s.events.clear();
+  s.fail = ~std::size_t{0};
   double e_fric = 0.0, e_damp = 0.0, e_n = 0.0, e_s = 0.0;
-  bnd_events_.clear();
-  const std::size_t m = bnd_i_.size();
-  for (std::size_t k = 0; k < m; ++k) {
+  for (std::size_t k = k0; k < k1; ++k) {
     const std::uint32_t i = bnd_i_[k];
     const Feature& F = features_[bnd_f_[k]];
     Boundary& B = boundaries_[F.boundary];
@@ -539,38 +599,39 @@ template <class Law> void Engine::boundary_forces(const Law& law) {
     e_damp += r.e_damping;
     e_n += r.e_normal;
     e_s += r.e_shear;
-    if (delta > config_.max_overlap * ri && failure_.empty())
-      failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
-                             "boundary '{}'",
-                             delta, p_.id[i], B.name);
+    if (delta > config_.max_overlap * ri && s.fail == ~std::size_t{0}) {
+      s.fail = k;
+      s.fail_delta = delta;
+    }
     if (r.rebound_vn > 0.0)
-      bnd_events_.push_back({.i = i,
-                             .boundary = static_cast<std::int32_t>(F.boundary),
-                             .nx = nx,
-                             .nz = nz,
-                             .vn = r.rebound_vn,
-                             .to = r.rebound_to,
-                             .m_eff = in.m_eff,
-                             .rx = st ? qx - (st->px0 + st->ux) : 0.0,
-                             .rz = st ? qz - (st->pz0 + st->uz) : 0.0});
+      s.events.push_back({.i = i,
+                          .boundary = static_cast<std::int32_t>(F.boundary),
+                          .nx = nx,
+                          .nz = nz,
+                          .vn = r.rebound_vn,
+                          .to = r.rebound_to,
+                          .m_eff = in.m_eff,
+                          .rx = st ? qx - (st->px0 + st->ux) : 0.0,
+                          .rz = st ? qz - (st->pz0 + st->uz) : 0.0});
     const double fnt = r.fn;
     const double Fx = fnt * nx + r.ft * tx, Fz = fnt * nz + r.ft * tz;
     p_.fx[i] += Fx;
     p_.fz[i] += Fz;
     p_.torque[i] -= li * r.ft;
-    B.reaction_x -= Fx;
-    B.reaction_z -= Fz;
+    s.reaction[2 * F.boundary] -= Fx;
+    s.reaction[2 * F.boundary + 1] -= Fz;
     if (st) {
-      st->soil_fx -= Fx;
-      st->soil_fz -= Fz;
+      double* so = &s.soil[3 * static_cast<std::size_t>(B.structure)];
+      so[0] -= Fx;
+      so[1] -= Fz;
       const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
-      st->soil_moment += rx * (-Fz) - rz * (-Fx); // (q − P) × (−F)
+      so[2] += rx * (-Fz) - rz * (-Fx); // (q − P) × (−F)
     }
   }
-  e_friction_ += e_fric;
-  e_damping_ += e_damp;
-  e_normal_ += e_n;
-  e_shear_ += e_s;
+  s.e_friction = e_fric;
+  s.e_damping = e_damp;
+  s.e_normal = e_n;
+  s.e_shear = e_s;
 }
 
 void Engine::update_pair_friction() {
@@ -602,11 +663,7 @@ void Engine::update_pair_friction() {
 void Engine::compute_forces() {
   if (friction_dirty_) update_pair_friction();
   std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
-      [this](const auto& law) {
-        pair_forces(law);
-        boundary_forces(law);
-      },
-      law_);
+      [this](const auto& law) { contact_forces(law); }, law_);
   apply_rebounds();
 }
 
@@ -614,7 +671,8 @@ void Engine::apply_rebounds() {
   rebound_all_.clear();
   for (std::size_t t = 0; t < event_parts_; ++t)
     rebound_all_.insert(rebound_all_.end(), rebound_events_[t].begin(), rebound_events_[t].end());
-  rebound_all_.insert(rebound_all_.end(), bnd_events_.begin(), bnd_events_.end());
+  for (std::size_t t = 0; t < event_bnd_parts_; ++t)
+    rebound_all_.insert(rebound_all_.end(), bnd_sums_[t].events.begin(), bnd_sums_[t].events.end());
   const std::size_t n = rebound_all_.size();
   if (n == 0) return;
   // The particles the events touch, sorted; rebound_dv_ holds their velocity change so far.

@@ -34,6 +34,26 @@ inline void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
   for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
 }
 
+// The two largest of a set of squared displacements (exact in any order, so the rebuild decision
+// is the same for every thread count).
+struct Top2 {
+  double a = 0.0, b = 0.0; // a ≥ b
+  void add(double v) {
+    if (v > b) {
+      if (v > a) {
+        b = a;
+        a = v;
+      } else {
+        b = v;
+      }
+    }
+  }
+  void merge(const Top2& o) {
+    add(o.a);
+    add(o.b);
+  }
+};
+
 inline constexpr double kPi = 3.14159265358979323846;
 inline constexpr std::size_t kReorderFirstMin = 4096; // particles: reorder at the first rebuild
 

@@ -44,25 +44,7 @@ void Engine::set_owners() {
 
 namespace {
 
-// The two largest of a set of squared displacements (exact in any order, so the rebuild decision
-// is the same for every thread count).
-struct Top2 {
-  double a = 0.0, b = 0.0; // a ≥ b
-  void add(double v) {
-    if (v > b) {
-      if (v > a) {
-        b = a;
-        a = v;
-      } else {
-        b = v;
-      }
-    }
-  }
-  void merge(const Top2& o) {
-    add(o.a);
-    add(o.b);
-  }
-};
+using detail::Top2;
 #pragma omp declare reduction(top2:Top2 : omp_out.merge(omp_in))
 
 } // namespace
@@ -79,7 +61,10 @@ void Engine::check_rebuild() {
   const double* zr = z_ref_.data();
   Top2 top;
   const int A = team_size();
-  if (A > 1) {
+  if (disp_valid_) { // computed by the integration that moved them (integrate_range)
+    top.a = disp_a_;
+    top.b = disp_b_;
+  } else if (A > 1) {
 #pragma omp parallel for num_threads(A) schedule(static) reduction(top2 : top)
     for (std::size_t i = 0; i < n; ++i) {
       const double dx = x[i] - xr[i], dz = z[i] - zr[i];
@@ -102,6 +87,7 @@ void Engine::check_rebuild() {
   // largest boundary vertex displacement; a rigid outline's points move by at most its vertices'
   // largest). Verlet's test d1 > skin/2 is the special case d2 = d1; with one fast particle among
   // slow ones (a grain thrown off a shaken surface) this one rebuilds about half as often.
+  disp_valid_ = false;
   const double d1 = std::sqrt(top.a);
   if (d1 + std::max(std::sqrt(top.b), std::sqrt(b2)) > skin_) rebuild();
 }
@@ -392,6 +378,7 @@ void Engine::rebuild() {
   bnd_hist_.swap(nh);
 
   x_ref_ = p_.x;
+  disp_valid_ = false;
   z_ref_ = p_.z;
   bvx_ref_ = bvx_;
   bvz_ref_ = bvz_;

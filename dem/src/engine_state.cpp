@@ -158,6 +158,7 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
     detail::ByteReader::fail("inconsistent neighbour lists");
   set_owners();
   friction_dirty_ = true;
+  disp_valid_ = false;
   failure_.clear();
 }
 

@@ -757,6 +757,37 @@ TEST(DemNeighbours, OneMovingParticleRebuildsOncePerSkin) {
   EXPECT_LE(rebuilds, 21);
 }
 
+// The rebuild test reads the displacements the integration computed (integrate_range) instead of
+// passing over the particles again. A position moved outside the integration (through
+// particles()) must still count: a particle set 10 skins away rebuilds the list at the next step,
+// and its new neighbour is in contact then. At 1 thread and with the force loop's 2 parts.
+TEST(DemNeighbours, PositionMovedBetweenStepsIsSeenByTheRebuildTest) {
+  for (const int threads : {1, 2}) {
+    EngineConfig c = base_config();
+    c.threads = threads;
+    c.parallel_min_particles = 0;
+    c.gravity = 0.0;
+    Engine e(c);
+    const double r = 0.05;
+    for (int a = 0; a < 20; ++a) e.add_particle(0.3 * a, 0.0, r); // apart, at rest
+    e.set_dt(e.auto_dt());
+    e.run_steps(10);
+    const long long before = e.stats().neighbour_rebuilds;
+    e.run_steps(10);
+    EXPECT_EQ(e.stats().neighbour_rebuilds, before); // nothing moves: no rebuild
+    // Move particle 0 onto particle 10 (slightly overlapping it): a contact the list lacks.
+    const auto i = static_cast<std::size_t>(e.index_of(0));
+    const auto j = static_cast<std::size_t>(e.index_of(10));
+    e.particles().x[i] = e.particles().x[j] + 1.9 * r;
+    e.particles().z[i] = e.particles().z[j];
+    e.step();
+    EXPECT_EQ(e.stats().neighbour_rebuilds, before + 1) << threads << " thread(s)";
+    std::vector<ContactView> cv;
+    e.contacts(cv);
+    EXPECT_EQ(cv.size(), 1u) << threads << " thread(s)";
+  }
+}
+
 // … and the later rebuild misses no contact: two disks approaching head-on from 1.5 skins apart
 // (outside each other's list) collide exactly as with a list that holds the pair from the start
 // (a skin of 50 radii, never rebuilt): positions and velocities bit-identical after the impact.

@@ -15,6 +15,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <tuple>
 
 #include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
@@ -274,13 +275,20 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
     EXPECT_GT(cv.size(), 30u);          // the pair loop is exercised: contacts now,
     EXPECT_GT(e.energy().rebound, 1.0); // and many collisions before
     EXPECT_EQ(e.threads_in_use(), threads);
-    return std::pair{e.particles(), e.energy().friction};
+    // The box's reaction: each part sums its particles' wall contacts, added in part order.
+    const auto& box = e.boundaries()[0];
+    EXPECT_LT(box.reaction_z, 0.0); // the bed presses on the floor
+    return std::tuple{e.particles(), e.energy().friction, box.reaction_x, box.reaction_z};
   };
-  const auto [p2a, f2a] = run(2);
-  const auto [p2b, f2b] = run(2);
+  const auto [p2a, f2a, rx2a, rz2a] = run(2);
+  const auto [p2b, f2b, rx2b, rz2b] = run(2);
   expect_same_particles(p2a, p2b);
   EXPECT_EQ(f2a, f2b);
-  const auto [p1, f1] = run(1);
+  EXPECT_EQ(rx2a, rx2b);
+  EXPECT_EQ(rz2a, rz2b);
+  const auto [p1, f1, rx1, rz1] = run(1);
+  EXPECT_NEAR(rx1, rx2a, 1e-6 * std::abs(rz1));
+  EXPECT_NEAR(rz1, rz2a, 1e-6 * std::abs(rz1));
   ASSERT_EQ(p1.size(), p2a.size());
   double dmax = 0.0;
   for (std::size_t i = 0; i < p1.size(); ++i) {

@@ -13,6 +13,7 @@
 // Everything here is plain computation: no I/O.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -290,6 +291,7 @@ public:
   // ---- access -----------------------------------------------------------------------------
   [[nodiscard]] Particles& particles() {
     friction_dirty_ = true; // the materials may change through it
+    disp_valid_ = false;    // and the positions
     return p_;
   }
   [[nodiscard]] const Particles& particles() const { return p_; }
@@ -313,10 +315,26 @@ public:
   void boundary_vertices(int b, std::vector<scene::Vec2>& out) const;
 
 private:
-  // Sets fx, fz, torque of every particle to its particle–particle forces (each part zeroes and
-  // fills its own range); boundary_forces then adds the walls' and structures'.
-  template <class Law> void pair_forces(const Law& law);
-  template <class Law> void boundary_forces(const Law& law);
+  // Sets fx, fz, torque of every particle to its contact forces: each part zeroes and fills its
+  // own range with the particle–particle forces, then adds its particles' wall and structure
+  // contacts (boundary_range), on the thread that will integrate them.
+  template <class Law> void contact_forces(const Law& law);
+  // One part's boundary contacts: the sums it adds to the boundaries, structures and energies,
+  // combined in part order after the parts (add_boundary_sums), so the result depends on the
+  // part count only.
+  struct BoundarySums {
+    double e_friction = 0.0, e_damping = 0.0, e_normal = 0.0, e_shear = 0.0;
+    std::vector<double> reaction; // x, z per boundary
+    std::vector<double> soil;     // fx, fz, moment per structure
+    std::vector<detail::ReboundEvent> events;
+    std::size_t fail = ~std::size_t{0}; // first entry beyond max_overlap·r, and its overlap
+    double fail_delta = 0.0;
+  };
+  // The boundary entries k0 … k1 − 1 (the particles of one part): forces into the particles,
+  // everything else into s (reset first).
+  template <class Law>
+  void boundary_range(const Law& law, std::size_t k0, std::size_t k1, BoundarySums& s);
+  void add_boundary_sums(std::size_t parts);
   void compute_forces();
   // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
   // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
@@ -338,8 +356,18 @@ private:
                   double* energies, std::uint32_t* fail_pair);
   void pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
                           const ForceTarget& out, double* energies, std::uint32_t* fail_pair);
-  void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body, double* sums,
-                       std::size_t* bad);
+  // One part's integration: its external work and damping loss, its first non-finite particle,
+  // and the two largest squared displacements since the last rebuild (the next step's rebuild
+  // test); integrate() adds them up in part order.
+  struct IntegratedPart {
+    static constexpr std::size_t kNone = ~std::size_t{0};
+    double work = 0.0, damping = 0.0;
+    std::size_t bad = kNone;
+    double top_a = 0.0, top_b = 0.0;
+  };
+  void integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
+                       IntegratedPart& out);
+  [[nodiscard]] std::pair<double, double> body_acceleration() const; // shaking (x, z) [m/s²]
   // Inside a parallel region: (this thread's number, team size).
   static std::pair<std::size_t, std::size_t> team_member();
   void tune_team(); // after each step: measures, and switches the adaptive team
@@ -391,6 +419,10 @@ private:
   std::vector<std::uint32_t> bnd_i_, bnd_f_;
   std::vector<ContactHistory> bnd_hist_;
   std::vector<double> x_ref_, z_ref_;
+  // The largest two squared displacements since the rebuild, from the integration (valid until
+  // the positions or x_ref_ change otherwise; check_rebuild then passes over them itself).
+  double disp_a_ = 0.0, disp_b_ = 0.0;
+  bool disp_valid_ = false;
   double skin_ = 0.0, r_min_ = 0.0, r_max_ = 0.0, m_min_ = 0.0;
   bool need_rebuild_ = true;
   long long rebuilds_since_reorder_ = 0;
@@ -411,8 +443,13 @@ private:
   // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts_ − 1),
   // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
   std::vector<std::vector<detail::ReboundEvent>> rebound_events_;
-  std::vector<detail::ReboundEvent> bnd_events_;
-  std::size_t event_parts_ = 0;
+  std::size_t event_parts_ = 0, event_bnd_parts_ = 0;
+  std::array<IntegratedPart, kMaxParts> integrated_;
+  std::size_t integrated_parts_ = 0; // > 0: this step's parts were integrated in the force loop
+  // Boundary contacts per part: part t has the entries bnd_split_[t] … bnd_split_[t + 1] − 1
+  // (bnd_i_ is sorted by particle), and its sums (events included) in bnd_sums_[t].
+  std::vector<std::size_t> bnd_split_;
+  std::vector<BoundarySums> bnd_sums_;
   std::vector<detail::ReboundEvent> rebound_all_; // all of them, in that order
   std::vector<double> rebound_p_;                 // their impulses [N·s]
   std::vector<std::uint32_t> rebound_touched_, rebound_count_;
