@@ -175,6 +175,40 @@ void Engine::reorder() {
   ++stats_.reorders;
 }
 
+// Boundary candidates of the particles i0 … i1 − 1: every (particle, active feature) pair within
+// reach, in (particle, feature) order.
+void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni,
+                                 std::vector<std::uint32_t>& nf) const {
+  ni.clear();
+  nf.clear();
+  for (std::size_t i = i0; i < i1; ++i) {
+    if (p_.flags[i] & kFlagRemoved) continue;
+    const double reach = p_.radius[i] + skin_;
+    for (std::size_t f = 0; f < features_.size(); ++f) {
+      const Feature& F = features_[f];
+      if (!boundaries_[F.boundary].active) continue;
+      double d2;
+      const double px = p_.x[i], pz = p_.z[i];
+      if (F.v0 == F.v1) {
+        const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
+        d2 = dx * dx + dz * dz;
+      } else {
+        const double ax = bvx_[F.v0], az = bvz_[F.v0];
+        const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+        const double len2 = ex * ex + ez * ez;
+        double t = len2 > 0.0 ? ((px - ax) * ex + (pz - az) * ez) / len2 : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        const double dx = px - ax - t * ex, dz = pz - az - t * ez;
+        d2 = dx * dx + dz * dz;
+      }
+      if (d2 < reach * reach) {
+        ni.push_back(static_cast<std::uint32_t>(i));
+        nf.push_back(static_cast<std::uint32_t>(f));
+      }
+    }
+  }
+}
+
 void Engine::rebuild() {
   const std::size_t n = p_.size();
   const int T = threads_in_use();
@@ -299,11 +333,15 @@ void Engine::rebuild() {
       search(0, n, new_j);
     } else { // contiguous owner chunks, concatenated in order: the same list for any thread count
       std::vector<std::vector<std::uint32_t>> tj(tcount);
+      cand_bi_.resize(tcount);
+      cand_bf_.resize(tcount);
 #pragma omp parallel num_threads(team_size())
       {
         const auto [t0, ts] = team_member();
-        for (std::size_t t = t0; t < tcount; t += ts)
+        for (std::size_t t = t0; t < tcount; t += ts) {
           search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
+          boundary_candidates(n * t / tcount, n * (t + 1) / tcount, cand_bi_[t], cand_bf_[t]);
+        }
       }
       std::size_t total = 0;
       for (const auto& v : tj) total += v.size();
@@ -336,32 +374,17 @@ void Engine::rebuild() {
   nbr_hist_.swap(new_hist);
   set_owners();
 
-  // Boundary candidates: every (particle, active feature) pair within reach.
   std::vector<std::uint32_t> ni, nf;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (p_.flags[i] & kFlagRemoved) continue;
-    const double reach = p_.radius[i] + skin_;
-    for (std::size_t f = 0; f < features_.size(); ++f) {
-      const Feature& F = features_[f];
-      if (!boundaries_[F.boundary].active) continue;
-      double d2;
-      const double px = p_.x[i], pz = p_.z[i];
-      if (F.v0 == F.v1) {
-        const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
-        d2 = dx * dx + dz * dz;
-      } else {
-        const double ax = bvx_[F.v0], az = bvz_[F.v0];
-        const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
-        const double len2 = ex * ex + ez * ez;
-        double t = len2 > 0.0 ? ((px - ax) * ex + (pz - az) * ez) / len2 : 0.0;
-        t = std::clamp(t, 0.0, 1.0);
-        const double dx = px - ax - t * ex, dz = pz - az - t * ez;
-        d2 = dx * dx + dz * dz;
-      }
-      if (d2 < reach * reach) {
-        ni.push_back(static_cast<std::uint32_t>(i));
-        nf.push_back(static_cast<std::uint32_t>(f));
-      }
+  if (T <= 1 || n == 0) {
+    boundary_candidates(0, n, ni, nf);
+  } else { // the parts' candidates (found with the pair candidates above), in part order
+    std::size_t total = 0;
+    for (std::size_t t = 0; t < tcount; ++t) total += cand_bi_[t].size();
+    ni.reserve(total);
+    nf.reserve(total);
+    for (std::size_t t = 0; t < tcount; ++t) {
+      ni.insert(ni.end(), cand_bi_[t].begin(), cand_bi_[t].end());
+      nf.insert(nf.end(), cand_bf_[t].begin(), cand_bf_[t].end());
     }
   }
   std::vector<ContactHistory> nh(ni.size());

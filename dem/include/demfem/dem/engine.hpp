@@ -465,6 +465,10 @@ private:
   std::uint64_t list_version_ = 0, parts_version_ = ~0ull;
   // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
   std::vector<std::uint32_t> cell_of_, cell_start_, cell_items_;
+  // The rebuild's boundary candidates per part (2 threads or more), kept for their capacity.
+  std::vector<std::vector<std::uint32_t>> cand_bi_, cand_bf_;
+  void boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni,
+                           std::vector<std::uint32_t>& nf) const;
 };
 
 } // namespace demfem::dem
