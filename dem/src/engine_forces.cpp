@@ -369,12 +369,20 @@ template <class Law> void Engine::contact_forces(const Law& law) {
       }
       // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
       // couple of columns past its range, not the rest of the particles.
+      // Its owners before halo_from_[t] have no partner beyond the part (the scatter then skips
+      // the own/halo test per entry): all but its last couple of columns.
       halo_end_.assign(tcount, n);
+      halo_from_.assign(tcount, n);
       for (std::size_t t = 0; t < tcount; ++t) {
-        std::size_t e = split_[t + 1];
-        for (std::uint32_t k = nbr_start_[split_[t]]; k < nbr_start_[split_[t + 1]]; ++k)
-          e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
+        const std::size_t end = split_[t + 1];
+        std::size_t e = end, from = end;
+        for (std::size_t i = split_[t]; i < end; ++i)
+          for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
+            e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
+            if (nbr_j_[k] >= end) from = std::min(from, i);
+          }
         halo_end_[t] = e;
+        halo_from_[t] = from;
       }
       parts_version_ = list_version_;
     }
@@ -426,6 +434,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
         std::fill(fzo + split_[t], fzo + end, 0.0);
         std::fill(tqo + split_[t], tqo + end, 0.0);
         rebound_events_[t].clear();
+        const ForceTarget own{fxo, fzo, tqo, nullptr, nullptr, nullptr, end, &rebound_events_[t]};
         const ForceTarget ft{fxo,
                              fzo,
                              tqo,
@@ -434,7 +443,9 @@ template <class Law> void Engine::contact_forces(const Law& law) {
                              hb ? hb + 2 * h : nullptr,
                              end,
                              &rebound_events_[t]};
-        pair_range(law, split_[t], end, ft, &ten[kE * t], &tfail[2 * t]);
+        const std::size_t from = hb ? halo_from_[t] : end;
+        pair_range(law, split_[t], from, own, &ten[kE * t], &tfail[2 * t]);
+        if (from < end) pair_range(law, from, end, ft, &ten[kE * t], &tfail[2 * t]);
       }
 #pragma omp barrier
       // Part u's particles, on the thread that computed their pair forces (and will integrate

@@ -455,7 +455,8 @@ private:
   std::vector<std::uint32_t> rebound_touched_, rebound_count_;
   std::vector<std::size_t> rebound_slot_; // per event: its i's and j's index in rebound_touched_
   std::vector<double> rebound_dv_;
-  std::vector<std::size_t> split_, halo_end_;
+  // halo_from_[t]: part t's first owner with a partner beyond the part (before it: no halo).
+  std::vector<std::size_t> split_, halo_end_, halo_from_;
   // Friction of the pairs: uniform when every material in use has the same μ_s, μ_d (then the
   // pair loops take them as constants instead of the weaker of the pair's two materials: the
   // same values). Recomputed before the forces after a change of materials or of particles.
