@@ -729,12 +729,13 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
   if (const auto& st = e.stats(); st.steps > 0) {
     const double solver = seconds_since(t_start);
     spdlog::info("DEM steps: {}, {} neighbour rebuilds (one per {:.0f} steps), {:.2f} list "
-                 "entries per particle; forces {:.1f} s, neighbour rebuilds {:.1f} s of {:.1f} s",
+                 "entries per particle; forces{} {:.1f} s, neighbour rebuilds {:.1f} s of {:.1f} s",
                  st.steps, st.neighbour_rebuilds,
                  static_cast<double>(st.steps) /
                      static_cast<double>(std::max<long long>(1, st.neighbour_rebuilds)),
                  static_cast<double>(st.pair_entries) /
                      static_cast<double>(std::max<std::size_t>(1, e.particles().size())),
+                 e.threads_in_use() > 1 ? " and integration (one parallel region)" : "",
                  st.force_seconds, st.rebuild_seconds, solver);
   }
   if (const auto& st = e.stats(); st.team_full_steps + st.team_one_steps > 0) {
