@@ -114,16 +114,31 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
   EXPECT_EQ(res.times[0], 0.0);
 
   const fs::path dat = o.out_dir / "figures" / "series";
-  // the strip's extent (the box's walls and every disk of the three frames), from its script
+  // the strip's extent (the box's walls and every disk of the three frames), from its script,
+  // and where it puts each panel's particle image (a pixmap behind the panel's plot)
   double x0 = NAN, x1 = NAN, z0 = NAN, z1 = NAN;
+  struct Pixmap {
+    int index = 0;
+    char file[32] = {};
+    double x = NAN, z = NAN, w = NAN, h = NAN;
+  };
+  std::vector<Pixmap> pixmaps;
+  int unset = 0;
   {
     std::ifstream gp(o.out_dir / "figures" / "series_velocity.gp");
     std::string l;
     while (std::getline(gp, l)) {
       if (l.rfind("set xrange [", 0) == 0) std::sscanf(l.c_str(), "set xrange [%lf:%lf]", &x0, &x1);
       if (l.rfind("set yrange [", 0) == 0) std::sscanf(l.c_str(), "set yrange [%lf:%lf]", &z0, &z1);
+      Pixmap m;
+      if (std::sscanf(l.c_str(), "set pixmap %d '%31[^']' at first %lf,%lf size first %lf,%lf",
+                      &m.index, m.file, &m.x, &m.z, &m.w, &m.h) == 6)
+        pixmaps.push_back(m);
+      if (l.rfind("unset pixmap ", 0) == 0) ++unset;
     }
   }
+  ASSERT_EQ(pixmaps.size(), 3u); // one per panel, each removed before the next panel
+  EXPECT_EQ(unset, 3);
   ASSERT_TRUE(std::isfinite(x0) && std::isfinite(z0)) << "no ranges in series_velocity.gp";
   EXPECT_NEAR(x0, 0.0, 0.01);
   EXPECT_NEAR(x1 - x0, 1.0, 0.01);
@@ -133,6 +148,16 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
   EXPECT_EQ(grey.h, static_cast<int>(std::ceil((z1 - z0) / px)) + 1);
   EXPECT_EQ(std::max(grey.w, grey.h), 641);
   ASSERT_EQ(col.w, grey.w);
+  for (std::size_t k = 0; k < pixmaps.size(); ++k) { // the image covers its pixels' rectangle
+    EXPECT_EQ(pixmaps[k].index, static_cast<int>(k) + 1);
+    char want[32];
+    std::snprintf(want, sizeof want, "p%zu.png", k);
+    EXPECT_STREQ(pixmaps[k].file, want);
+    EXPECT_NEAR(pixmaps[k].x, x0, 1e-6);
+    EXPECT_NEAR(pixmaps[k].z, z0, 1e-6);
+    EXPECT_NEAR(pixmaps[k].w, col.w * px, 1e-6);
+    EXPECT_NEAR(pixmaps[k].h, col.h * px, 1e-6);
+  }
   auto pixel = [&](double x, double z) {
     return std::pair<int, int>{static_cast<int>(std::floor((x - x0) / px)),
                                static_cast<int>(std::floor((z - z0) / px))};
