@@ -107,12 +107,24 @@ PlotSpec spec_of(std::string title, std::string xl, std::string yl, std::vector<
   return p;
 }
 
-void draw(const PlotSpec& spec, const fs::path& png, RunFigures& out) {
+// Queues the figure (drawn with the others by draw_figures); a figure with nothing to draw is a
+// problem at once.
+void draw(const PlotSpec& spec, const fs::path& png, RunFigures& out, PlotQueue& queue) {
   std::string err;
-  if (plot(spec, png, &err))
-    out.figures.push_back(png);
-  else
+  if (!plot(spec, png, &err, &queue))
     out.problems.push_back(fmt::format("{}: {}", png.filename().string(), err));
+}
+
+// Draws the queued figures, a few scripts per gnuplot process (gnuplot's start, ≈ 0.08 s, was
+// most of each small plot's time), and lists each as a figure or a problem.
+void draw_figures(PlotQueue& queue, RunFigures& out) {
+  const auto err = draw_queued(queue);
+  for (std::size_t k = 0; k < err.size(); ++k)
+    if (err[k].empty())
+      out.figures.push_back(queue.pngs[k]);
+    else
+      out.problems.push_back(fmt::format("{}: {}", queue.pngs[k].filename().string(), err[k]));
+  queue = PlotQueue{};
 }
 
 std::string strip_unit(const std::string& c) {
@@ -125,6 +137,7 @@ std::string strip_unit(const std::string& c) {
 RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
                              double wall_seconds, long long steps) {
   RunFigures out;
+  PlotQueue queue; // the figures before the snapshot series, drawn together (draw_figures)
   const fs::path dem = run_dir / "dem";
   const fs::path fig = run_dir / "figures";
   fs::create_directories(fig);
@@ -163,17 +176,17 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       if (!rot.empty()) j["final_rotation_paper_theta_rad"] = theta.back();
       draw(spec_of(fmt::format("{}: settlement (penetration) — {}", s.name, scene.label()),
                    "time [s]", "settlement [m] (down +)", {ser(s.name, t, settle)}),
-           fig / (s.name + "_settlement.png"), out);
+           fig / (s.name + "_settlement.png"), out, queue);
       if (s.dof_rotation != scene::DofMode::Fixed && !rot.empty()) {
         draw(spec_of(fmt::format("{}: rotation θ (clockwise +) — {}", s.name, scene.label()),
                      "time [s]", "θ [rad]", {ser(s.name, t, theta)}),
-             fig / (s.name + "_rotation.png"), out);
+             fig / (s.name + "_rotation.png"), out, queue);
         draw(spec_of(fmt::format("{}: soil moment about the pivot — {}", s.name, scene.label()),
                      "time [s]", "M [N·m]", {ser(s.name, t, mom)}),
-             fig / (s.name + "_moment.png"), out);
+             fig / (s.name + "_moment.png"), out, queue);
         draw(spec_of(fmt::format("{}: moment–rotation — {}", s.name, scene.label()), "θ [rad]",
                      "M [N·m]", {ser(s.name, theta, mom)}),
-             fig / (s.name + "_moment_rotation.png"), out);
+             fig / (s.name + "_moment_rotation.png"), out, queue);
         // Loop area per load period (energy dissipated per cycle) when the load is A·t·sin ωt.
         const auto& f = s.force_x.kind == scene::TimeFunction::Kind::TSine ? s.force_x : s.moment;
         if (f.kind == scene::TimeFunction::Kind::TSine && f.omega > 0.0 && !mom.empty()) {
@@ -218,7 +231,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       draw(spec_of(fmt::format("{} — {}", name, scene.label()), "time [s]", "force [N]",
                    {ser("thrust", t, y), ser(fmt::format("running mean ({:.3g} s)", window_s), t,
                                              avg, "lines", "lw 3")}),
-           fig / (name + ".png"), out);
+           fig / (name + ".png"), out, queue);
       json j;
       // Static value: the mean before the shaking starts (or over the first 0.1 s if it starts at
       // 0).
@@ -270,7 +283,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     draw(spec_of(fmt::format("{}: pressure along the wall — {}", wall.name, scene.label()),
                  "normal pressure [Pa] (compression positive)", "height above the wall base [m]",
                  {before, during, last}),
-         fig / (wall.name + "_pressure_profile.png"), out);
+         fig / (wall.name + "_pressure_profile.png"), out, queue);
   }
 
   // ---- surface profile: initial vs final, subsidence ------------------------------------------
@@ -299,11 +312,11 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     }
     draw(spec_of(fmt::format("surface — {}", scene.label()), "x [m]", "z [m]",
                  {ser("start", xb, z0), ser("end", xb, z1, "lines", "lw 2")}),
-         fig / "surface_profile.png", out);
+         fig / "surface_profile.png", out, queue);
     if (std::any_of(dz.begin(), dz.end(), [](double v) { return std::isfinite(v); })) {
       draw(spec_of(fmt::format("surface change (end − start) — {}", scene.label()), "x [m]",
                    "Δz [m]", {ser("Δz", xb, dz, "linespoints")}),
-           fig / "surface_change.png", out);
+           fig / "surface_change.png", out, queue);
       sum["surface"]["max_subsidence_m"] = max_sub;
       sum["surface"]["max_rise_m"] = max_rise;
     } else { // e.g. a slide: the bins that hold soil at the end held none at the start
@@ -330,7 +343,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         if (t[i] > t[i - 1])
           vmax = std::max(vmax, std::hypot(x[i] - x[i - 1], z[i] - z[i - 1]) / (t[i] - t[i - 1]));
     }
-    draw(ps, fig / "loci.png", out);
+    draw(ps, fig / "loci.png", out, queue);
     sum["loci_peak_speed_m_s"] = vmax;
   }
 
@@ -342,7 +355,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
                  {ser("kinetic", t, en.column("kinetic")),
                   ser("friction (cum.)", t, en.column("friction")),
                   ser("rebound (cum.)", t, en.column("rebound"))}),
-         fig / "energy.png", out);
+         fig / "energy.png", out, queue);
   }
 
   // ---- peak speed over the snapshots; final snapshot with force chains -------------------------
@@ -429,23 +442,21 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       ss.title = fmt::format("end of run (t = {:.3g} s), colour = speed, chains = K_n·δ — {}",
                              ck.meta.time, scene.label());
       std::string err;
-      if (plot_particles(p, cv, bv, ss, fig / "snapshot_final.png", &err))
-        out.figures.push_back(fig / "snapshot_final.png");
-      else
+      if (!plot_particles(p, cv, bv, ss, fig / "snapshot_final.png", &err, &queue))
         out.problems.push_back("snapshot_final: " + err);
       // Velocity field at the end of the run (the paper's Figs. 3.6 and 6.x).
       SnapshotSpec vs = ss;
       vs.velocity_arrows = true;
       vs.title = fmt::format("velocity field at t = {:.3g} s (arrows ∝ velocity) — {}",
                              ck.meta.time, scene.label());
-      if (plot_particles(p, cv, bv, vs, fig / "velocity_field_final.png", &err))
-        out.figures.push_back(fig / "velocity_field_final.png");
-      else
+      if (!plot_particles(p, cv, bv, vs, fig / "velocity_field_final.png", &err, &queue))
         out.problems.push_back("velocity_field_final: " + err);
     } catch (const std::exception& e) {
       out.problems.push_back(std::string("final.ckpt: ") + e.what());
     }
   }
+
+  draw_figures(queue, out);
 
   // ---- snapshot series at the paper's times (output.series; series.hpp, issue 14) ------------
   {

@@ -13,4 +13,11 @@ namespace demfem::compare::detail {
 std::vector<std::string> run_gnuplot_scripts(const std::vector<std::filesystem::path>& scripts,
                                              unsigned parallel = 0);
 
+// Several scripts per process: job k runs gnuplot on jobs[k] in order, with `reset` between them
+// (each script sets its own terminal, output and directory); its console goes to the first
+// script's ".log". One entry per job, as above.
+std::vector<std::string>
+run_gnuplot_jobs(const std::vector<std::vector<std::filesystem::path>>& jobs,
+                 unsigned parallel = 0);
+
 } // namespace demfem::compare::detail

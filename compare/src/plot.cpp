@@ -73,6 +73,13 @@ bool run_gnuplot(const fs::path& script, std::string* error) {
   if (error) *error = r[0];
   return false;
 }
+bool run_or_queue(const fs::path& png, const fs::path& script, std::string* error,
+                  PlotQueue* queue) {
+  if (!queue) return run_gnuplot(script, error);
+  queue->pngs.push_back(png);
+  queue->scripts.push_back(script);
+  return true;
+}
 } // namespace
 
 CsvTable read_csv(const fs::path& path) {
@@ -96,7 +103,7 @@ CsvTable read_csv(const fs::path& path) {
   return t;
 }
 
-bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
+bool plot(const PlotSpec& spec, const fs::path& png, std::string* error, PlotQueue* queue) {
   std::size_t finite = 0;
   for (const auto& se : spec.series)
     for (std::size_t i = 0; i < std::min(se.x.size(), se.y.size()); ++i)
@@ -154,12 +161,12 @@ bool plot(const PlotSpec& spec, const fs::path& png, std::string* error) {
       spec.width, spec.height, quote(fs::absolute(svg).string()));
   g << "replot\nset output\n";
   g.close();
-  return run_gnuplot(gp, error);
+  return run_or_queue(png, gp, error, queue);
 }
 
 bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>& contacts,
                     const std::vector<dem::BoundaryView>& boundaries, const SnapshotSpec& spec,
-                    const fs::path& png, std::string* error) {
+                    const fs::path& png, std::string* error, PlotQueue* queue) {
   fs::create_directories(png.parent_path().empty() ? fs::path(".") : png.parent_path());
   fs::path stem = png;
   stem.replace_extension();
@@ -288,7 +295,30 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
                    "set output {}; replot\n",
                    w, h, quote(fs::absolute(svg).string()));
   g.close();
-  return run_gnuplot(gp, error);
+  return run_or_queue(png, gp, error, queue);
+}
+
+std::vector<std::string> draw_queued(const PlotQueue& queue, unsigned processes) {
+  const std::size_t n = queue.scripts.size();
+  if (processes == 0) processes = std::max(1u, std::thread::hardware_concurrency());
+  // Contiguous groups of about equal count, one process each.
+  const std::size_t groups = std::min<std::size_t>(processes, n);
+  std::vector<std::vector<fs::path>> jobs(groups);
+  std::vector<std::size_t> first(groups + 1, n);
+  for (std::size_t g = 0; g < groups; ++g) {
+    first[g] = n * g / groups;
+    for (std::size_t k = n * g / groups; k < n * (g + 1) / groups; ++k)
+      jobs[g].push_back(queue.scripts[k]);
+  }
+  const auto job_err = detail::run_gnuplot_jobs(jobs, processes);
+  std::vector<std::string> err(n);
+  for (std::size_t g = 0; g < groups; ++g) {
+    if (job_err[g].empty()) continue;
+    // gnuplot stops at a failing script: run the group's scripts again one by one.
+    const auto one = detail::run_gnuplot_scripts(jobs[g], processes);
+    for (std::size_t k = 0; k < jobs[g].size(); ++k) err[first[g] + k] = one[k];
+  }
+  return err;
 }
 
 std::vector<double> running_mean(const std::vector<double>& y, std::size_t window) {
@@ -311,7 +341,17 @@ namespace detail {
 
 std::vector<std::string> run_gnuplot_scripts(const std::vector<fs::path>& scripts,
                                              unsigned parallel) {
+  std::vector<std::vector<fs::path>> jobs;
+  jobs.reserve(scripts.size());
+  for (const auto& s : scripts) jobs.push_back({s});
+  return run_gnuplot_jobs(jobs, parallel);
+}
+
+std::vector<std::string> run_gnuplot_jobs(const std::vector<std::vector<fs::path>>& jobs,
+                                          unsigned parallel) {
   if (parallel == 0) parallel = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<fs::path> scripts; // each job's first script: names its log and its errors
+  for (const auto& j : jobs) scripts.push_back(j.empty() ? fs::path() : j.front());
   std::vector<std::string> err(scripts.size());
   std::vector<pid_t> pid(scripts.size(), -1);
   auto log_of = [&](std::size_t k) { return scripts[k].string() + ".log"; };
@@ -332,15 +372,25 @@ std::vector<std::string> run_gnuplot_scripts(const std::vector<fs::path>& script
   while (next < scripts.size() || !queue.empty()) {
     while (next < scripts.size() && queue.size() < parallel) {
       const std::size_t k = next++;
+      if (jobs[k].empty()) continue;
       posix_spawn_file_actions_t fa;
       posix_spawn_file_actions_init(&fa);
       posix_spawn_file_actions_addopen(&fa, 1, log_of(k).c_str(), O_WRONLY | O_CREAT | O_TRUNC,
                                        0644);
       posix_spawn_file_actions_adddup2(&fa, 1, 2);
-      std::string arg0 = "gnuplot", arg1 = scripts[k].string();
-      char* argv[] = {arg0.data(), arg1.data(), nullptr};
+      std::vector<std::string> args{"gnuplot"};
+      for (std::size_t q = 0; q < jobs[k].size(); ++q) {
+        if (q > 0) { // the next script starts from gnuplot's defaults
+          args.emplace_back("-e");
+          args.emplace_back("reset");
+        }
+        args.push_back(jobs[k][q].string());
+      }
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
       pid_t p = -1;
-      const int rc = posix_spawnp(&p, "gnuplot", &fa, nullptr, argv, environ);
+      const int rc = posix_spawnp(&p, "gnuplot", &fa, nullptr, argv.data(), environ);
       posix_spawn_file_actions_destroy(&fa);
       if (rc != 0) {
         err[k] = fmt::format("gnuplot failed to start on {} ({}); is gnuplot-nox installed?",

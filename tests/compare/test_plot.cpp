@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -109,6 +110,59 @@ TEST(Plot, ParticleSnapshotWithChains) {
   EXPECT_TRUE(is_png(d / "s.png"));
   EXPECT_FALSE(fs::exists(d / "s.svg")); // PNG only (plot.hpp); the script says how to get one
   EXPECT_TRUE(fs::exists(d / "s.gp"));
+}
+
+// A run's figures are queued and drawn a few scripts per gnuplot process: one result per figure
+// in order, the failing one named by its own script (its process's scripts are run again one by
+// one), and no setting of one script reaching the next (a log-scale plot before a linear one
+// draws the linear one byte for byte as alone).
+TEST(Plot, QueuedFiguresDrawnTogetherWithErrorsNamed) {
+  const auto d = tmpdir("plot_queue");
+  auto spec = [](bool log_y, const std::string& extra) {
+    compare::PlotSpec s;
+    s.title = log_y ? "log" : "linear";
+    s.xlabel = "x";
+    s.ylabel = "y";
+    compare::Series se;
+    se.label = "y";
+    for (int i = 1; i <= 20; ++i) {
+      se.x.push_back(i);
+      se.y.push_back(i * i);
+    }
+    se.extra = extra;
+    s.series = {se};
+    s.log_y = log_y;
+    return s;
+  };
+  const auto alone = d / "alone.png";
+  ASSERT_TRUE(compare::plot(spec(false, ""), alone));
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  for (const unsigned processes : {1u, 2u}) {
+    SCOPED_TRACE(processes);
+    compare::PlotQueue q;
+    const std::vector<std::string> names{"a_log", "b_linear", "c_bad", "d_linear"};
+    for (const auto& n : names) {
+      fs::remove(d / (n + ".png"));
+      ASSERT_TRUE(compare::plot(spec(n == "a_log", n == "c_bad" ? "no-such-option 3" : ""),
+                                d / (n + ".png"), nullptr, &q));
+    }
+    EXPECT_FALSE(fs::exists(d / "a_log.png")); // queued, not drawn yet
+    const auto err = compare::draw_queued(q, processes);
+    ASSERT_EQ(err.size(), 4u);
+    for (std::size_t k = 0; k < 4; ++k) {
+      if (names[k] == "c_bad") {
+        EXPECT_NE(err[k].find("c_bad.gp"), std::string::npos) << err[k];
+        continue;
+      }
+      EXPECT_TRUE(err[k].empty()) << names[k] << ": " << err[k];
+      EXPECT_TRUE(is_png(d / (names[k] + ".png"))) << names[k];
+    }
+    EXPECT_EQ(bytes(d / "b_linear.png"), bytes(alone)); // after the log-scale one
+    EXPECT_EQ(bytes(d / "d_linear.png"), bytes(alone)); // after the failing one
+  }
 }
 
 // Several gnuplot scripts at once (the run's snapshot series): one result per script in order,

@@ -41,10 +41,18 @@ struct PlotSpec {
   bool log_y = false;
 };
 
+// Figures whose scripts and data are written, to be drawn together by draw_queued: several
+// scripts per gnuplot process (a small plot's time is mostly gnuplot's start).
+struct PlotQueue {
+  std::vector<std::filesystem::path> pngs, scripts;
+};
+
 // Writes `<stem>.png` and `<stem>.svg` (stem = path without extension) plus the gnuplot script and
 // data beside them, so a person can re-plot. Returns false (and says why in `error`) when gnuplot
-// is missing or fails; the run is not failed for a figure.
-bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* error = nullptr);
+// is missing or fails; the run is not failed for a figure. With a `queue` it only writes the
+// script and data and queues the figure (false only for a figure with nothing to draw).
+bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* error = nullptr,
+          PlotQueue* queue = nullptr);
 
 struct SnapshotSpec {
   std::string title;
@@ -60,7 +68,13 @@ struct SnapshotSpec {
 // several times the PNG's size.
 bool plot_particles(const dem::Particles& particles, const std::vector<dem::ContactView>& contacts,
                     const std::vector<dem::BoundaryView>& boundaries, const SnapshotSpec& spec,
-                    const std::filesystem::path& png, std::string* error = nullptr);
+                    const std::filesystem::path& png, std::string* error = nullptr,
+                    PlotQueue* queue = nullptr);
+
+// Draws the queued figures, their scripts split over at most `processes` gnuplot processes (0:
+// one per core). One entry per queued figure, in order: empty when it was drawn, else the error
+// (a process that fails has its scripts run again one by one, so the error names the figure).
+std::vector<std::string> draw_queued(const PlotQueue& queue, unsigned processes = 0);
 
 // Centred running mean over a window of `window` samples (the mean part of the wall force).
 [[nodiscard]] std::vector<double> running_mean(const std::vector<double>& y, std::size_t window);
