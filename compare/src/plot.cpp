@@ -304,19 +304,16 @@ std::vector<std::string> draw_queued(const PlotQueue& queue, unsigned processes)
   // Contiguous groups of about equal count, one process each.
   const std::size_t groups = std::min<std::size_t>(processes, n);
   std::vector<std::vector<fs::path>> jobs(groups);
-  std::vector<std::size_t> first(groups + 1, n);
-  for (std::size_t g = 0; g < groups; ++g) {
-    first[g] = n * g / groups;
+  for (std::size_t g = 0; g < groups; ++g)
     for (std::size_t k = n * g / groups; k < n * (g + 1) / groups; ++k)
       jobs[g].push_back(queue.scripts[k]);
-  }
   const auto job_err = detail::run_gnuplot_jobs(jobs, processes);
   std::vector<std::string> err(n);
   for (std::size_t g = 0; g < groups; ++g) {
     if (job_err[g].empty()) continue;
     // gnuplot stops at a failing script: run the group's scripts again one by one.
     const auto one = detail::run_gnuplot_scripts(jobs[g], processes);
-    for (std::size_t k = 0; k < jobs[g].size(); ++k) err[first[g] + k] = one[k];
+    for (std::size_t k = 0; k < jobs[g].size(); ++k) err[n * g / groups + k] = one[k];
   }
   return err;
 }

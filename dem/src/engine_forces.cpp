@@ -333,7 +333,6 @@ template <class Law> void Engine::contact_forces(const Law& law) {
   constexpr std::size_t kE = PairEnergies::kCount;
   double en[kE] = {};
   std::uint32_t fail[2] = {~0u, ~0u};
-  std::size_t parts = 0;
   for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
   for (auto& st : structures_) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
   if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
@@ -349,7 +348,6 @@ template <class Law> void Engine::contact_forces(const Law& law) {
     pair_range(law, 0, n, ft, en, fail);
     if (bnd_sums_.empty()) bnd_sums_.resize(1);
     boundary_range(law, 0, bnd_i_.size(), bnd_sums_[0]);
-    parts = 1;
   } else {
     // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
     // (equal shares of pair entries). Computed once per list.
@@ -406,7 +404,6 @@ template <class Law> void Engine::contact_forces(const Law& law) {
           bnd_i_.begin());
     bnd_split_[tcount] = bnd_i_.size();
     if (bnd_sums_.size() < tcount) bnd_sums_.resize(tcount);
-    parts = tcount;
     const auto body = body_acceleration();
     auto quiet = [&] { // no rebound impulse in any part
       for (std::size_t t = 0; t < tcount; ++t)
@@ -490,12 +487,11 @@ template <class Law> void Engine::contact_forces(const Law& law) {
   e_damping_ += en[1];
   e_normal_ = en[2];
   e_shear_ = en[3];
-  add_boundary_sums(parts);
+  add_boundary_sums();
 }
 
-void Engine::add_boundary_sums(std::size_t parts) {
-  event_bnd_parts_ = parts;
-  for (std::size_t t = 0; t < parts; ++t) {
+void Engine::add_boundary_sums() {
+  for (std::size_t t = 0; t < event_parts_; ++t) {
     const BoundarySums& s = bnd_sums_[t];
     e_friction_ += s.e_friction;
     e_damping_ += s.e_damping;
@@ -682,7 +678,7 @@ void Engine::apply_rebounds() {
   rebound_all_.clear();
   for (std::size_t t = 0; t < event_parts_; ++t)
     rebound_all_.insert(rebound_all_.end(), rebound_events_[t].begin(), rebound_events_[t].end());
-  for (std::size_t t = 0; t < event_bnd_parts_; ++t)
+  for (std::size_t t = 0; t < event_parts_; ++t)
     rebound_all_.insert(rebound_all_.end(), bnd_sums_[t].events.begin(), bnd_sums_[t].events.end());
   const std::size_t n = rebound_all_.size();
   if (n == 0) return;

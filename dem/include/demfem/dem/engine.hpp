@@ -334,7 +334,7 @@ private:
   // everything else into s (reset first).
   template <class Law>
   void boundary_range(const Law& law, std::size_t k0, std::size_t k1, BoundarySums& s);
-  void add_boundary_sums(std::size_t parts);
+  void add_boundary_sums(); // the event_parts_ parts
   void compute_forces();
   // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
   // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
@@ -443,7 +443,7 @@ private:
   // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts_ − 1),
   // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
   std::vector<std::vector<detail::ReboundEvent>> rebound_events_;
-  std::size_t event_parts_ = 0, event_bnd_parts_ = 0;
+  std::size_t event_parts_ = 0; // the parts of this step's contacts (pairs and boundaries)
   std::array<IntegratedPart, kMaxParts> integrated_;
   std::size_t integrated_parts_ = 0; // > 0: this step's parts were integrated in the force loop
   // Boundary contacts per part: part t has the entries bnd_split_[t] … bnd_split_[t + 1] − 1
