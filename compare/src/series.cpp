@@ -236,7 +236,6 @@ std::string raster_png(const Raster& g, const std::vector<Disk>& disks, double v
   return {reinterpret_cast<const char*>(bytes->GetPointer(0)),
           static_cast<std::size_t>(bytes->GetNumberOfTuples())};
 }
-// The plot clause of a raster layer (the `NaN … palette` clause keeps the colour box).
 // The gnuplot commands that draw a raster layer behind one panel's plot, as pixmap `index` (the
 // terminal scales the PNG onto the data rectangle it covers). `plot 'file' binary filetype=png
 // … with rgbalpha` drew the same pixels (0.1 % of a strip's pixels differ, at disk edges) but
@@ -443,9 +442,9 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   }
 
   // Every panel has the same colour range: one colour box, in the first empty slot of the layout
-  // when there is one (the wall's and the footing's 7 panels in 2 × 4), drawn with the last
-  // panel. pngcairo draws a colour box as a scaled image, ≈ 60 ms each: 7 of them were 0.4 s of
-  // a 0.7 s strip (without its particles and vectors).
+  // when there is one (the wall's 7 panels in 2 × 4; not the footing's 6 in 2 × 3), drawn with the
+  // last panel. pngcairo draws a colour box as a scaled image, ≈ 60 ms each: 7 of them were 0.4 s
+  // of a 0.7 s strip (without its particles and vectors).
   const bool one_box = rows * cols > n;
   std::string one_box_cmd;
   if (one_box) {
