@@ -7,7 +7,7 @@
 // distance ≤ r_i + r_j) / N, wall contacts excluded, averaged over `zn` samples taken every
 // steps/zn steps (LAMMPS: fix ave/time with compute contact/atom).
 // Usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin_factor] [adaptive=1]
-//        [kernel=simd|portable|scalar] [order=columns|morton]
+//        [kernel=simd|avx2|portable|scalar] [order=columns|morton]
 // adaptive=1: the adaptive team as `demfem run` has it (probes of the full team only when another
 // CPU was idle, and starting on the full team when its CPUs are free at the first step,
 // Engine::set_idle_source); adaptive=3: as 1 but always starting on one thread (the engine
@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr,
                  "usage: bench_dem_race SCENE [steps=2000] [threads=1] [zn=10] [skin] [adaptive=1] "
-                 "[kernel=simd|portable|scalar] [order=columns|morton]\n");
+                 "[kernel=simd|avx2|portable|scalar] [order=columns|morton]\n");
     return 2;
   }
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
@@ -71,14 +71,17 @@ int main(int argc, char** argv) {
   if (argc > 5 && std::atof(argv[5]) > 0.0) cfg.skin_factor = std::atof(argv[5]);
   const int adaptive = argc > 6 ? std::atoi(argv[6]) : 1;
   cfg.adaptive_threads = adaptive > 0;
-  // 7th argument: the pair kernel of cundall-rebound (simd, portable, scalar; default simd)
+  // 7th argument: the pair kernel of cundall-rebound (simd, avx2, portable, scalar; default simd)
   const std::string kernel = argc > 7 ? argv[7] : "simd";
   if (kernel == "portable")
     cfg.pair_kernel = dem::EngineConfig::PairKernel::portable;
+  else if (kernel == "avx2")
+    cfg.pair_kernel = dem::EngineConfig::PairKernel::avx2;
   else if (kernel == "scalar")
     cfg.pair_kernel = dem::EngineConfig::PairKernel::scalar;
   else if (kernel != "simd") {
-    std::fprintf(stderr, "bench_dem_race: kernel must be simd, portable or scalar, not '%s'\n",
+    std::fprintf(stderr,
+                 "bench_dem_race: kernel must be simd, avx2, portable or scalar, not '%s'\n",
                  kernel.c_str());
     return 2;
   }

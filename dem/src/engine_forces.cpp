@@ -186,7 +186,11 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
                                     one_material, friction_mus_, friction_mud_};
   const detail::ParticleArrays pa{p_.vx.data(), p_.vz.data(), p_.omega.data(), p_.radius.data(),
                                   p_.mass.data()};
-  const bool simd = config_.pair_kernel == EngineConfig::PairKernel::simd;
+  using PK = EngineConfig::PairKernel;
+  const detail::Isa isa =
+      detail::isa_up_to(config_.pair_kernel == PK::simd   ? detail::Isa::avx512
+                        : config_.pair_kernel == PK::avx2 ? detail::Isa::avx2
+                                                          : detail::Isa::portable);
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
@@ -239,7 +243,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
     else
       gather(std::false_type{});
     // 2. geometry and the law of closed, active contacts, vectorised
-    detail::rebound_kernel(kc, pa, b, m, simd);
+    detail::rebound_kernel(kc, pa, b, m, isa);
     // 3. scatter in list order; entries outside the kernel's case go through the scalar law.
     //    Without a halo (one part, or a part whose partners all lie in its own range) the partner
     //    forces go straight into the arrays, without the per-entry test of ForceTarget.

@@ -3,6 +3,7 @@
 // the results are the same.
 #include "pair_kernel.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "demfem/dem/contact_laws.hpp"
@@ -92,27 +93,55 @@ void kernel_portable(const ReboundConstants& c, const ParticleArrays& p, PairBlo
   else
     kernel_body<false>(c, p, b, m);
 }
-bool have_avx2() {
-  static const bool yes = __builtin_cpu_supports("avx2") != 0;
-  return yes;
+// AVX-512, 8 entries at once. FMA is available here: the file is compiled with
+// -ffp-contract=off (dem/CMakeLists.txt), so the operations still round as the portable build's.
+[[gnu::target("avx512f,avx512dq,avx512vl,prefer-vector-width=512")]] void
+kernel_avx512(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m) {
+  if (c.one_material)
+    kernel_body<true>(c, p, b, m);
+  else
+    kernel_body<false>(c, p, b, m);
+}
+Isa widest_isa() {
+  static const Isa isa = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                                 __builtin_cpu_supports("avx512vl")
+                             ? Isa::avx512
+                         : __builtin_cpu_supports("avx2") ? Isa::avx2
+                                                          : Isa::portable;
+  return isa;
 }
 #else
 void kernel_avx2(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m) {
   kernel_portable(c, p, b, m);
 }
-bool have_avx2() {
-  return false;
+void kernel_avx512(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b,
+                   std::size_t m) {
+  kernel_portable(c, p, b, m);
+}
+Isa widest_isa() {
+  return Isa::portable;
 }
 #endif
 
 } // namespace
 
+Isa isa_up_to(Isa cap) {
+  return std::min(cap, widest_isa());
+}
+
 void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
-                    bool simd) {
-  if (simd && have_avx2())
+                    Isa isa) {
+  switch (isa) {
+  case Isa::avx512:
+    kernel_avx512(c, p, b, m);
+    return;
+  case Isa::avx2:
     kernel_avx2(c, p, b, m);
-  else
+    return;
+  case Isa::portable:
     kernel_portable(c, p, b, m);
+    return;
+  }
 }
 
 } // namespace demfem::dem::detail

@@ -6,8 +6,9 @@
 //      compaction);
 //   2. kernel (this file, pair_kernel.cpp): geometry, kinematics and the law of a closed, already
 //      active contact — the case of nearly every entry in a dense bed — reading the particle
-//      arrays through i and j, without branches, so that the compiler vectorises it (AVX2 where
-//      the processor has it, chosen once at run time; SSE2 otherwise). An entry outside that case
+//      arrays through i and j, without branches, so that the compiler vectorises it (AVX-512 or
+//      AVX2 where the processor has it, chosen once at run time; SSE2 otherwise). An entry outside
+//      that case
 //      (first touch, the touch/release step of the spring, an ended contact, an overlap above
 //      max_overlap) is marked kSlow;
 //   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
@@ -61,9 +62,14 @@ struct ParticleArrays {
   const double *vx, *vz, *omega, *radius, *mass;
 };
 
-// Pass 2 over entries 0 … m−1 of the block. `simd` false: the portable build only (a benchmark
-// and test switch); true: the widest instruction set the processor has.
+// The instruction set of the blocked passes, in increasing width.
+enum class Isa { portable, avx2, avx512 };
+// The widest the processor has (AVX-512 F, DQ and VL; AVX2; else portable), capped at `cap` (a
+// benchmark and test switch).
+Isa isa_up_to(Isa cap);
+
+// Pass 2 over entries 0 … m−1 of the block, with the instruction set `isa` (from isa_up_to).
 void rebound_kernel(const ReboundConstants& c, const ParticleArrays& p, PairBlock& b, std::size_t m,
-                    bool simd);
+                    Isa isa);
 
 } // namespace demfem::dem::detail

@@ -25,8 +25,11 @@ TEST(EngineFingerprint, TheSameBuildGivesTheSameFingerprint) {
       [](dem::EngineConfig& c) { c.pair_kernel = dem::EngineConfig::PairKernel::scalar; });
   const std::uint64_t portable = dem::compute_engine_fingerprint(
       [](dem::EngineConfig& c) { c.pair_kernel = dem::EngineConfig::PairKernel::portable; });
+  const std::uint64_t avx2 = dem::compute_engine_fingerprint(
+      [](dem::EngineConfig& c) { c.pair_kernel = dem::EngineConfig::PairKernel::avx2; });
   EXPECT_EQ(scalar, a);
   EXPECT_EQ(portable, a);
+  EXPECT_EQ(avx2, a);
 }
 
 TEST(EngineFingerprint, AnEngineThatRoundsDifferentlyGetsOtherCacheKeys) {

@@ -591,7 +591,7 @@ TEST(DemPairKernel, BlockedLoopBitIdenticalToScalar) {
     const auto ref = shaken_two_materials(Kernel::scalar, threads);
     EXPECT_GT(ref.en.rebound, 1.0);  // rebounds: the scalar law ran inside the blocked loop
     EXPECT_GT(ref.en.friction, 0.0); // sliding contacts
-    for (const Kernel k : {Kernel::portable, Kernel::simd}) {
+    for (const Kernel k : {Kernel::portable, Kernel::avx2, Kernel::simd}) {
       SCOPED_TRACE(::testing::Message() << "threads " << threads << ", kernel " << int(k));
       const auto r = shaken_two_materials(k, threads);
       expect_same_particles(ref.p, r.p);
@@ -601,7 +601,7 @@ TEST(DemPairKernel, BlockedLoopBitIdenticalToScalar) {
   const auto ref = ring_on_large_disk(Kernel::scalar);
   EXPECT_GT(ref.contacts_of_first, 128u); // more than one block (PairBlock::kSize)
   EXPECT_GT(ref.en.rebound, 0.0);
-  for (const Kernel k : {Kernel::portable, Kernel::simd}) {
+  for (const Kernel k : {Kernel::portable, Kernel::avx2, Kernel::simd}) {
     const auto r = ring_on_large_disk(k);
     EXPECT_EQ(r.contacts_of_first, ref.contacts_of_first);
     expect_same_particles(ref.p, r.p);
@@ -615,7 +615,7 @@ TEST(DemPairKernel, BlockedLoopBitIdenticalToScalar) {
 // a bed built with (0.3, 0.1) as its only material, for the blocked and the one-pass loop; a
 // half-bed event (two frictions in use) differs from both.
 TEST(DemPairKernel, UniformFrictionOfAnEventEqualsOneMaterial) {
-  for (const Kernel k : {Kernel::scalar, Kernel::simd}) {
+  for (const Kernel k : {Kernel::scalar, Kernel::avx2, Kernel::simd}) {
     SCOPED_TRACE(::testing::Message() << "kernel " << int(k));
     auto run = [k](int mode) { // 0: one material; 1: event on the whole bed; 2: half the bed
       dem::EngineConfig c = kernel_test_config(k, 1);

@@ -78,10 +78,11 @@ struct EngineConfig {
   // every barrier wait for a descheduled thread). false: always the full team.
   bool adaptive_threads = true;
   // Pair loop of cundall-rebound without tension (issue 12): `simd` the blocked, vectorised
-  // kernel with the widest instruction set the processor has (pair_kernel.hpp); `portable` the
-  // same kernel built for the baseline instruction set only; `scalar` the one-pass loop of the
-  // other laws. All three give bit-identical results; the switch is for benchmarks and tests.
-  enum class PairKernel { simd, portable, scalar } pair_kernel = PairKernel::simd;
+  // loop with the widest instruction set the processor has (AVX-512, AVX2 or the baseline;
+  // pair_kernel.hpp); `avx2` the same with AVX2 at most; `portable` built for the baseline
+  // instruction set only; `scalar` the one-pass loop of the other laws. All give bit-identical
+  // results; the switch is for benchmarks and tests.
+  enum class PairKernel { simd, avx2, portable, scalar } pair_kernel = PairKernel::simd;
 };
 
 // Δt refused by Engine::set_dt: not positive, or above the stable limit.
