@@ -708,11 +708,11 @@ std::string last_line(const fs::path& log) {
 
 // run --jobs N (issue 12: the paper suite on 2 cores): the selected variants as separate
 // `demfem run` processes, N at once (each with --threads as given, 1 by default), so a machine
-// with N cores runs N variants where one run uses one core. First the packings and calibrations
-// the variants share are made once each (also N at once), so no two children build the same cache
-// entry; then the runs. Each child's console goes to <run dir>/console.txt; this process prints one
-// line per finished child and returns 0 only when every child succeeded (else the first failing
-// child's exit code).
+// with N cores runs N variants where one run uses one core. The packings and calibrations the
+// variants share are made once each (also N at once, before any run is started while one is left
+// to start), so no two children build the same cache entry; each run starts once its own is made.
+// Each child's console goes to <run dir>/console.txt; this process prints one line per finished
+// child and returns 0 only when every child succeeded (else the first failing child's exit code).
 int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& a) {
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
@@ -725,7 +725,9 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
   std::vector<compare::ProcessTask> prep, runs;
   std::vector<std::string> prep_label, run_label;
   std::vector<double> prep_cost, run_cost;
-  std::set<std::string> shared;
+  std::map<std::string, std::size_t> shared; // packing or calibration key → its index in prep
+  std::vector<std::size_t> run_prep;         // per run: its index in prep, or kNoPrep
+  constexpr std::size_t kNoPrep = static_cast<std::size_t>(-1);
   // Estimated work of a DEM run over `span` seconds: particles × steps (the automatic step from
   // the scene's stable bound, as `demfem check` gives it); 0 when unknown (continuum runs).
   const auto dem_work = [](const scene::Scene& s, double span) {
@@ -754,16 +756,19 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                             s->uses(scene::Solver::Continuum);
     const bool packs = !continuum && s->soil.dem && s->soil.dem->particles.empty() &&
                        !s->soil.dem->packing.cache.empty();
+    std::size_t needs = kNoPrep;
     if (calibrated || packs) {
       const std::string key = calibrated ? "calibration " + compare::calibration_key(*s, {})
                                          : "packing " + dem::packing_key(*s);
-      if (shared.insert(key).second) {
+      const auto [at, inserted] = shared.emplace(key, prep.size());
+      needs = at->second;
+      if (inserted) {
         auto pargv = with_variant({exe.string(), calibrated ? "calibrate" : "pack", a.scene,
                                    "--out", (calibrated ? out / "calibration" : out).string()});
         if (a.seed >= 0) pargv.insert(pargv.end(), {"--seed", std::to_string(a.seed)});
         // a target the deposition cannot reach: the runs use the nearest packing and say so
         if (!calibrated) pargv.push_back("--target-not-met-ok");
-        prep.push_back({pargv, out / (calibrated ? "calibrate.txt" : "pack.txt")});
+        prep.push_back({pargv, out / (calibrated ? "calibrate.txt" : "pack.txt"), 0.0, {}});
         prep_label.push_back(fmt::format("{} ({})", s->label(), key.substr(0, key.find(' '))));
         // a porosity target takes several depositions (1–5, median 3, over the cached packings
         // of the paper scenes; pack.hpp: at most 10)
@@ -780,12 +785,14 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     if (a.force) argv.push_back("--force");
     if (a.resume) argv.push_back("--resume");
     if (a.seed >= 0) argv.insert(argv.end(), {"--seed", std::to_string(a.seed)});
-    runs.push_back({with_variant(argv), out / "console.txt"});
+    runs.push_back({with_variant(argv), out / "console.txt", 0.0, {}});
+    run_prep.push_back(needs);
     run_label.push_back(s->label());
     run_cost.push_back(continuum ? 0.0 : dem_work(*s, s->info.duration));
   }
   // Largest estimated work first (longest-processing-time order), ties in file order: the short
   // runs fill the end, where one core would otherwise idle while the last long run finishes.
+  // Returns the new order (new position → old index).
   const auto largest_first = [&](std::vector<compare::ProcessTask>& tasks,
                                  std::vector<std::string>& labels, const std::vector<double>& cost,
                                  const char* what) {
@@ -795,7 +802,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                      [&](std::size_t x, std::size_t y) { return cost[x] > cost[y]; });
     bool moved = false;
     for (std::size_t k = 0; k < order.size(); ++k) moved = moved || order[k] != k;
-    if (!moved) return;
+    if (!moved) return order;
     std::vector<compare::ProcessTask> t;
     std::vector<std::string> l;
     for (const std::size_t k : order) {
@@ -808,42 +815,62 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                "demfem run --jobs {}: {} started largest estimated work (particles × steps) "
                "first: {}\n",
                a.jobs, what, fmt::join(labels, ", "));
+    return order;
   };
-  largest_first(prep, prep_label, prep_cost, "preparations");
-  largest_first(runs, run_label, run_cost, "runs");
+  const std::vector<std::size_t> prep_order =
+      largest_first(prep, prep_label, prep_cost, "preparations");
+  const std::vector<std::size_t> run_order = largest_first(runs, run_label, run_cost, "runs");
+  // One list, the preparations first: a free slot takes the first task that can start, so a run
+  // starts as soon as its own packing or calibration is made (while others are still being made)
+  // instead of after all of them.
+  std::vector<std::size_t> prep_at(prep.size());
+  for (std::size_t k = 0; k < prep_order.size(); ++k) prep_at[prep_order[k]] = k;
+  std::vector<compare::ProcessTask> tasks = std::move(prep);
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    tasks.push_back(std::move(runs[k]));
+    if (const std::size_t d = run_prep[run_order[k]]; d != kNoPrep)
+      tasks.back().after = {prep_at[d]};
+  }
+  const std::size_t n_prep = prep_label.size(), n_runs = run_label.size();
   int first_failure = kOk;
   const auto t0 = std::chrono::steady_clock::now();
-  const auto stage = [&](const char* what, const std::vector<compare::ProcessTask>& tasks,
-                         const std::vector<std::string>& labels) {
-    std::size_t done = 0;
-    compare::run_processes(tasks, a.jobs, [&](std::size_t i, const compare::ProcessResult& r) {
-      ++done;
-      const double since =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (r.exit_code == 0) {
-        fmt::print(stderr,
-                   "demfem run --jobs {}: [{}/{}] {} {}: done in {:.1f} s ({:.0f} s in "
-                   "all)\n",
-                   a.jobs, done, tasks.size(), what, labels[i], r.wall, since);
-        return;
-      }
-      if (first_failure == kOk) first_failure = r.exit_code > 0 ? r.exit_code : kRunFailed;
-      fmt::print(stderr,
-                 "demfem run --jobs {}: [{}/{}] {} {}: FAILED (exit {}) after {:.1f} s: "
-                 "{} (console: {})\n",
-                 a.jobs, done, tasks.size(), what, labels[i], r.exit_code, r.wall,
-                 last_line(tasks[i].log), tasks[i].log.string());
-    });
-  };
-  if (!prep.empty()) {
+  if (n_prep > 0)
     fmt::print(stderr,
-               "demfem run --jobs {}: {} shared packing(s)/calibration(s) first, then {} "
-               "run(s)\n",
-               a.jobs, prep.size(), runs.size());
-    stage("prepare", prep, prep_label);
-    if (first_failure != kOk) return first_failure;
-  }
-  stage("run", runs, run_label);
+               "demfem run --jobs {}: {} shared packing(s)/calibration(s) first, each run as "
+               "soon as its own is made: {} run(s)\n",
+               a.jobs, n_prep, n_runs);
+  std::size_t done_prep = 0, done_runs = 0;
+  compare::run_processes(tasks, a.jobs, [&](std::size_t i, const compare::ProcessResult& r) {
+    const bool is_prep = i < n_prep;
+    const std::size_t done = is_prep ? ++done_prep : ++done_runs;
+    const std::size_t of = is_prep ? n_prep : n_runs;
+    const char* what = is_prep ? "prepare" : "run";
+    const std::string& label = is_prep ? prep_label[i] : run_label[i - n_prep];
+    const double since =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (r.exit_code == 0) {
+      fmt::print(stderr,
+                 "demfem run --jobs {}: [{}/{}] {} {}: done in {:.1f} s ({:.0f} s in "
+                 "all)\n",
+                 a.jobs, done, of, what, label, r.wall, since);
+      return;
+    }
+    if (first_failure == kOk) first_failure = r.exit_code > 0 ? r.exit_code : kRunFailed;
+    if (r.not_started) {
+      const std::size_t d = tasks[i].after.empty() ? 0 : tasks[i].after.front();
+      fmt::print(stderr,
+                 "demfem run --jobs {}: [{}/{}] {} {}: NOT STARTED: its preparation {} failed "
+                 "(console: {})\n",
+                 a.jobs, done, of, what, label, d < n_prep ? prep_label[d] : "?",
+                 d < tasks.size() ? tasks[d].log.string() : "?");
+      return;
+    }
+    fmt::print(stderr,
+               "demfem run --jobs {}: [{}/{}] {} {}: FAILED (exit {}) after {:.1f} s: "
+               "{} (console: {})\n",
+               a.jobs, done, of, what, label, r.exit_code, r.wall, last_line(tasks[i].log),
+               tasks[i].log.string());
+  });
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fmt::print(stderr, "demfem run --jobs {}: {} run(s) in {:.1f} s{}\n", a.jobs, runs.size(), total,
              first_failure == kOk ? "" : " — some FAILED (above)");
@@ -1618,8 +1645,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   run->add_option("--jobs", ra.jobs,
                   "With several variants: run N of them at once, as separate processes (shared "
-                  "packings and calibrations are made first; the largest estimated work starts "
-                  "first); each child's console goes to <run dir>/console.txt")
+                  "packings and calibrations are made first, once each, and a run starts as soon "
+                  "as its own is made; the largest estimated work starts first); each child's "
+                  "console goes to <run dir>/console.txt")
       ->default_val(1)
       ->check(CLI::PositiveNumber);
   run->add_option("--refinement", ra.refinement,

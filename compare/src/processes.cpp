@@ -47,12 +47,42 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
     Clock::time_point start;
   };
   std::vector<std::pair<pid_t, Running>> running;
-  std::size_t next = 0;
+  // per task: 0 waiting, 1 started, 2 succeeded, 3 failed or not started
+  constexpr unsigned char kWaiting = 0, kStarted = 1, kSucceeded = 2, kFailed = 3;
+  std::vector<unsigned char> state(tasks.size(), kWaiting);
+  std::size_t left = tasks.size(); // not yet started (or given up)
   jobs = std::max(1, jobs);
   bool any_timeout = false;
   for (const auto& t : tasks) any_timeout = any_timeout || t.timeout > 0.0;
-  while (next < tasks.size() || !running.empty()) {
-    while (next < tasks.size() && static_cast<int>(running.size()) < jobs) {
+  // The first waiting task whose prerequisites all succeeded (tasks.size() when none); a task
+  // with a failed prerequisite is given up on the way, as not started.
+  const auto next_ready = [&]() {
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+      if (state[i] != kWaiting) continue;
+      bool ready = true, blocked = false;
+      for (const std::size_t d : tasks[i].after) {
+        const unsigned char st = d < tasks.size() && d != i ? state[d] : kFailed;
+        ready = ready && st == kSucceeded;
+        blocked = blocked || st == kFailed;
+      }
+      if (blocked) {
+        state[i] = kFailed;
+        --left;
+        res[i].not_started = true;
+        if (on_done) on_done(i, res[i]);
+        i = static_cast<std::size_t>(-1); // a task given up may block earlier ones: rescan
+        continue;
+      }
+      if (ready) return i;
+    }
+    return tasks.size();
+  };
+  while (left > 0 || !running.empty()) {
+    while (left > 0 && static_cast<int>(running.size()) < jobs) {
+      const std::size_t next = next_ready();
+      if (next == tasks.size()) break;
+      state[next] = kStarted;
+      --left;
       const auto& t = tasks[next];
       std::vector<char*> argv; // prepared before fork: the child only opens, dup2s and execs
       for (const auto& a : t.argv) argv.push_back(const_cast<char*>(a.c_str()));
@@ -72,13 +102,24 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
       }
       if (pid < 0) {
         res[next].exit_code = -1;
+        state[next] = kFailed;
         if (on_done) on_done(next, res[next]);
       } else {
         running.push_back({pid, {next, start}});
       }
-      ++next;
     }
-    if (running.empty()) continue;
+    if (running.empty()) {
+      if (left > 0 && next_ready() == tasks.size()) { // waiting on tasks that never start
+        for (std::size_t i = 0; i < tasks.size(); ++i)
+          if (state[i] == kWaiting) {
+            state[i] = kFailed;
+            res[i].not_started = true;
+            if (on_done) on_done(i, res[i]);
+          }
+        left = 0;
+      }
+      continue;
+    }
     int status = 0;
     struct rusage ru {};
     // with time limits: poll, and kill (SIGKILL, the child we started) a run past its limit
@@ -108,6 +149,7 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
     r.wall = std::chrono::duration<double>(end - it->second.start).count();
     r.rss_mib = static_cast<double>(ru.ru_maxrss) / 1024.0;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    state[i] = r.exit_code == 0 ? kSucceeded : kFailed;
     running.erase(it);
     if (on_done) on_done(i, r);
   }

@@ -268,7 +268,7 @@ void run_jobs(std::vector<Job>& jobs, const ErrorStudyOptions& o) {
           launcher_spread().rank)
         fs::remove_all(jobs[j].dirs[k]);
       fs::create_directories(jobs[j].dirs[k].parent_path());
-      tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log", jobs[j].timeout});
+      tasks.push_back({jobs[j].argv[k], jobs[j].dirs[k].string() + ".log", jobs[j].timeout, {}});
       owner.emplace_back(j, k);
     }
   const auto res = run_tasks(tasks, o.jobs, spread_directory(o.out_dir));
