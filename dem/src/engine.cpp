@@ -676,9 +676,15 @@ EnergyBudget Engine::energy() const {
   return e;
 }
 
-void Engine::contacts(std::vector<ContactView>& out) const {
+std::size_t Engine::pair_contact_count() const {
+  std::size_t n = 0;
+  for (const auto& h : nbr_hist_) n += (h.flags & kHistActive) ? 1 : 0;
+  return n;
+}
+
+void Engine::contacts(std::vector<ContactView>& out, bool pairs) const {
   out.clear();
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+  for (std::size_t i = 0; pairs && i + 1 < nbr_start_.size(); ++i)
     for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
       const auto& h = nbr_hist_[k];
       if (!(h.flags & kHistActive)) continue;
@@ -722,6 +728,29 @@ void Engine::contacts(std::vector<ContactView>& out) const {
     v.tensile = h.fn < 0.0f;
     out.push_back(v);
   }
+}
+
+double Engine::largest_overlap_ratio(double kn) const {
+  double worst = 0.0;
+  const double* __restrict x = p_.x.data();
+  const double* __restrict z = p_.z.data();
+  const double* __restrict rad = p_.radius.data();
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
+      if (!(nbr_hist_[k].flags & kHistActive)) continue;
+      const std::uint32_t j = nbr_j_[k];
+      const double dx = x[i] - x[j], dz = z[i] - z[j];
+      const double d = std::sqrt(dx * dx + dz * dz);
+      worst = std::max(worst, (rad[i] + rad[j] - d) / std::min(rad[i], rad[j])); // δ (eq. 2.3)
+    }
+  if (kn > 0.0)
+    for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
+      const auto& h = bnd_hist_[k];
+      const double fn = h.fn;
+      if ((h.flags & kHistActive) && fn > 0.0)
+        worst = std::max(worst, fn / kn / rad[bnd_i_[k]]); // δ = f_n / K_n (eq. 2.6)
+    }
+  return worst;
 }
 
 void Engine::boundary_vertices(int b, std::vector<scene::Vec2>& out) const {

@@ -513,24 +513,12 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     }
     // Largest overlap ratio δ/r (issue 11 studies): pairs from the positions, boundary contacts
     // from the linear spring force δ = f_n/K_n (eq. 2.6).
-    e.contacts(contacts);
     {
-      const auto& p = e.particles();
       const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
-      for (const auto& c : contacts) {
-        const double ri = p.radius[c.i];
-        if (c.j >= 0) {
-          const auto j = static_cast<std::size_t>(c.j);
-          const double dx = p.x[c.i] - p.x[j], dz = p.z[c.i] - p.z[j];
-          const double d = std::sqrt(dx * dx + dz * dz);
-          summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
-                                               (ri + p.radius[j] - d) / std::min(ri, p.radius[j]));
-        } else if (linear && c.fn > 0.0) {
-          summary.max_overlap_ratio =
-              std::max(summary.max_overlap_ratio, c.fn / e.config().kn / ri);
-        }
-      }
+      summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
+                                           e.largest_overlap_ratio(linear ? e.config().kn : 0.0));
     }
+    if (!pressure_csv.empty()) e.contacts(contacts, false); // the boundary contacts only
     for (auto& [k, w] : pressure_csv) {
       const auto& pr = scene.probes[k];
       const int bi = e.boundary_index(pr.target);
@@ -576,9 +564,8 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       loci_csv->append(row);
     }
     if (coord_csv) {
-      std::size_t pp = 0, active = 0;
-      for (const auto& c : contacts)
-        if (c.j >= 0) ++pp;
+      const std::size_t pp = e.pair_contact_count();
+      std::size_t active = 0;
       for (auto f : e.particles().flags)
         if (!(f & kFlagRemoved)) ++active;
       coord_csv->append(

@@ -677,3 +677,44 @@ TEST(DemPairKernel, StaysClosedTestImpliesTheLaws) {
   EXPECT_GT(open, 0u);            // the scan crosses the law's d_next = 0
   EXPECT_GT(left_to_the_law, 0u); // and the kernel's margin
 }
+
+// The probes' cheap forms (run.cpp, every probe interval): pair_contact_count, the boundary
+// contacts alone, and largest_overlap_ratio give what the full contact list gives.
+TEST(DemContacts, ProbeFormsAgreeWithTheContactList) {
+  dem::EngineConfig c;
+  c.kn = 1e7;
+  c.ks = 3e6;
+  c.damping_c = 2.0;
+  dem::Engine e(c);
+  add_shaken_lattice(e, 1000, 40, 5);
+  e.run_steps(4000); // the lattice collapses onto the floor
+  ASSERT_FALSE(e.failed()) << e.failure();
+  std::vector<dem::ContactView> all, walls;
+  e.contacts(all);
+  e.contacts(walls, false);
+  std::size_t pairs = 0;
+  double worst = 0.0;
+  const auto& p = e.particles();
+  for (const auto& v : all) {
+    const double ri = p.radius[v.i];
+    if (v.j >= 0) {
+      ++pairs;
+      const auto j = static_cast<std::size_t>(v.j);
+      const double d = std::hypot(p.x[v.i] - p.x[j], p.z[v.i] - p.z[j]);
+      worst = std::max(worst, (ri + p.radius[j] - d) / std::min(ri, p.radius[j]));
+    } else if (v.fn > 0.0) {
+      worst = std::max(worst, v.fn / c.kn / ri);
+    }
+  }
+  EXPECT_GT(pairs, 300u);
+  EXPECT_EQ(e.pair_contact_count(), pairs);
+  ASSERT_EQ(walls.size(), all.size() - pairs);
+  EXPECT_GT(walls.size(), 10u); // the bed rests on the box
+  for (std::size_t k = 0; k < walls.size(); ++k) {
+    EXPECT_EQ(walls[k].i, all[pairs + k].i);
+    EXPECT_EQ(walls[k].fn, all[pairs + k].fn);
+  }
+  EXPECT_GT(worst, 0.0);
+  EXPECT_NEAR(e.largest_overlap_ratio(c.kn), worst, 1e-12 * worst);
+  EXPECT_LE(e.largest_overlap_ratio(0.0), worst); // pairs only
+}

@@ -309,8 +309,15 @@ public:
 
   // Energy budget at the current state (computes the kinetic/potential/spring parts).
   [[nodiscard]] EnergyBudget energy() const;
-  // Contacts touching now (for force chains, coordination, wall profiles).
-  void contacts(std::vector<ContactView>& out) const;
+  // Contacts touching now (for force chains, coordination, wall profiles): the pairs (unless
+  // `pairs` is false), then the boundary contacts.
+  void contacts(std::vector<ContactView>& out, bool pairs = true) const;
+  // The particle pairs touching now (the pairs contacts() lists).
+  [[nodiscard]] std::size_t pair_contact_count() const;
+  // The largest overlap ratio δ / min(r_i, r_j) of the contacts touching now (what contacts()
+  // lists): pairs from the positions; boundary contacts from the linear spring, δ = f_n / K_n,
+  // when kn > 0 (pass 0 for a law without a linear spring: pairs only).
+  [[nodiscard]] double largest_overlap_ratio(double kn) const;
   void boundary_views(std::vector<BoundaryView>& out) const;
   // Current world vertices of a boundary.
   void boundary_vertices(int b, std::vector<scene::Vec2>& out) const;
