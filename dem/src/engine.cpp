@@ -17,6 +17,7 @@
 #include "demfem/dem/stable_step.hpp"
 
 #include "engine_internal.hpp"
+#include "integrate_kernel.hpp"
 
 namespace demfem::dem {
 
@@ -271,109 +272,65 @@ void Engine::set_dt(double dt) {
 // particle, and the two largest squared displacements since the last rebuild).
 void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, double az_body,
                              IntegratedPart& out) {
-  const double dt = dt_;
-  const double g = config_.gravity;
-  const double C = config_.damping_c, D = config_.damping_d;
-  // Local restrict pointers: the loop touches only these arrays (lets the compiler keep them in
-  // registers instead of reloading them from the vectors after every store).
-  double* __restrict x = p_.x.data();
-  double* __restrict z = p_.z.data();
-  double* __restrict phi = p_.phi.data();
-  double* __restrict vx = p_.vx.data();
-  double* __restrict vz = p_.vz.data();
-  double* __restrict om = p_.omega.data();
-  const double* __restrict fxa = p_.fx.data();
-  const double* __restrict fza = p_.fz.data();
-  const double* __restrict tqa = p_.torque.data();
-  const double* __restrict mass = p_.mass.data();
-  const double* __restrict inv_mass = p_.inv_mass.data();
-  const double* __restrict inv_inertia = p_.inv_inertia.data();
+  const detail::IntegrateConstants c{dt_,     config_.gravity,   ax_body,
+                                     az_body, config_.damping_c, config_.damping_d};
+  const bool refs = x_ref_.size() == p_.size(); // displacements since the last rebuild
+  const detail::IntegrateArrays a{p_.x.data(),
+                                  p_.z.data(),
+                                  p_.phi.data(),
+                                  p_.vx.data(),
+                                  p_.vz.data(),
+                                  p_.omega.data(),
+                                  p_.fx.data(),
+                                  p_.fz.data(),
+                                  p_.torque.data(),
+                                  p_.mass.data(),
+                                  p_.inv_mass.data(),
+                                  p_.inv_inertia.data(),
+                                  refs ? x_ref_.data() : nullptr,
+                                  refs ? z_ref_.data() : nullptr};
   const std::uint32_t* __restrict flags = p_.flags.data();
-  double w_ext = 0.0, e_damp = 0.0;
-  std::size_t first_bad = IntegratedPart::kNone;
-  const double Cd = C > 0.0 ? C : 0.0, Dd = D > 0.0 ? D : 0.0; // dissipation of C, D ≥ 0
-  // One particle's step; returns x + z + ω (finite unless the state blew up), its external work
-  // and its damping loss.
-  struct Advanced {
-    double s, w, ed;
-  };
-  // `damped` false (C = D = 0, every run after the deposition): the damping terms are left out.
-  // They are exact zeros then (x − 0 = x), so the result is the same to the bit, without the two
-  // divisions per particle that would dominate the loop.
-  auto advance = [&](std::size_t i, auto damped) {
-    constexpr bool kDamped = decltype(damped)::value;
-    const double m = mass[i], im = inv_mass[i], ii = inv_inertia[i];
-    // eq. 2.1: m ü + C u̇ + F = 0 with C per unit mass; eq. 2.2 likewise with D per inertia.
-    const double vx0 = vx[i], vz0 = vz[i], om0 = om[i];
-    double fx = fxa[i] + m * ax_body, fz = fza[i] + m * (az_body - g), tq = tqa[i];
-    if constexpr (kDamped) {
-      fx -= C * m * vx0;
-      fz -= C * m * vz0;
-      tq -= D * om0 / ii;
-    }
-    const double vx1 = vx0 + fx * im * dt; // eq. 2.16
-    const double vz1 = vz0 + fz * im * dt;
-    const double om1 = om0 + tq * ii * dt; // eq. 2.17
-    vx[i] = vx1;
-    vz[i] = vz1;
-    om[i] = om1;
-    const double x1 = x[i] + vx1 * dt; // eq. 2.18
-    const double z1 = z[i] + vz1 * dt;
-    x[i] = x1;
-    z[i] = z1;
-    phi[i] += om1 * dt;
-    double ed = 0.0;
-    if constexpr (kDamped)
-      ed = Cd * m * (0.5 * (vx0 + vx1) * vx1 + 0.5 * (vz0 + vz1) * vz1) * dt +
-           Dd / ii * 0.5 * (om0 + om1) * om1 * dt;
-    return Advanced{x1 + z1 + om1, m * (ax_body * vx1 + az_body * vz1) * dt, ed};
-  };
   std::uint32_t removed = 0;
   for (std::size_t i = i0; i < i1; ++i) removed |= flags[i] & kFlagRemoved;
-  auto run = [&](auto damped) {
-    if (removed == 0) {
-      // No removed particle in the range (the usual case): no branch, so the loop vectorises. The
-      // energy sums are SIMD reductions, in an order the build fixes (results stay bit-identical
-      // between runs); a non-finite state is only flagged here and located after the loop.
-      double any_bad = 0.0; // the number of non-finite states
-#pragma omp simd reduction(+ : w_ext, e_damp, any_bad)
-      for (std::size_t i = i0; i < i1; ++i) {
-        const Advanced a = advance(i, damped);
-        w_ext += a.w;
-        e_damp += a.ed;
-        any_bad += std::abs(a.s) <= std::numeric_limits<double>::max() ? 0.0 : 1.0;
-      }
-      if (!(any_bad == 0.0))
-        for (std::size_t i = i0; i < i1 && first_bad == IntegratedPart::kNone; ++i)
-          if (!std::isfinite(x[i] + z[i] + om[i])) first_bad = i;
-    } else { // a removed particle keeps its state
-      for (std::size_t i = i0; i < i1; ++i) {
-        if (flags[i] & kFlagRemoved) continue;
-        const Advanced a = advance(i, damped);
-        w_ext += a.w;
-        e_damp += a.ed;
-        if (!std::isfinite(a.s) && first_bad == IntegratedPart::kNone) first_bad = i;
-      }
-    }
-  };
-  if (C != 0.0 || D != 0.0)
-    run(std::true_type{});
-  else
-    run(std::false_type{});
-  out.work = w_ext;
-  out.damping = e_damp;
-  out.bad = first_bad;
-  // The next step's rebuild test (check_rebuild) reads these instead of passing over the
-  // particles again; removed particles count, as there.
+  out.bad = IntegratedPart::kNone;
+  if (removed == 0) {
+    // No removed particle in the range (the usual case): the vectorised loop; a non-finite state
+    // is only flagged there and located here.
+    using PK = EngineConfig::PairKernel;
+    const detail::Isa isa =
+        detail::isa_up_to(config_.pair_kernel == PK::simd   ? detail::Isa::avx512
+                          : config_.pair_kernel == PK::avx2 ? detail::Isa::avx2
+                                                            : detail::Isa::portable);
+    const detail::IntegrateSums s = detail::integrate_particles(c, a, i0, i1, isa);
+    out.work = s.work;
+    out.damping = s.damping;
+    out.top_a = s.top_a;
+    out.top_b = s.top_b;
+    if (s.any_bad)
+      for (std::size_t i = i0; i < i1 && out.bad == IntegratedPart::kNone; ++i)
+        if (!std::isfinite(p_.x[i] + p_.z[i] + p_.omega[i])) out.bad = i;
+    return;
+  }
+  // A removed particle keeps its state (and its displacement: removed particles count in the
+  // rebuild test, as in check_rebuild).
+  const bool damped = c.C != 0.0 || c.D != 0.0;
+  double w_ext = 0.0, e_damp = 0.0;
   detail::Top2 top;
-  if (x_ref_.size() == p_.size()) {
-    const double* __restrict xr = x_ref_.data();
-    const double* __restrict zr = z_ref_.data();
-    for (std::size_t i = i0; i < i1; ++i) {
-      const double dx = x[i] - xr[i], dz = z[i] - zr[i];
+  for (std::size_t i = i0; i < i1; ++i) {
+    if (!(flags[i] & kFlagRemoved)) {
+      const detail::Advanced<double> r = damped ? detail::advance_particle<true>(c, a, i)
+                                                : detail::advance_particle<false>(c, a, i);
+      w_ext += r.w;
+      e_damp += r.ed;
+      if (!std::isfinite(r.s) && out.bad == IntegratedPart::kNone) out.bad = i;
+    }
+    if (refs) {
+      const double dx = p_.x[i] - x_ref_[i], dz = p_.z[i] - z_ref_[i];
       top.add(dx * dx + dz * dz);
     }
   }
+  out.work = w_ext;
+  out.damping = e_damp;
   out.top_a = top.a;
   out.top_b = top.b;
 }
