@@ -181,14 +181,34 @@ void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std
                                  std::vector<std::uint32_t>& nf) const {
   ni.clear();
   nf.clear();
+  // Each active feature's bounding box, widened by the largest reach (r_max + skin) and a
+  // relative margin far above round-off: a particle outside it is farther from the feature than
+  // its reach, so the exact test below would reject it too (the same candidates, without the
+  // projection and its division for most (particle, feature) pairs).
+  struct Box {
+    std::uint32_t f;
+    double x0, x1, z0, z1;
+  };
+  std::vector<Box> boxes;
+  boxes.reserve(features_.size());
+  const double grow = (r_max_ + skin_) * (1.0 + 1e-9) + 1e-12;
+  for (std::size_t f = 0; f < features_.size(); ++f) {
+    const Feature& F = features_[f];
+    if (!boundaries_[F.boundary].active) continue;
+    boxes.push_back({static_cast<std::uint32_t>(f), std::min(bvx_[F.v0], bvx_[F.v1]) - grow,
+                     std::max(bvx_[F.v0], bvx_[F.v1]) + grow,
+                     std::min(bvz_[F.v0], bvz_[F.v1]) - grow,
+                     std::max(bvz_[F.v0], bvz_[F.v1]) + grow});
+  }
   for (std::size_t i = i0; i < i1; ++i) {
     if (p_.flags[i] & kFlagRemoved) continue;
     const double reach = p_.radius[i] + skin_;
-    for (std::size_t f = 0; f < features_.size(); ++f) {
+    const double px = p_.x[i], pz = p_.z[i];
+    for (const Box& bx : boxes) {
+      if (px < bx.x0 || px > bx.x1 || pz < bx.z0 || pz > bx.z1) continue;
+      const std::size_t f = bx.f;
       const Feature& F = features_[f];
-      if (!boundaries_[F.boundary].active) continue;
       double d2;
-      const double px = p_.x[i], pz = p_.z[i];
       if (F.v0 == F.v1) {
         const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
         d2 = dx * dx + dz * dz;
