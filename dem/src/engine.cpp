@@ -697,8 +697,12 @@ double Engine::largest_overlap_ratio(double kn) const {
       if (!(nbr_hist_[k].flags & kHistActive)) continue;
       const std::uint32_t j = nbr_j_[k];
       const double dx = x[i] - x[j], dz = z[i] - z[j];
-      const double d = std::sqrt(dx * dx + dz * dz);
-      worst = std::max(worst, (rad[i] + rad[j] - d) / std::min(rad[i], rad[j])); // δ (eq. 2.3)
+      const double d2 = dx * dx + dz * dz, rsum = rad[i] + rad[j], rmin = std::min(rad[i], rad[j]);
+      // (r_i + r_j − d)/r_min ≤ worst when d ≥ r_i + r_j − worst·r_min: skipped without the root
+      // when d² clears that by a relative 1e-9, far above round-off (the maximum is the same)
+      const double c = rsum - worst * rmin;
+      if (c > 0.0 && d2 >= c * c * (1.0 + 1e-9)) continue;
+      worst = std::max(worst, (rsum - std::sqrt(d2)) / rmin); // δ (eq. 2.3)
     }
   if (kn > 0.0)
     for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
