@@ -296,12 +296,8 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
   if (removed == 0) {
     // No removed particle in the range (the usual case): the vectorised loop; a non-finite state
     // is only flagged there and located here.
-    using PK = EngineConfig::PairKernel;
-    const detail::Isa isa =
-        detail::isa_up_to(config_.pair_kernel == PK::simd   ? detail::Isa::avx512
-                          : config_.pair_kernel == PK::avx2 ? detail::Isa::avx2
-                                                            : detail::Isa::portable);
-    const detail::IntegrateSums s = detail::integrate_particles(c, a, i0, i1, isa);
+    const detail::IntegrateSums s =
+        detail::integrate_particles(c, a, i0, i1, detail::kernel_isa(config_.pair_kernel));
     out.work = s.work;
     out.damping = s.damping;
     out.top_a = s.top_a;

@@ -186,11 +186,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
                                     one_material, friction_mus_, friction_mud_};
   const detail::ParticleArrays pa{p_.vx.data(), p_.vz.data(), p_.omega.data(), p_.radius.data(),
                                   p_.mass.data()};
-  using PK = EngineConfig::PairKernel;
-  const detail::Isa isa =
-      detail::isa_up_to(config_.pair_kernel == PK::simd   ? detail::Isa::avx512
-                        : config_.pair_kernel == PK::avx2 ? detail::Isa::avx2
-                                                          : detail::Isa::portable);
+  const detail::Isa isa = detail::kernel_isa(config_.pair_kernel);
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();

@@ -8,8 +8,17 @@
 #include <vector>
 
 #include "demfem/dem/contact_laws.hpp"
+#include "demfem/dem/engine.hpp"
+#include "pair_kernel.hpp"
 
 namespace demfem::dem::detail {
+
+// The instruction set of the blocked kernels (pair loop, integration) for the configuration's
+// switch: `simd` the widest the processor has, `avx2` at most AVX2, else the baseline.
+inline Isa kernel_isa(EngineConfig::PairKernel k) {
+  using PK = EngineConfig::PairKernel;
+  return isa_up_to(k == PK::simd ? Isa::avx512 : k == PK::avx2 ? Isa::avx2 : Isa::portable);
+}
 
 // Active pairs (owner i < partner j) with their contact history, stored as the CSR neighbour list
 // (sorted by owner, then partner) that rebuild() merges with the new candidates.
