@@ -872,7 +872,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                tasks[i].log.string());
   });
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  fmt::print(stderr, "demfem run --jobs {}: {} run(s) in {:.1f} s{}\n", a.jobs, runs.size(), total,
+  fmt::print(stderr, "demfem run --jobs {}: {} run(s) in {:.1f} s{}\n", a.jobs, n_runs, total,
              first_failure == kOk ? "" : " — some FAILED (above)");
   return first_failure;
 }
