@@ -354,12 +354,18 @@ void Engine::integrate() {
     // order (deterministic per count).
     parts = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
     const bool own = split_.size() == parts + 1 && split_[parts] == n;
+    const auto part = [&](std::size_t t) {
+      integrate_range(own ? split_[t] : n * t / parts, own ? split_[t + 1] : n * (t + 1) / parts,
+                      ax_body, az_body, integrated_[t]);
+    };
+    if (team_size() <= 1) { // a team of one: no region (its start costs ≈ 10 µs)
+      for (std::size_t t = 0; t < parts; ++t) part(t);
+    } else {
 #pragma omp parallel num_threads(team_size())
-    {
-      const auto [t0, tstride] = team_member();
-      for (std::size_t t = t0; t < parts; t += tstride)
-        integrate_range(own ? split_[t] : n * t / parts, own ? split_[t + 1] : n * (t + 1) / parts,
-                        ax_body, az_body, integrated_[t]);
+      {
+        const auto [t0, tstride] = team_member();
+        for (std::size_t t = t0; t < parts; t += tstride) part(t);
+      }
     }
   }
   integrated_parts_ = 0;

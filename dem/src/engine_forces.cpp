@@ -419,9 +419,11 @@ template <class Law> void Engine::contact_forces(const Law& law) {
       for (std::size_t u = 0; u < t; ++u) off += 3 * (halo_end_[u] - split_[u + 1]);
       return buf + off;
     };
-#pragma omp parallel num_threads(team_size())
-    {
-      const auto [t0, ts] = team_member();
+    // The region's work for thread t0 of a team of ts. A team of one (the adaptive team when the
+    // other cores are busy) runs it without a parallel region, its barriers then being no-ops:
+    // libgomp's region for one thread cost ≈ 10 µs per step, 3–5 % of a 10⁴-disk step
+    // (bench/RESULTS.md, twenty-first session).
+    const auto region = [&](std::size_t t0, std::size_t ts) {
       for (std::size_t t = t0; t < tcount; t += ts) {
         const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
         double* hb = h > 0 ? halo_of(t) : nullptr;
@@ -466,6 +468,15 @@ template <class Law> void Engine::contact_forces(const Law& law) {
       if (quiet())
         for (std::size_t u = t0; u < tcount; u += ts)
           integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
+    };
+    if (team_size() <= 1) {
+      region(0, 1);
+    } else {
+#pragma omp parallel num_threads(team_size())
+      {
+        const auto [t0, ts] = team_member();
+        region(t0, ts);
+      }
     }
     integrated_parts_ = quiet() ? tcount : 0;
     for (std::size_t t = 0; t < tcount; ++t) {
