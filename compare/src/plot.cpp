@@ -349,8 +349,8 @@ namespace {
 // (GLIBC_TUNABLES glibc.malloc.hugetlb=1, added to what the variable holds unless it sets
 // hugetlb itself). A 2,800 × 1,192 strip allocates its canvas, the decoded panel images and the
 // PNG encoder's rows afresh: 13,000 page faults with 4 KiB pages, 2,700–3,700 with huge pages,
-// and 15–20 % less CPU time per strip on a virtual machine (bench/RESULTS.md, twenty-first
-// session). Where the kernel offers no huge pages the setting does nothing; other C libraries
+// and 7–22 % less gnuplot CPU time per figure on a virtual machine (bench/RESULTS.md,
+// twenty-first session). Where the kernel offers no huge pages the setting does nothing; other C libraries
 // ignore the variable.
 std::vector<std::string> gnuplot_environment() {
   std::vector<std::string> e;

@@ -86,7 +86,7 @@ advance_particle(const IntegrateConstants& c, const IntegrateArrays& a, std::siz
   store<T>(a.x, i, x1);
   store<T>(a.z, i, z1);
   store<T>(a.phi, i, load<T>(a.phi, i) + om1 * dt);
-  T ed = T{} * 0.0;
+  T ed{};
   if constexpr (Damped) {
     const double Cd = c.C > 0.0 ? c.C : 0.0, Dd = c.D > 0.0 ? c.D : 0.0; // dissipation of C, D ≥ 0
     ed = Cd * m * (0.5 * (vx0 + vx1) * vx1 + 0.5 * (vz0 + vz1) * vz1) * dt +
