@@ -358,7 +358,7 @@ void Engine::integrate() {
       integrate_range(own ? split_[t] : n * t / parts, own ? split_[t + 1] : n * (t + 1) / parts,
                       ax_body, az_body, integrated_[t]);
     };
-    if (team_size() <= 1) { // a team of one: no region (its start costs ≈ 10 µs)
+    if (team_size() <= 1) { // a team of one: no region (see contact_forces)
       for (std::size_t t = 0; t < parts; ++t) part(t);
     } else {
 #pragma omp parallel num_threads(team_size())

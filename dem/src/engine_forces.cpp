@@ -421,7 +421,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
     };
     // The region's work for thread t0 of a team of ts. A team of one (the adaptive team when the
     // other cores are busy) runs it without a parallel region, its barriers then being no-ops:
-    // libgomp's region for one thread cost ≈ 10 µs per step, 3–5 % of a 10⁴-disk step
+    // with the region, a step of 10⁴ disks on one thread took ≈ 10 µs (3–5 %) longer
     // (bench/RESULTS.md, twenty-first session).
     const auto region = [&](std::size_t t0, std::size_t ts) {
       for (std::size_t t = t0; t < tcount; t += ts) {
