@@ -689,6 +689,22 @@ void Engine::contacts(std::vector<ContactView>& out, bool pairs) const {
   }
 }
 
+std::size_t Engine::overlapping_pair_count() const {
+  const double* __restrict x = p_.x.data();
+  const double* __restrict z = p_.z.data();
+  const double* __restrict rad = p_.radius.data();
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i) {
+    const double xi = x[i], zi = z[i], ri = rad[i];
+    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
+      const std::uint32_t j = nbr_j_[k];
+      const double dx = xi - x[j], dz = zi - z[j], rs = ri + rad[j];
+      n += dx * dx + dz * dz <= rs * rs ? 1u : 0u;
+    }
+  }
+  return n;
+}
+
 double Engine::largest_overlap_ratio(double kn) const {
   double worst = 0.0;
   const double* __restrict x = p_.x.data();

@@ -445,11 +445,13 @@ template <class Law> void Engine::contact_forces(const Law& law) {
         const std::size_t from = hb ? halo_from_[t] : end;
         pair_range(law, split_[t], from, own, &ten[kE * t], &tfail[2 * t]);
         if (from < end) pair_range(law, from, end, ft, &ten[kE * t], &tfail[2 * t]);
+        // The part's wall and structure contacts: its own particles only.
+        boundary_range(law, bnd_split_[t], bnd_split_[t + 1], bnd_sums_[t]);
       }
 #pragma omp barrier
       // Part u's particles, on the thread that computed their pair forces (and will integrate
-      // them, integrate()): the halos of parts < u, then their boundary contacts.
-      for (std::size_t u = t0; u < tcount; u += ts) {
+      // them, integrate()): the halos of parts < u.
+      for (std::size_t u = t0; u < tcount; u += ts)
         for (std::size_t t = 0; t < u; ++t) {
           const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
           const double* hx = halo_of(t);
@@ -459,12 +461,10 @@ template <class Law> void Engine::contact_forces(const Law& law) {
             tqo[i] += hx[2 * h + i - end];
           }
         }
-        boundary_range(law, bnd_split_[u], bnd_split_[u + 1], bnd_sums_[u]);
-      }
       // Without rebound impulses (apply_rebounds changes the forces of any particle) each part's
       // forces are final now: the thread integrates its parts without leaving the region
-      // (integrate() then only adds up the parts).
-#pragma omp barrier
+      // (integrate() then only adds up the parts). Every part's events are known at the barrier
+      // above, so no second barrier is needed.
       if (quiet())
         for (std::size_t u = t0; u < tcount; u += ts)
           integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);

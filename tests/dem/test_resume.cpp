@@ -718,6 +718,16 @@ TEST(DemContacts, ProbeFormsAgreeWithTheContactList) {
   EXPECT_GT(worst, 0.0);
   EXPECT_EQ(e.largest_overlap_ratio(c.kn), worst); // the maximum, not an estimate
   EXPECT_LE(e.largest_overlap_ratio(0.0), worst);  // pairs only
+  // Overlapping pairs at the current positions: every pair of particles, counted directly. The
+  // neighbour list's skin must hold them all, touching at the last force evaluation or not.
+  std::size_t overlapping = 0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::size_t j = i + 1; j < p.size(); ++j) {
+      const double dx = p.x[i] - p.x[j], dz = p.z[i] - p.z[j], rs = p.radius[i] + p.radius[j];
+      overlapping += dx * dx + dz * dz <= rs * rs ? 1u : 0u;
+    }
+  EXPECT_GT(overlapping, 300u);
+  EXPECT_EQ(e.overlapping_pair_count(), overlapping);
 }
 
 // The integration (integrate_kernel.hpp) is the same bits with every instruction set: positions,

@@ -314,6 +314,10 @@ public:
   void contacts(std::vector<ContactView>& out, bool pairs = true) const;
   // The particle pairs touching now (the pairs contacts() lists).
   [[nodiscard]] std::size_t pair_contact_count() const;
+  // The particle pairs whose disks overlap at the current positions (|x_i − x_j| ≤ r_i + r_j),
+  // whether or not the last force evaluation saw them touch: the pairs LAMMPS's compute
+  // contact/atom counts. A pass over the neighbour list, no square roots.
+  [[nodiscard]] std::size_t overlapping_pair_count() const;
   // The largest overlap ratio δ / min(r_i, r_j) of the contacts touching now (what contacts()
   // lists): pairs from the positions; boundary contacts from the linear spring, δ = f_n / K_n,
   // when kn > 0 (pass 0 for a law without a linear spring: pairs only).
