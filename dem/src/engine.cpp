@@ -578,7 +578,7 @@ int Engine::others_idle(std::chrono::steady_clock::time_point now) {
 }
 
 void Engine::run_steps(long long n) {
-  for (long long k = 0; k < n && failure_.empty(); ++k) step();
+  run_until(std::numeric_limits<double>::infinity(), n);
 }
 
 // ---- events -------------------------------------------------------------------------------------

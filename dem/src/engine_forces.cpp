@@ -3,7 +3,10 @@
 #include "demfem/dem/engine.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <exception>
+#include <optional>
 #include <type_traits>
 #include <variant>
 
@@ -14,6 +17,7 @@
 
 #include "engine_internal.hpp"
 #include "pair_kernel.hpp"
+#include "spin_barrier.hpp"
 
 namespace demfem::dem {
 
@@ -329,14 +333,10 @@ int Engine::threads_in_use() const {
 
 template <class Law> void Engine::contact_forces(const Law& law) {
   const std::size_t n = p_.size();
-  const int T = threads_in_use();
-  constexpr std::size_t kE = PairEnergies::kCount;
-  double en[kE] = {};
-  std::uint32_t fail[2] = {~0u, ~0u};
-  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
-  for (auto& st : structures_) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
-  if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
-  if (T <= 1) {
+  reset_step_sums();
+  if (threads_in_use() <= 1) {
+    double en[kPartEnergies] = {};
+    std::uint32_t fail[2] = {~0u, ~0u};
     std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
     std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
     std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
@@ -348,54 +348,200 @@ template <class Law> void Engine::contact_forces(const Law& law) {
     pair_range(law, 0, n, ft, en, fail);
     if (bnd_sums_.empty()) bnd_sums_.resize(1);
     boundary_range(law, 0, bnd_i_.size(), bnd_sums_[0]);
+    finish_forces(en, fail);
+    return;
+  }
+  const std::size_t tcount = begin_parts();
+  const auto body = body_acceleration();
+  // The region's work for thread t0 of a team of ts. A team of one (the adaptive team when the
+  // other cores are busy) runs it without a parallel region, its barrier then being a no-op:
+  // with the region, a step of 10⁴ disks on one thread took ≈ 10 µs (3–5 %) longer
+  // (bench/RESULTS.md, twenty-first session).
+  const auto region = [&](std::size_t t0, std::size_t ts) {
+    for (std::size_t t = t0; t < tcount; t += ts) part_forces(law, t);
+#pragma omp barrier
+    for (std::size_t u = t0; u < tcount; u += ts) part_halos(u);
+    // Without rebound impulses (apply_rebounds changes the forces of any particle) each part's
+    // forces are final now: the thread integrates its parts without leaving the region
+    // (integrate() then only adds up the parts). Every part's events are known at the barrier
+    // above, so no second barrier is needed.
+    if (parts_quiet())
+      for (std::size_t u = t0; u < tcount; u += ts)
+        integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
+  };
+  if (team_size() <= 1) {
+    region(0, 1);
   } else {
-    // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
-    // (equal shares of pair entries). Computed once per list.
-    const auto tcount = std::min(static_cast<std::size_t>(T), kMaxParts);
-    if (parts_version_ != list_version_ || split_.size() != tcount + 1) {
-      split_.assign(tcount + 1, n);
-      split_[0] = 0;
-      const std::uint32_t total = nbr_start_[n];
-      for (std::size_t t = 1; t < tcount; ++t) {
-        const auto target = static_cast<std::uint32_t>(
-            static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
-        split_[t] = static_cast<std::size_t>(
-            std::lower_bound(nbr_start_.begin(),
-                             nbr_start_.begin() + static_cast<std::ptrdiff_t>(n), target) -
-            nbr_start_.begin());
-        split_[t] = std::max(split_[t], split_[t - 1]);
+#pragma omp parallel num_threads(team_size())
+    {
+      const auto [t0, ts] = team_member();
+      region(t0, ts);
+    }
+  }
+  integrated_parts_ = parts_quiet() ? tcount : 0;
+  end_parts();
+}
+
+template <class Law>
+long long Engine::team_steps(const Law& law, long long max_steps, double t_stop) {
+  const int team = team_size();
+  if (max_steps <= 0 || threads_in_use() <= 1 || team <= 1 || !(dt_ > 0.0) || !pe_ref_set_ ||
+      friction_dirty_ || !failure_.empty() || !(time_ < t_stop - 0.5 * dt_) || rebuild_pending())
+    return 0;
+  if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads) return 0; // step() starts it
+  using Clock = std::chrono::steady_clock;
+  // One step here is step()'s: the forces of the parts (part_forces, part_halos), the rebound
+  // impulses when there are any (apply_rebounds), the integration of each part on the thread
+  // that computed its forces, then the serial rest on thread 0 (the parts' sums, integrate()'s
+  // sums, the structures, the clock, the adaptive team, whether the next step needs a rebuild)
+  // while the others wait. The same operations in the same order as step(), so the same bits.
+  reset_step_sums();
+  std::size_t tcount = begin_parts();
+  // Spin ≈ 80 µs (4,096 pauses of ≈ 19 ns on this project's Zen 5 machines) before sleeping, a
+  // step's imbalance being a few µs; about 1 µs when the team has more threads than the
+  // processors it may use (a spinning thread would hold the processor a descheduled one needs:
+  // 400 steps of 1,000 disks on 3 threads and 2 processors took 1 s instead of 0.03 s).
+  int procs = 1;
+#ifdef _OPENMP
+  procs = omp_get_num_procs();
+#endif
+  const unsigned spins = team <= procs ? 4096u : 64u;
+  std::optional<detail::SpinBarrier> barrier;
+  long long done = 0;
+  bool stop = false;
+  // The serial parts run on thread 0 inside the region: an exception there (what step() would
+  // throw) stops the region after this step and is thrown from here, not through OpenMP.
+  std::exception_ptr error;
+  auto serial = [&](auto&& work) {
+    try {
+      work();
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  };
+  auto step_start = Clock::now();
+#pragma omp parallel num_threads(team)
+  {
+    const auto [t0, ts] = team_member();
+    if (t0 == 0) barrier.emplace(static_cast<unsigned>(ts), spins); // the team OpenMP gave
+#pragma omp barrier
+    while (true) {
+      for (std::size_t t = t0; t < tcount; t += ts) part_forces(law, t);
+      barrier->wait();
+      for (std::size_t u = t0; u < tcount; u += ts) part_halos(u);
+      const bool quiet = parts_quiet();
+      if (!quiet) { // the impulses change the forces of particles of any part: all halos first
+        barrier->wait();
+        if (t0 == 0)
+          serial([&] {
+            end_parts();
+            apply_rebounds();
+          });
+        barrier->wait();
       }
-      // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
-      // couple of columns past its range, not the rest of the particles.
-      // Its owners before halo_from_[t] have no partner beyond the part (the scatter then skips
-      // the own/halo test per entry): all but its last couple of columns.
-      halo_end_.assign(tcount, n);
-      halo_from_.assign(tcount, n);
-      for (std::size_t t = 0; t < tcount; ++t) {
-        const std::size_t end = split_[t + 1];
-        std::size_t e = end, from = end;
-        for (std::size_t i = split_[t]; i < end; ++i)
-          for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
-            e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
-            if (nbr_j_[k] >= end) from = std::min(from, i);
+      const auto body = body_acceleration();
+      for (std::size_t u = t0; u < tcount; u += ts)
+        integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
+      barrier->wait();
+      if (t0 == 0)
+        serial([&] {
+          if (quiet) {
+            end_parts();
+            apply_rebounds(); // none: it only clears its list
           }
-        halo_end_[t] = e;
-        halo_from_[t] = from;
-      }
-      parts_version_ = list_version_;
+          const auto forces_done = Clock::now();
+          stats_.force_seconds += std::chrono::duration<double>(forces_done - step_start).count();
+          integrated_parts_ = tcount;
+          integrate(); // the parts' sums only
+          update_structures();
+          time_ += dt_;
+          ++stats_.steps;
+          ++stats_.team_region_steps;
+          tune_team();
+          ++done;
+          stop = done >= max_steps || !failure_.empty() || !(time_ < t_stop - 0.5 * dt_) ||
+                 team_size() != team || rebuild_pending();
+          if (!stop) {
+            reset_step_sums();
+            tcount = begin_parts();
+          }
+          step_start = Clock::now();
+        });
+      if (t0 == 0 && error) stop = true;
+      barrier->wait();
+      if (stop) break;
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  return done;
+}
+
+long long Engine::run_until(double t_stop, long long max_steps) {
+  long long k = 0;
+  while (k < max_steps && failure_.empty()) {
+    if (dt_ > 0.0 && !(time_ < t_stop - 0.5 * dt_)) break;
+    const long long m =
+        std::visit([&](const auto& law) { return team_steps(law, max_steps - k, t_stop); }, law_);
+    if (m > 0) {
+      k += m;
+      continue;
+    }
+    step();
+    ++k;
+  }
+  return k;
+}
+
+void Engine::reset_step_sums() {
+  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
+  for (auto& st : structures_) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
+  if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
+}
+
+std::size_t Engine::begin_parts() {
+  const std::size_t n = p_.size();
+  // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
+  // (equal shares of pair entries). Computed once per list.
+  const auto tcount = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
+  if (parts_version_ != list_version_ || split_.size() != tcount + 1) {
+    split_.assign(tcount + 1, n);
+    split_[0] = 0;
+    const std::uint32_t total = nbr_start_[n];
+    for (std::size_t t = 1; t < tcount; ++t) {
+      const auto target = static_cast<std::uint32_t>(
+          static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
+      split_[t] = static_cast<std::size_t>(
+          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n),
+                           target) -
+          nbr_start_.begin());
+      split_[t] = std::max(split_[t], split_[t - 1]);
+    }
+    // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
+    // couple of columns past its range, not the rest of the particles.
+    // Its owners before halo_from_[t] have no partner beyond the part (the scatter then skips
+    // the own/halo test per entry): all but its last couple of columns.
+    halo_end_.assign(tcount, n);
+    halo_from_.assign(tcount, n);
+    for (std::size_t t = 0; t < tcount; ++t) {
+      const std::size_t end = split_[t + 1];
+      std::size_t e = end, from = end;
+      for (std::size_t i = split_[t]; i < end; ++i)
+        for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
+          e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
+          if (nbr_j_[k] >= end) from = std::min(from, i);
+        }
+      halo_end_[t] = e;
+      halo_from_[t] = from;
     }
     // Part t (owners s_t … s_{t+1} − 1) adds straight into the particle force arrays for the
     // particles of its own range (its owners, and partners j < s_{t+1}: a partner is never below
     // its owner) and into its halo buffer for partners beyond it (s_{t+1} ≤ j < halo_end_[t]); no
     // two parts write the same element. The halos are then added per particle in part order, so
     // the result depends on T only, whichever threads run the parts (the adaptive team).
-    std::size_t halo = 0;
-    for (std::size_t t = 0; t < tcount; ++t) halo += halo_end_[t] - split_[t + 1];
-    if (tbuf_.size() < 3 * halo) tbuf_.resize(3 * halo);
-    double ten[kE * kMaxParts] = {};
-    event_parts_ = tcount;
-    std::uint32_t tfail[2 * kMaxParts];
-    std::fill(tfail, tfail + 2 * tcount, ~0u);
+    halo_off_.assign(tcount + 1, 0);
+    for (std::size_t t = 0; t < tcount; ++t)
+      halo_off_[t + 1] = halo_off_[t] + 3 * (halo_end_[t] - split_[t + 1]);
+    if (tbuf_.size() < halo_off_[tcount]) tbuf_.resize(halo_off_[tcount]);
     // Part t's boundary entries: those of its particles (bnd_i_ is sorted by particle).
     bnd_split_.resize(tcount + 1);
     for (std::size_t t = 0; t <= tcount; ++t)
@@ -403,90 +549,84 @@ template <class Law> void Engine::contact_forces(const Law& law) {
           std::lower_bound(bnd_i_.begin(), bnd_i_.end(), static_cast<std::uint32_t>(split_[t])) -
           bnd_i_.begin());
     bnd_split_[tcount] = bnd_i_.size();
-    if (bnd_sums_.size() < tcount) bnd_sums_.resize(tcount);
-    const auto body = body_acceleration();
-    auto quiet = [&] { // no rebound impulse in any part
-      for (std::size_t t = 0; t < tcount; ++t)
-        if (!rebound_events_[t].empty() || !bnd_sums_[t].events.empty()) return false;
-      return true;
-    };
-    double* buf = tbuf_.data();
-    double* fxo = p_.fx.data();
-    double* fzo = p_.fz.data();
-    double* tqo = p_.torque.data();
-    auto halo_of = [&](std::size_t t) { // part t's halo: 3 arrays of halo_end_[t] − s_{t+1} values
-      std::size_t off = 0;
-      for (std::size_t u = 0; u < t; ++u) off += 3 * (halo_end_[u] - split_[u + 1]);
-      return buf + off;
-    };
-    // The region's work for thread t0 of a team of ts. A team of one (the adaptive team when the
-    // other cores are busy) runs it without a parallel region, its barriers then being no-ops:
-    // with the region, a step of 10⁴ disks on one thread took ≈ 10 µs (3–5 %) longer
-    // (bench/RESULTS.md, twenty-first session).
-    const auto region = [&](std::size_t t0, std::size_t ts) {
-      for (std::size_t t = t0; t < tcount; t += ts) {
-        const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
-        double* hb = h > 0 ? halo_of(t) : nullptr;
-        if (hb) std::fill(hb, hb + 3 * h, 0.0);
-        // The part's own range is written by this part only (until the halo sums below).
-        std::fill(fxo + split_[t], fxo + end, 0.0);
-        std::fill(fzo + split_[t], fzo + end, 0.0);
-        std::fill(tqo + split_[t], tqo + end, 0.0);
-        rebound_events_[t].clear();
-        const ForceTarget own{fxo, fzo, tqo, nullptr, nullptr, nullptr, end, &rebound_events_[t]};
-        const ForceTarget ft{fxo,
-                             fzo,
-                             tqo,
-                             hb,
-                             hb ? hb + h : nullptr,
-                             hb ? hb + 2 * h : nullptr,
-                             end,
-                             &rebound_events_[t]};
-        const std::size_t from = hb ? halo_from_[t] : end;
-        pair_range(law, split_[t], from, own, &ten[kE * t], &tfail[2 * t]);
-        if (from < end) pair_range(law, from, end, ft, &ten[kE * t], &tfail[2 * t]);
-        // The part's wall and structure contacts: its own particles only.
-        boundary_range(law, bnd_split_[t], bnd_split_[t + 1], bnd_sums_[t]);
-      }
-#pragma omp barrier
-      // Part u's particles, on the thread that computed their pair forces (and will integrate
-      // them, integrate()): the halos of parts < u.
-      for (std::size_t u = t0; u < tcount; u += ts)
-        for (std::size_t t = 0; t < u; ++t) {
-          const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
-          const double* hx = halo_of(t);
-          for (std::size_t i = split_[u]; i < std::min(split_[u + 1], halo_end_[t]); ++i) {
-            fxo[i] += hx[i - end];
-            fzo[i] += hx[h + i - end];
-            tqo[i] += hx[2 * h + i - end];
-          }
-        }
-      // Without rebound impulses (apply_rebounds changes the forces of any particle) each part's
-      // forces are final now: the thread integrates its parts without leaving the region
-      // (integrate() then only adds up the parts). Every part's events are known at the barrier
-      // above, so no second barrier is needed.
-      if (quiet())
-        for (std::size_t u = t0; u < tcount; u += ts)
-          integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
-    };
-    if (team_size() <= 1) {
-      region(0, 1);
-    } else {
-#pragma omp parallel num_threads(team_size())
-      {
-        const auto [t0, ts] = team_member();
-        region(t0, ts);
-      }
-    }
-    integrated_parts_ = quiet() ? tcount : 0;
-    for (std::size_t t = 0; t < tcount; ++t) {
-      for (std::size_t q = 0; q < kE; ++q) en[q] += ten[kE * t + q];
-      if (fail[0] == ~0u && tfail[2 * t] != ~0u) {
-        fail[0] = tfail[2 * t];
-        fail[1] = tfail[2 * t + 1];
-      }
+    parts_version_ = list_version_;
+  }
+  std::fill(part_en_.begin(),
+            part_en_.begin() + static_cast<std::ptrdiff_t>(kPartEnergies * tcount), 0.0);
+  std::fill(part_fail_.begin(), part_fail_.begin() + static_cast<std::ptrdiff_t>(2 * tcount), ~0u);
+  event_parts_ = tcount;
+  if (bnd_sums_.size() < tcount) bnd_sums_.resize(tcount);
+  return tcount;
+}
+
+template <class Law> void Engine::part_forces(const Law& law, std::size_t t) {
+  double* fxo = p_.fx.data();
+  double* fzo = p_.fz.data();
+  double* tqo = p_.torque.data();
+  const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
+  double* hb = h > 0 ? tbuf_.data() + halo_off_[t] : nullptr;
+  if (hb) std::fill(hb, hb + 3 * h, 0.0);
+  // The part's own range is written by this part only (until the halo sums, part_halos).
+  std::fill(fxo + split_[t], fxo + end, 0.0);
+  std::fill(fzo + split_[t], fzo + end, 0.0);
+  std::fill(tqo + split_[t], tqo + end, 0.0);
+  rebound_events_[t].clear();
+  const ForceTarget own{fxo, fzo, tqo, nullptr, nullptr, nullptr, end, &rebound_events_[t]};
+  const ForceTarget ft{fxo,
+                       fzo,
+                       tqo,
+                       hb,
+                       hb ? hb + h : nullptr,
+                       hb ? hb + 2 * h : nullptr,
+                       end,
+                       &rebound_events_[t]};
+  const std::size_t from = hb ? halo_from_[t] : end;
+  double* en = &part_en_[kPartEnergies * t];
+  std::uint32_t* fail = &part_fail_[2 * t];
+  pair_range(law, split_[t], from, own, en, fail);
+  if (from < end) pair_range(law, from, end, ft, en, fail);
+  // The part's wall and structure contacts: its own particles only.
+  boundary_range(law, bnd_split_[t], bnd_split_[t + 1], bnd_sums_[t]);
+}
+
+void Engine::part_halos(std::size_t u) {
+  // Part u's particles, on the thread that computed their pair forces (and will integrate them):
+  // the halos of parts < u.
+  double* fxo = p_.fx.data();
+  double* fzo = p_.fz.data();
+  double* tqo = p_.torque.data();
+  for (std::size_t t = 0; t < u; ++t) {
+    const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
+    const double* hx = tbuf_.data() + halo_off_[t];
+    for (std::size_t i = split_[u]; i < std::min(split_[u + 1], halo_end_[t]); ++i) {
+      fxo[i] += hx[i - end];
+      fzo[i] += hx[h + i - end];
+      tqo[i] += hx[2 * h + i - end];
     }
   }
+}
+
+bool Engine::parts_quiet() const { // no rebound impulse in any part
+  for (std::size_t t = 0; t < event_parts_; ++t)
+    if (!rebound_events_[t].empty() || !bnd_sums_[t].events.empty()) return false;
+  return true;
+}
+
+void Engine::end_parts() {
+  static_assert(PairEnergies::kCount == kPartEnergies);
+  double en[kPartEnergies] = {};
+  std::uint32_t fail[2] = {~0u, ~0u};
+  for (std::size_t t = 0; t < event_parts_; ++t) {
+    for (std::size_t q = 0; q < kPartEnergies; ++q) en[q] += part_en_[kPartEnergies * t + q];
+    if (fail[0] == ~0u && part_fail_[2 * t] != ~0u) {
+      fail[0] = part_fail_[2 * t];
+      fail[1] = part_fail_[2 * t + 1];
+    }
+  }
+  finish_forces(en, fail);
+}
+
+void Engine::finish_forces(const double* en, const std::uint32_t* fail) {
   if (fail[0] != ~0u && failure_.empty()) {
     const std::uint32_t i = fail[0], j = fail[1];
     const double delta =

@@ -76,6 +76,11 @@ void Engine::check_rebuild() {
       top.add(dx * dx + dz * dz);
     }
   }
+  disp_valid_ = false;
+  if (past_skin(top.a, top.b)) rebuild();
+}
+
+bool Engine::past_skin(double disp2_a, double disp2_b) const {
   double b2 = 0.0;
   for (std::size_t k = 0; k < bvx_.size(); ++k) {
     const double dx = bvx_[k] - bvx_ref_[k], dz = bvz_[k] - bvz_ref_[k];
@@ -87,9 +92,12 @@ void Engine::check_rebuild() {
   // largest boundary vertex displacement; a rigid outline's points move by at most its vertices'
   // largest). Verlet's test d1 > skin/2 is the special case d2 = d1; with one fast particle among
   // slow ones (a grain thrown off a shaken surface) this one rebuilds about half as often.
-  disp_valid_ = false;
-  const double d1 = std::sqrt(top.a);
-  if (d1 + std::max(std::sqrt(top.b), std::sqrt(b2)) > skin_) rebuild();
+  const double d1 = std::sqrt(disp2_a);
+  return d1 + std::max(std::sqrt(disp2_b), std::sqrt(b2)) > skin_;
+}
+
+bool Engine::rebuild_pending() const {
+  return need_rebuild_ || x_ref_.size() != p_.size() || !disp_valid_ || past_skin(disp_a_, disp_b_);
 }
 
 void Engine::reorder() {

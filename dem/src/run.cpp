@@ -674,7 +674,16 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       next_snap += snap_dt;
     }
     if (!failure.empty()) break;
-    e.step();
+    // The steps before the next action at once (Engine::run_until: with a team of threads, in
+    // one parallel region): each action above fires at time ≥ t_next − Δt/2, run_until's stop
+    // (the same expression, so the same step); an event's test (its time ≤ t + Δt/2) is kept
+    // out by a step's margin. The first step alone (e0 below), and at most up to the next
+    // multiple of 256 steps (the progress line; the interruption test).
+    double t_next = std::min({t_end, next_probe, next_snap});
+    if (ckpt_dt > 0.0) t_next = std::min(t_next, next_ckpt);
+    if (next_event < events.size()) t_next = std::min(t_next, events[next_event].time - dt);
+    const long long to_report = 256 - (e.stats().steps & 255);
+    if (e.run_until(t_next, e0_set ? to_report : 1) == 0) e.step(); // an action within a step
     if (!e0_set) {
       const auto b0 = e.energy();
       e0 = b0.total();
@@ -722,18 +731,19 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                      static_cast<double>(std::max<long long>(1, st.neighbour_rebuilds)),
                  static_cast<double>(st.pair_entries) /
                      static_cast<double>(std::max<std::size_t>(1, e.particles().size())),
-                 e.threads_in_use() > 1 ? " and integration (one parallel region)" : "",
-                 st.force_seconds, st.rebuild_seconds, solver);
+                 e.threads_in_use() > 1 ? " and integration" : "", st.force_seconds,
+                 st.rebuild_seconds, solver);
   }
   if (const auto& st = e.stats(); st.team_full_steps + st.team_one_steps > 0) {
     const double all = static_cast<double>(st.team_full_steps + st.team_one_steps);
-    spdlog::info("threads: work cut into {} parts; {:.1f} % of the steps ran on {} threads, "
+    spdlog::info("threads: work cut into {} parts; {:.1f} % of the steps ran on {} threads "
+                 "({:.1f} % many to a parallel region, the others one step per region), "
                  "{:.1f} % on one (adaptive team: one thread where the full team measured slower, "
                  "e.g. a core shared with another process; {} probes of the full team left out "
                  "while the other CPUs were busy); results depend on the part count only",
                  e.threads_in_use(), 100.0 * static_cast<double>(st.team_full_steps) / all,
-                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_one_steps) / all,
-                 st.team_probes_skipped);
+                 e.threads_in_use(), 100.0 * static_cast<double>(st.team_region_steps) / all,
+                 100.0 * static_cast<double>(st.team_one_steps) / all, st.team_probes_skipped);
   }
   if (const auto& st = e.stats(); st.rebound_contacts > 0)
     spdlog::info(

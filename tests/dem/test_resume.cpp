@@ -380,6 +380,95 @@ TEST(DemThreads, TeamSizeDoesNotChangeResults) {
   }
 }
 
+// run_until and run_steps run many steps in one parallel region (Engine::team_steps: a spin
+// barrier, no fork and join per step) with the same operations in the same order as step(): the
+// same bits. With rebound impulses (V_0 = 0.3 m/s under the lattice's ±1 m/s: the steps with
+// events take their serial path inside the region), a fixed lid (the structure sums and
+// update_structures), base shaking (the body force read each step) and rebuilds, which end a
+// region; chunks of 1 to 37 steps.
+TEST(DemThreads, ManyStepsInOneRegionGiveTheStepsBits) {
+  struct Result {
+    dem::Particles p;
+    dem::EnergyBudget energy;
+    double lid_fx = 0.0, lid_fz = 0.0, lid_moment = 0.0, time = 0.0;
+    dem::EngineStats stats;
+  };
+  constexpr int kSteps = 400;
+  auto run = [](int threads, bool regions) {
+    auto c = team_test_config(threads);
+    c.rebound_speed = 0.3;
+    c.shaking = true;
+    c.shaking_acceleration = scene::TimeFunction::sine(3.0, 7.0);
+    dem::Engine e(c);
+    add_shaken_lattice(e, 1000, 40, 11); // top row: centres at z = 3.70 m, r ≤ 0.075 m
+    scene::Structure lid;
+    lid.name = "lid";
+    lid.outline = {{0.5, 3.79}, {5.0, 3.79}, {5.0, 4.0}, {0.5, 4.0}};
+    lid.pivot = {2.75, 3.79};
+    lid.load_point = {2.75, 4.0};
+    lid.density = 2400;
+    e.add_structure(lid);
+    e.set_team(threads); // the full team, fixed
+    if (regions) {
+      for (int s = 0, k = 1; s < kSteps; k = k % 37 + 1) {
+        const auto m = static_cast<int>(
+            e.run_until(std::numeric_limits<double>::infinity(), std::min(k, kSteps - s)));
+        EXPECT_EQ(m, std::min(k, kSteps - s));
+        s += m;
+      }
+    } else {
+      for (int s = 0; s < kSteps; ++s) e.step();
+    }
+    EXPECT_FALSE(e.failed()) << e.failure();
+    const auto& st = e.structures()[0];
+    return Result{e.particles(),  e.energy(), st.soil_fx, st.soil_fz,
+                  st.soil_moment, e.time(),   e.stats()};
+  };
+  for (const int threads : {2, 3}) {
+    const Result a = run(threads, false), b = run(threads, true);
+    EXPECT_EQ(a.stats.team_region_steps, 0);
+    EXPECT_GT(b.stats.team_region_steps, kSteps / 2) << "the steps did not run in regions";
+    EXPECT_GT(a.stats.neighbour_rebuilds, 3);
+    EXPECT_GT(a.stats.rebound_contacts, 50);
+    EXPECT_GT(std::abs(a.lid_fz), 0.0); // the disks reach the lid
+    expect_same_particles(a.p, b.p);
+    EXPECT_EQ(a.stats.steps, b.stats.steps);
+    EXPECT_EQ(a.stats.neighbour_rebuilds, b.stats.neighbour_rebuilds);
+    EXPECT_EQ(a.stats.rebound_contacts, b.stats.rebound_contacts);
+    EXPECT_EQ(a.time, b.time);
+    EXPECT_EQ(a.energy.friction, b.energy.friction);
+    EXPECT_EQ(a.energy.damping, b.energy.damping);
+    EXPECT_EQ(a.energy.rebound, b.energy.rebound);
+    EXPECT_EQ(a.energy.external_work, b.energy.external_work);
+    EXPECT_EQ(a.energy.spring_normal, b.energy.spring_normal);
+    EXPECT_EQ(a.lid_fx, b.lid_fx);
+    EXPECT_EQ(a.lid_fz, b.lid_fz);
+    EXPECT_EQ(a.lid_moment, b.lid_moment);
+  }
+}
+
+// run_until stops at the first step whose time reaches t_stop − Δt/2 (a runner's probe test),
+// whether the steps run in regions (2 threads) or one by one (1 thread), and at max_steps.
+TEST(DemThreads, RunUntilStopsWhereARunnerLoopWould) {
+  for (const int threads : {1, 2}) {
+    dem::Engine e(team_test_config(threads));
+    add_shaken_lattice(e, 600, 30, 5);
+    e.set_team(threads);
+    const double dt = e.dt();
+    const double t_stop = 57.3 * dt;
+    const long long m = e.run_until(t_stop, 1000);
+    EXPECT_GE(e.time(), t_stop - 0.5 * dt);
+    EXPECT_LT(e.time() - dt, t_stop - 0.5 * dt);
+    EXPECT_EQ(m, e.stats().steps);
+    EXPECT_EQ(e.run_until(t_stop, 1000), 0); // already there
+    EXPECT_EQ(e.run_until(1.0, 13), 13);
+    EXPECT_EQ(e.stats().steps, m + 13);
+    if (threads > 1) {
+      EXPECT_GT(e.stats().team_region_steps, 0);
+    }
+  }
+}
+
 // The adaptive team reads how idle the other CPUs were before it probes the full team: while they
 // are busy it never runs a 2-thread step (each such probe stalls on the busy core: 0.84 of one
 // thread at 10⁴ disks with the probes, 1.00 without, bench/RESULTS.md); while they idle it probes.

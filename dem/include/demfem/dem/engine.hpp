@@ -150,6 +150,8 @@ struct EngineStats {
   double rebuild_seconds = 0.0, force_seconds = 0.0;
   // threads > 1: steps run by the full team / by one thread (adaptive team), team switches.
   long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
+  // Of the full team's steps, those run many to a parallel region (run_until, run_steps).
+  long long team_region_steps = 0;
   // Probes of the full team left out because no other CPU had been idle (set_idle_source).
   long long team_probes_skipped = 0;
   // cundall-rebound: contacts that first touched above V_0; of them, those sharing a particle
@@ -227,6 +229,10 @@ public:
   // ---- stepping ---------------------------------------------------------------------------
   void step();
   void run_steps(long long n);
+  // Steps while time() < t_stop − Δt/2 (the test a runner's `time ≥ t_next − Δt/2` action
+  // makes), at most max_steps, and while healthy: what a loop of step() would do, in fewer
+  // parallel regions when a team of threads runs it. Returns the steps run.
+  long long run_until(double t_stop, long long max_steps);
   [[nodiscard]] double time() const { return time_; }
   void set_time(double t) { time_ = t; }
 
@@ -331,6 +337,27 @@ private:
   // own range with the particle–particle forces, then adds its particles' wall and structure
   // contacts (boundary_range), on the thread that will integrate them.
   template <class Law> void contact_forces(const Law& law);
+  // The steps of contact_forces with two parts or more (split_), for one step and for the many
+  // steps of one parallel region (team_steps): the step's sums reset (serial), the parts set up
+  // (serial: the split per list, the halo offsets, the part sums), part t's pair forces and
+  // boundary contacts, part u's halo sums (after every part's forces), whether no part has a
+  // rebound event, and the parts' sums added in part order (serial).
+  void reset_step_sums();
+  std::size_t begin_parts();
+  template <class Law> void part_forces(const Law& law, std::size_t t);
+  void part_halos(std::size_t u);
+  [[nodiscard]] bool parts_quiet() const;
+  void end_parts();
+  void finish_forces(const double* en, const std::uint32_t* fail);
+  // Up to max_steps whole steps, while time_ < t_stop − Δt/2, in one parallel region of the full
+  // team (no fork and join per step): returns the steps run; 0 when the step cannot run there
+  // (then step() runs it). It stops before a step that needs a rebuild, after a failure, and when
+  // the adaptive team changes.
+  template <class Law> long long team_steps(const Law& law, long long max_steps, double t_stop);
+  // check_rebuild's test on the integration's displacements, without the rebuild and without
+  // changing anything (true too when they are not known: check_rebuild then decides).
+  [[nodiscard]] bool rebuild_pending() const;
+  [[nodiscard]] bool past_skin(double disp2_a, double disp2_b) const;
   // One part's boundary contacts: the sums it adds to the boundaries, structures and energies,
   // combined in part order after the parts (add_boundary_sums), so the result depends on the
   // part count only.
@@ -452,6 +479,10 @@ private:
   // range), the parts' owner ranges, and the end of each part's halo (one past its largest
   // partner), computed for the list of version parts_version_ (list_version_ counts the lists).
   std::vector<double> tbuf_;
+  std::vector<std::size_t> halo_off_; // part t's halo: tbuf_[halo_off_[t]] …, 3 arrays
+  static constexpr std::size_t kPartEnergies = 4; // friction, damping, normal and shear springs
+  std::array<double, kPartEnergies * kMaxParts> part_en_{}; // per part, this step
+  std::array<std::uint32_t, 2 * kMaxParts> part_fail_{};    // per part: first pair past the limit
   // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts_ − 1),
   // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
   std::vector<std::vector<detail::ReboundEvent>> rebound_events_;
