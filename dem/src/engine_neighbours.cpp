@@ -185,8 +185,14 @@ void Engine::reorder() {
 
 // Boundary candidates of the particles i0 … i1 − 1: every (particle, active feature) pair within
 // reach, in (particle, feature) order.
-void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni,
-                                 std::vector<std::uint32_t>& nf) const {
+void Engine::boundary_candidates(std::size_t i0, std::size_t i1,
+                                 std::vector<std::uint32_t>& ni_out,
+                                 std::vector<std::uint32_t>& nf_out) const {
+  // Appended to vectors of this thread's own, as the pair search does (rebuild()): the parts'
+  // vectors share cache lines.
+  std::vector<std::uint32_t> ni, nf;
+  ni.swap(ni_out);
+  nf.swap(nf_out);
   ni.clear();
   nf.clear();
   // Each active feature's bounding box, widened by the largest reach (r_max + skin) and a
@@ -235,6 +241,8 @@ void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std
       }
     }
   }
+  ni_out.swap(ni);
+  nf_out.swap(nf);
 }
 
 void Engine::rebuild() {
@@ -317,9 +325,15 @@ void Engine::rebuild() {
       for (std::size_t i = 0; i < n; ++i)
         if (cell_of[i] != ~0u) cell_items[fill[cell_of[i]]++] = static_cast<std::uint32_t>(i);
     }
-    // Candidate pairs (i < j within cut-off + skin) of the owners i0 ≤ i < i1, appended to `out`
-    // in (owner, partner) order; new_start[i] is set relative to out's start.
-    auto search = [&](std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& out) {
+    // Candidate pairs (i < j within cut-off + skin) of the owners i0 ≤ i < i1, into `result`
+    // in (owner, partner) order; new_start[i] is set relative to its start. The list grows in a
+    // vector of this thread's own (moved into `result` at the end): the parts' vectors sit side
+    // by side in one cache line, and two threads appending to them moved that line between the
+    // cores at every particle (the search took twice as long on 2 threads as on one,
+    // bench/RESULTS.md, twenty-second session).
+    auto search = [&](std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& result) {
+      std::vector<std::uint32_t> out;
+      out.swap(result);
       out.clear();
       out.reserve((i1 - i0) * 4);
       std::vector<std::uint32_t> local;
@@ -356,6 +370,7 @@ void Engine::rebuild() {
         std::sort(lo, lo + m);
         out.insert(out.end(), lo, lo + m);
       }
+      result.swap(out);
     };
     if (T <= 1) {
       search(0, n, new_j);
