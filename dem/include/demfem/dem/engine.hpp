@@ -8,7 +8,7 @@
 //   e.add_wall({{x0, z0}, {x1, z1}});    // polyline wall, two-sided
 //   e.add_structure(structure);          // rigid polygon (pile, footing, wall)
 //   e.set_dt(e.auto_dt());               // or a chosen Δt (checked against the stable limit)
-//   e.step(); …                          // or run_steps(n)
+//   e.step(); …                          // or run_steps(n), run_until(t, n)
 // Probes read particles(), structures(), boundary_reaction(), energy(), contacts().
 // Everything here is plain computation: no I/O.
 #pragma once
