@@ -462,7 +462,7 @@ void Engine::step() {
   }
   const auto t0 = std::chrono::steady_clock::now();
   if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads && threads_in_use() > 1)
-    start_team(t0);
+    start_team(team_clock_ ? team_clock_() : t0);
   check_rebuild();
   const auto t1 = std::chrono::steady_clock::now();
   compute_forces();
@@ -508,7 +508,7 @@ void Engine::tune_team() {
   ++(one ? stats_.team_one_steps : stats_.team_full_steps);
   auto& tu = tuner_;
   if (tu.fixed || !config_.adaptive_threads) return;
-  const auto now = std::chrono::steady_clock::now();
+  const auto now = team_clock_ ? team_clock_() : std::chrono::steady_clock::now();
   if (!tu.started) {
     start_team(now);
     return;
@@ -542,7 +542,13 @@ void Engine::tune_team() {
     }
     tu.until_probe = tu.probe_every;
   } else {
+    // A window a quarter slower than the one before (another process took a core the full team
+    // uses, say) tries the other choice now instead of after up to 64 windows: a full team that
+    // had won for seconds kept running at 0.8–1.3× one thread's pace after `stress-ng --cpu 1`
+    // started (10⁵ disks; bench/RESULTS.md, twenty-second session).
+    const bool slowed = tu.current_per_step > 0.0 && per > 1.25 * tu.current_per_step;
     tu.current_per_step = per;
+    if (slowed) tu.until_probe = std::min(tu.until_probe, 1);
     if (--tu.until_probe <= 0) {
       const int idle = tu.current == 1 ? others_idle(now) : 1; // a probe of one thread never stalls
       if (idle > 0) {

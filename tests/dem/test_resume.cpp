@@ -380,6 +380,43 @@ TEST(DemThreads, TeamSizeDoesNotChangeResults) {
   }
 }
 
+// The adaptive team on a fake clock (set_team_clock): a step costs 1 ms on one thread and 0.6 ms
+// on the full team, so the full team wins its probes and they grow rare (every 64 windows); at
+// step kBusy the other core becomes busy and a full-team step costs 1.5 ms. The first slower
+// window tries one thread at once, which wins: the team switches within a few windows, not after
+// up to 64 of them.
+TEST(DemThreads, AFullTeamThatSlowsDownTriesOneThreadAtOnce) {
+  using clock = std::chrono::steady_clock;
+  constexpr long long kBusy = 30000;
+  dem::Engine e(team_test_config(2));
+  add_shaken_lattice(e, 200, 20, 9);
+  double t = 0.0;
+  long long counted = 0;
+  e.set_team_clock([&] {
+    const long long s = e.stats().steps;
+    const double cost = e.team_size() == 1 ? 1.0e-3 : (s < kBusy ? 0.6e-3 : 1.5e-3);
+    t += static_cast<double>(s - counted) * cost;
+    counted = s;
+    return clock::time_point{} +
+           std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
+  });
+  e.set_idle_source({}, [] { return 1; }); // the other CPU free at the start: the full team
+  e.run_steps(kBusy);
+  ASSERT_FALSE(e.failed()) << e.failure();
+  const auto before = e.stats();
+  EXPECT_EQ(before.team_switches, 0);
+  EXPECT_GT(before.team_full_steps, 0.95 * kBusy); // a few probe steps on one thread
+  long long steps = 0;
+  while (e.stats().team_switches == before.team_switches && steps < 20000) {
+    e.run_steps(16);
+    steps += 16;
+  }
+  EXPECT_EQ(e.stats().team_switches, before.team_switches + 1);
+  // 240 steps here; 2,032 when only the scheduled probes may switch
+  EXPECT_LT(steps, 1000) << "the full team ran on at the busy pace";
+  EXPECT_EQ(e.team_size(), 1);
+}
+
 // run_until and run_steps run many steps in one parallel region (Engine::team_steps: a spin
 // barrier, no fork and join per step) with the same operations in the same order as step(): the
 // same bits. With rebound impulses (V_0 = 0.3 m/s under the lattice's ±1 m/s: the steps with

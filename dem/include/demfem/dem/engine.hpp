@@ -271,6 +271,11 @@ public:
     idle_source_ = std::move(source);
     free_now_ = std::move(free_now);
   }
+  // The clock the adaptive team times its windows with (default: std::chrono::steady_clock; for
+  // tests, which give each step the duration they choose).
+  void set_team_clock(std::function<std::chrono::steady_clock::time_point()> clock) {
+    team_clock_ = std::move(clock);
+  }
 
   // ---- checkpoint / resume ----------------------------------------------------------------
   // Everything besides the particle arrays that a bit-for-bit continuation needs: time, step,
@@ -427,6 +432,7 @@ private:
   } tuner_;
   std::function<double()> idle_source_;
   std::function<int()> free_now_;
+  std::function<std::chrono::steady_clock::time_point()> team_clock_;
   // Whether the other CPUs were idle enough since the last reading for a probe of the full team:
   // 1 yes (or unknown), 0 no, −1 too short a span to tell.
   int others_idle(std::chrono::steady_clock::time_point now);
