@@ -381,10 +381,10 @@ TEST(DemThreads, TeamSizeDoesNotChangeResults) {
 }
 
 // The adaptive team on a fake clock (set_team_clock): a step costs 1 ms on one thread and 0.6 ms
-// on the full team, so the full team wins its probes and they grow rare (every 64 windows); at
-// step kBusy the other core becomes busy and a full-team step costs 1.5 ms. The first slower
-// window tries one thread at once, which wins: the team switches within a few windows, not after
-// up to 64 of them.
+// on the full team, so the full team wins its probes and they grow rarer (every 4, 8, … up to 64
+// windows); at step kBusy the other core becomes busy and a full-team step costs 1.5 ms. The
+// first slower window tries one thread at once, which wins: the team switches within a few
+// windows, not at the next scheduled probe.
 TEST(DemThreads, AFullTeamThatSlowsDownTriesOneThreadAtOnce) {
   using clock = std::chrono::steady_clock;
   constexpr long long kBusy = 30000;
