@@ -10,8 +10,10 @@
 #include <random>
 
 #include "demfem/dem/engine.hpp"
+#include "demfem/dem/malloc_tuning.hpp"
 
 int main(int argc, char** argv) {
+  demfem::dem::keep_freed_memory_for_reuse(); // as the demfem command does
   using namespace demfem::dem;
   const int n = argc > 1 ? std::atoi(argv[1]) : 10000;
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;

@@ -27,6 +27,7 @@
 
 #include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
+#include "demfem/dem/malloc_tuning.hpp"
 #include "demfem/scene/load.hpp"
 
 namespace {
@@ -41,6 +42,7 @@ double coordination(const demfem::dem::Engine& e) {
 } // namespace
 
 int main(int argc, char** argv) {
+  demfem::dem::keep_freed_memory_for_reuse(); // as the demfem command does
   using namespace demfem;
   if (argc < 2) {
     std::fprintf(stderr,

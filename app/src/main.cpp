@@ -35,6 +35,7 @@
 #include "demfem/compare/report.hpp"
 #include "demfem/compare/study.hpp"
 #include "demfem/dem/key_hash.hpp"
+#include "demfem/dem/malloc_tuning.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -1607,6 +1608,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
 } // namespace
 
 int main(int argc, char** argv) {
+  dem::keep_freed_memory_for_reuse(); // the neighbour rebuilds' lists (malloc_tuning.hpp)
   CLI::App app{"demfem — the same geotechnical scene as a granular assembly (DEM) and as a "
                "continuum (FEM), and where the two diverge."};
   app.footer(kExitCodes);
