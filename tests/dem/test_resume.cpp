@@ -254,6 +254,17 @@ void add_shaken_lattice(dem::Engine& e, int n, int cols, std::uint64_t seed) {
   }
   e.set_dt(e.auto_dt());
 }
+
+// A rigid lid over [x0, x1] × [z0, z1], every degree of freedom fixed (the default).
+void add_lid(dem::Engine& e, double x0, double x1, double z0, double z1) {
+  scene::Structure lid;
+  lid.name = "lid";
+  lid.outline = {{x0, z0}, {x1, z0}, {x1, z1}, {x0, z1}};
+  lid.pivot = {0.5 * (x0 + x1), z0};
+  lid.load_point = {0.5 * (x0 + x1), z1};
+  lid.density = 2400;
+  e.add_structure(lid);
+}
 } // namespace
 
 // OpenMP: 2 threads give bit-identical results across runs and agree with 1 thread to round-off.
@@ -311,13 +322,7 @@ TEST(DemThreads, StructureForceAddsUpOverParts) {
     c.parallel_min_particles = 0;
     dem::Engine e(c);
     add_shaken_lattice(e, 2000, 50, 3); // top row: centres at z = 5.97 m, r ≤ 0.075 m
-    scene::Structure lid;
-    lid.name = "lid";
-    lid.outline = {{0.5, 6.06}, {7.0, 6.06}, {7.0, 6.3}, {0.5, 6.3}};
-    lid.pivot = {3.75, 6.06};
-    lid.load_point = {3.75, 6.3};
-    lid.density = 2400;
-    e.add_structure(lid); // every degree of freedom fixed (the default)
+    add_lid(e, 0.5, 7.0, 6.06, 6.3);
     double impulse_z = 0.0, moment = 0.0;
     for (int s = 0; s < 600; ++s) {
       e.step();
@@ -438,13 +443,7 @@ TEST(DemThreads, ManyStepsInOneRegionGiveTheStepsBits) {
     c.shaking_acceleration = scene::TimeFunction::sine(3.0, 7.0);
     dem::Engine e(c);
     add_shaken_lattice(e, 1000, 40, 11); // top row: centres at z = 3.70 m, r ≤ 0.075 m
-    scene::Structure lid;
-    lid.name = "lid";
-    lid.outline = {{0.5, 3.79}, {5.0, 3.79}, {5.0, 4.0}, {0.5, 4.0}};
-    lid.pivot = {2.75, 3.79};
-    lid.load_point = {2.75, 4.0};
-    lid.density = 2400;
-    e.add_structure(lid);
+    add_lid(e, 0.5, 5.0, 3.79, 4.0);
     e.set_team(threads); // the full team, fixed
     if (regions) {
       for (int s = 0, k = 1; s < kSteps; k = k % 37 + 1) {
