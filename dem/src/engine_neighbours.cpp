@@ -185,8 +185,7 @@ void Engine::reorder() {
 
 // Boundary candidates of the particles i0 … i1 − 1: every (particle, active feature) pair within
 // reach, in (particle, feature) order.
-void Engine::boundary_candidates(std::size_t i0, std::size_t i1,
-                                 std::vector<std::uint32_t>& ni_out,
+void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni_out,
                                  std::vector<std::uint32_t>& nf_out) const {
   // Appended to vectors of this thread's own, as the pair search does (rebuild()): the parts'
   // vectors share cache lines.
