@@ -350,8 +350,8 @@ namespace {
 // hugetlb itself). A 2,800 × 1,192 strip allocates its canvas, the decoded panel images and the
 // PNG encoder's rows afresh: 13,000 page faults with 4 KiB pages, 2,700–3,700 with huge pages,
 // and 7–22 % less gnuplot CPU time per figure on a virtual machine (bench/RESULTS.md,
-// twenty-first session). Where the kernel offers no huge pages the setting does nothing; other C libraries
-// ignore the variable.
+// twenty-first session). Where the kernel offers no huge pages the setting does nothing; other C
+// libraries ignore the variable.
 std::vector<std::string> gnuplot_environment() {
   std::vector<std::string> e;
   bool have = false;
