@@ -223,7 +223,8 @@ TEST(ContinuumStructures, PrescribedMotionAcceleratesTheSoilThroughTheMass) {
     const double fx = m.soil_reaction(0).fx;
     worst = std::max(worst, std::abs(fx + mass * a) / (mass * A * w));
   }
-  std::printf("prescribed plate under a free block: max |F_soil + m a| / (m a_max) = %.2e\n", worst);
+  std::printf("prescribed plate under a free block: max |F_soil + m a| / (m a_max) = %.2e\n",
+              worst);
   EXPECT_LT(worst, 0.005);
 }
 
