@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
   if (adaptive < 0) e.set_team(-adaptive); // a fixed team of −adaptive threads
   if (adaptive == 1) e.set_idle_source(dem::idle_cpu_seconds, dem::free_cpus_now);
   if (adaptive == 3) e.set_idle_source(dem::idle_cpu_seconds);
-  const long every = zn > 0 ? steps / zn : steps + 1;
+  const long every = zn > 0 ? std::max(1L, steps / zn) : steps + 1;
   double zsum = 0.0;
   long nz = 0;
   const auto t0 = std::chrono::steady_clock::now();
