@@ -462,7 +462,7 @@ void Engine::step() {
   }
   const auto t0 = std::chrono::steady_clock::now();
   if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads && threads_in_use() > 1)
-    start_team(team_clock_ ? team_clock_() : t0);
+    start_team(team_clock_ ? team_now() : t0);
   check_rebuild();
   const auto t1 = std::chrono::steady_clock::now();
   compute_forces();
@@ -508,7 +508,7 @@ void Engine::tune_team() {
   ++(one ? stats_.team_one_steps : stats_.team_full_steps);
   auto& tu = tuner_;
   if (tu.fixed || !config_.adaptive_threads) return;
-  const auto now = team_clock_ ? team_clock_() : std::chrono::steady_clock::now();
+  const auto now = team_now();
   if (!tu.started) {
     start_team(now);
     return;

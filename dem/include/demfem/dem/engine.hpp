@@ -433,6 +433,10 @@ private:
   std::function<double()> idle_source_;
   std::function<int()> free_now_;
   std::function<std::chrono::steady_clock::time_point()> team_clock_;
+  // The adaptive team's clock: team_clock_ when set, else std::chrono::steady_clock.
+  [[nodiscard]] std::chrono::steady_clock::time_point team_now() const {
+    return team_clock_ ? team_clock_() : std::chrono::steady_clock::now();
+  }
   // Whether the other CPUs were idle enough since the last reading for a probe of the full team:
   // 1 yes (or unknown), 0 no, −1 too short a span to tell.
   int others_idle(std::chrono::steady_clock::time_point now);
