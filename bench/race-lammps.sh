@@ -23,10 +23,18 @@
 # the parameter mapping). Each repeat runs LAMMPS and demfem back to back (the order alternates
 # between repeats), so drifting machine load hits both alike; the load average is logged.
 #
+# The machine: before each repeat, bench/machine-probe.sh prints
+#   machine cpuA=<s> cpuB=<s> together=<s>/<s> ceiling=<x>
+# ceiling: the throughput of two 1-thread runs at once over one alone on the faster CPU. On these
+# project VMs it moves between ≈ 2, ≈ 1.6–1.7 and ≈ 1.2 from minute to minute: no program scales
+# beyond it, so the summary prints each program's 1 → 2 core speed-up beside it.
+#
 # Output: one line per run (run.sh's format, "lammps …" / "demfem …"), then per (N, cores)
 #   summary N=<n> cores=<c> lammps=<min>/<median>/<max> demfem=<min>/<median>/<max> (particle-steps/s)
 #   ratio N=<n> cores=<c> demfem/lammps=<ratio of the medians> paired=<median of the repeats' ratios>
 #   physics N=<n> cores=<c> Z_lammps=<z> Z_demfem=<z> diff=<%> ok|FAIL   (|diff| <= ZTOL %, default 3)
+# and per N with cores 1 and 2
+#   scaling N=<n> demfem=<2-core median / 1-core median> lammps=<…> machine_ceiling=<median>
 # and the exit status is 1 when a physics check failed.
 set -euo pipefail
 
@@ -79,12 +87,16 @@ run_demfem-scalar() { # N cores: the one-pass scalar pair loop
   run_demfem "$1" "$2" scalar | sed 's/^demfem /demfem-scalar /'
 }
 load() { cut -d' ' -f1 /proc/loadavg; }
-
 for N in $NLIST; do
   python3 "$ROOT/bench/lammps_tile_scene.py" "$LAMMPS_BENCH/tile_settled.data.gz" "$N" "$STEPS" \
     "$WORK" >/dev/null
   if [ -n "${REPS:-}" ]; then reps=$REPS; elif [ "$N" -le 100000 ]; then reps=3; else reps=1; fi
   for r in $(seq 1 "$reps"); do
+    m=$(RACE_BIN=$RACE_BIN WORK=$WORK LAMMPS_BENCH=$LAMMPS_BENCH "$ROOT/bench/machine-probe.sh")
+    if [ -n "$m" ]; then
+      echo "$m load=$(load)"
+      echo "$m N=$N" >>"$RES"
+    fi
     for c in $CORES; do
       if [ $((r % 2)) -eq 1 ]; then order="lammps demfem"; else order="demfem lammps"; fi
       [ "${BASELINE:-0}" = 1 ] && order="$order demfem-scalar"
@@ -102,6 +114,9 @@ awk -v tol="$ZTOL" '
   function median(a, n,   i, j, t) { for (i = 1; i <= n; i++) for (j = i + 1; j <= n; j++)
       if (a[j] < a[i]) { t = a[i]; a[i] = a[j]; a[j] = t }
     return n % 2 ? a[(n + 1) / 2] : 0.5 * (a[n / 2] + a[n / 2 + 1]) }
+  $1 == "machine" { for (i = 2; i <= NF; i++) { split($i, kv, "=")
+      if (kv[1] == "ceiling") ceil_v[$NF, ++ceil_n[$NF]] = kv[2] }
+    next }
   {
     prog = $1; n = ""; c = ""; ps = 0; z = 0
     for (i = 2; i <= NF; i++) { split($i, kv, "=");
@@ -133,6 +148,12 @@ awk -v tol="$ZTOL" '
         ms = median(a, m)
         printf "baseline N=%s cores=%s demfem_scalar_median=%.3g blocked/scalar=%.2f scalar/lammps=%.2f\n", nc[1], nc[2], ms, med["demfem"] / ms, ms / med["lammps"] }
       printf "physics N=%s cores=%s Z_lammps=%.3f Z_demfem=%.3f diff=%+.2f%% %s\n", nc[1], nc[2], zm["lammps"], zm["demfem"], d, ok ? "ok" : "FAIL"
+      mdn[nc[1], nc[2], "lammps"] = med["lammps"]; mdn[nc[1], nc[2], "demfem"] = med["demfem"]
     }
+    for (k = 1; k <= nk; k++) { split(keys[k], nc, " "); n = nc[1]
+      if (nc[2] != 2 || !((n, 1, "demfem") in mdn) || done_n[n]++) continue
+      cl = "n/a"; m = ceil_n["N=" n]; delete a
+      if (m > 0) { for (i = 1; i <= m; i++) a[i] = ceil_v["N=" n, i]; cl = sprintf("%.2f", median(a, m)) }
+      printf "scaling N=%s demfem=%.2f lammps=%.2f machine_ceiling=%s (2-core over 1-core medians; ceiling: two 1-thread runs at once over one alone)\n", n, mdn[n, 2, "demfem"] / mdn[n, 1, "demfem"], mdn[n, 2, "lammps"] / mdn[n, 1, "lammps"], cl }
     exit bad
   }' "$RES"
