@@ -26,6 +26,7 @@ if [ -e "$WORK/runs" ] || [ -e "$WORK/out" ]; then
 fi
 mkdir -p "$WORK/out" && cd "$WORK" || exit 2
 now() { date +%s.%N; }
+minus() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", a - b }'; }
 idle() { awk '/^cpu / { print $5 / 100 }' /proc/stat; } # idle seconds of all CPUs (USER_HZ 100)
 probe() { [ "${PROBE:-1}" = 1 ] && "$ROOT/bench/machine-probe.sh" 2>/dev/null | sed "s/^/$1 /"; }
 echo "# paper-suite: $(date -u +%FT%TZ) $(uname -n) nproc=$(nproc) jobs=$JOBS"
@@ -42,14 +43,14 @@ run() { # label, then the demfem arguments
   "$DEMFEM" run "$@" >"out/$label.log" 2>&1
   rc=$?
   [ "$rc" = 0 ] || failed=$((failed + 1))
-  echo "scene $label rc=$rc $(echo "$(now) - $t" | bc | xargs printf '%.1f') s"
+  echo "scene $label rc=$rc $(minus "$(now)" "$t") s"
 }
 for s in retaining_wall pile_penetration foundation_rocking slope_ontake; do
   run "$s" "$ROOT/cases/$s.toml" --solver dem --all-variants --jobs "$JOBS" --out "out/$s"
 done
 run slope_ontake_base "$ROOT/cases/slope_ontake.toml" --solver dem --out out/slope_ontake_base
-total=$(echo "$(now) - $t0" | bc)
-idle_s=$(echo "$(idle) - $i0" | bc)
+total=$(minus "$(now)" "$t0")
+idle_s=$(minus "$(idle)" "$i0")
 awk -v t="$total" -v i="$idle_s" -v n="$(nproc)" -v f="$failed" \
   'BEGIN { printf "suite total=%.1f s idle=%.1f core-s (%.1f %% of the cores'"'"' time) failed=%d\n", t, i, 100 * i / (n * t), f }'
 probe after
