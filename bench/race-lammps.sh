@@ -87,6 +87,7 @@ run_demfem-scalar() { # N cores: the one-pass scalar pair loop
   run_demfem "$1" "$2" scalar | sed 's/^demfem /demfem-scalar /'
 }
 load() { cut -d' ' -f1 /proc/loadavg; }
+
 for N in $NLIST; do
   python3 "$ROOT/bench/lammps_tile_scene.py" "$LAMMPS_BENCH/tile_settled.data.gz" "$N" "$STEPS" \
     "$WORK" >/dev/null
