@@ -411,7 +411,10 @@ std::vector<std::string> run_gnuplot_jobs(const std::vector<std::vector<fs::path
           args.emplace_back("-e");
           args.emplace_back("reset");
         }
-        args.push_back(jobs[k][q].string());
+        // Absolute: each script may `cd` to its own folder, and a relative name after it (a run
+        // with a relative --out) would then not be found, failing the whole job into the
+        // one-by-one rerun of draw_queued (every figure drawn twice over).
+        args.push_back(fs::absolute(jobs[k][q]).string());
       }
       std::vector<char*> argv;
       for (auto& a : args) argv.push_back(a.data());

@@ -200,3 +200,29 @@ TEST(Plot, ScriptsRunTogetherWithErrorsInOrder) {
     }
   }
 }
+
+// A job's scripts named relative to the working directory (a run with a relative --out), the first
+// of them changing gnuplot's directory as every figure script does: the whole job succeeds in its
+// one process. (With the names passed as given, gnuplot looked for the second script in the
+// first's folder and failed the job, and draw_queued drew every figure again one by one.)
+TEST(Plot, RelativeScriptNamesSurviveTheScriptsCd) {
+  const auto d = tmpdir("gnuplot_relative");
+  fs::create_directories(d / "elsewhere");
+  const fs::path here = fs::current_path();
+  fs::current_path(d);
+  std::vector<fs::path> job;
+  for (int k = 0; k < 3; ++k) {
+    const fs::path gp = fs::path("figs") / ("r" + std::to_string(k) + ".gp");
+    fs::create_directories(gp.parent_path());
+    std::ofstream g(gp);
+    g << "cd '" << (d / "elsewhere").string() << "'\nset terminal pngcairo size 120,90\n"
+      << "set output 'r" << k << ".png'\nplot x\n";
+    job.push_back(gp);
+  }
+  const auto err = compare::detail::run_gnuplot_jobs({job}, 1);
+  fs::current_path(here);
+  ASSERT_EQ(err.size(), 1u);
+  EXPECT_TRUE(err[0].empty()) << err[0];
+  for (int k = 0; k < 3; ++k)
+    EXPECT_TRUE(is_png(d / "elsewhere" / ("r" + std::to_string(k) + ".png"))) << k;
+}
