@@ -182,6 +182,23 @@ TEST_F(IoTest, ParticlesVtpReadsBackThroughVtk) {
   }
 }
 
+// Writing snapshots leaves no thread behind. (VTK's range computation through vtkSMPTools on
+// Debian's TBB backend started a worker that spun in sched_yield after every write, on the core
+// the other job or DEM thread needed; ctest runs each test in its own process, so the count before
+// is this process's own.)
+TEST_F(IoTest, SnapshotWritesStartNoThread) {
+  auto threads = [] {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator("/proc/self/task")) ++n;
+    return n;
+  };
+  const std::size_t before = threads();
+  const Particles p = make_particles(5000);
+  for (int k = 0; k < 3; ++k)
+    io::write_particles_vtp(dir_ / io::numbered_file_name("particles", k, "vtp"), p);
+  EXPECT_EQ(threads(), before);
+}
+
 TEST_F(IoTest, EmptyParticlesVtpIsReadable) {
   const fs::path file = dir_ / "empty.vtp";
   io::write_particles_vtp(file, Particles{});

@@ -32,6 +32,7 @@
 
 #include "atomic_file.hpp"
 #include "demfem/dem/io.hpp"
+#include "vtk_serial.hpp"
 
 namespace demfem::dem::io {
 namespace {
@@ -47,7 +48,9 @@ void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
   writer->SetCompressorTypeToZLib();
   writer->SetCompressionLevel(1); // fastest deflate: 1/5 of the time of VTK's default level 5
   writer->SetHeaderTypeToUInt64();
-  const int ok = writer->Write();
+  int ok = 0;
+  // On this thread: no TBB worker left spinning after the write (vtk_serial.hpp).
+  detail::vtk_serially([&] { ok = writer->Write(); });
   if (ok != 1 || writer->GetErrorCode() != 0) {
     std::error_code ec;
     std::filesystem::remove(tmp, ec);
