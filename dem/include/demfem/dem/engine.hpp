@@ -429,7 +429,14 @@ private:
     int until_probe = 4, probe_every = 4;
     std::chrono::steady_clock::time_point idle_t{}; // last reading of the idle counter
     double idle_s = std::numeric_limits<double>::quiet_NaN();
+    // When the last run_until returned: the caller's time until the next one (snapshots, probes,
+    // checkpoints) is not the team's and is left out of the window (resume_team_clock).
+    std::optional<std::chrono::steady_clock::time_point> paused_at;
   } tuner_;
+  // run_until's bounds: the window's clock stops when it returns and goes on when it is called
+  // again, so that a window spanning a snapshot does not read as a slow team.
+  void pause_team_clock();
+  void resume_team_clock();
   std::function<double()> idle_source_;
   std::function<int()> free_now_;
   std::function<std::chrono::steady_clock::time_point()> team_clock_;
