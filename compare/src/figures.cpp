@@ -406,18 +406,13 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
       const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
       std::vector<dem::ContactView> cv;
-      for (std::size_t i = 0; i < p.size(); ++i)
-        for (std::size_t j = i + 1; j < p.size(); ++j) {
-          if ((p.flags[i] | p.flags[j]) & dem::kFlagRemoved) continue;
-          const double d = std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
-          const double delta = p.radius[i] + p.radius[j] - d;
-          if (delta <= 0.0) continue;
-          dem::ContactView c;
-          c.i = static_cast<std::uint32_t>(i);
-          c.j = static_cast<std::int64_t>(j);
-          c.fn = kn * delta;
-          cv.push_back(c);
-        }
+      for (const auto& [i, j] : dem::overlapping_pairs(p)) {
+        dem::ContactView c;
+        c.i = i;
+        c.j = static_cast<std::int64_t>(j);
+        c.fn = kn * (p.radius[i] + p.radius[j] - std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]));
+        cv.push_back(c);
+      }
       std::vector<dem::BoundaryView> bv;
       for (const auto& w : scene.walls) {
         dem::BoundaryView b;

@@ -558,49 +558,69 @@ PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p) {
       m.void_ratio = solid > 0.0 ? (avail - solid) / solid : 0.0;
     }
   }
-  // Contacts by overlap on a cell grid of size 2 r_max.
-  double x0 = p.x[live[0]], z0 = p.z[live[0]];
-  for (auto i : live) {
-    x0 = std::min(x0, p.x[i]);
-    z0 = std::min(z0, p.z[i]);
-  }
-  const double h = 2.0 * rmax;
-  std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
-  auto cell = [&](std::size_t i) {
-    return std::pair{static_cast<std::int64_t>((p.x[i] - x0) / h),
-                     static_cast<std::int64_t>((p.z[i] - z0) / h)};
-  };
-  auto key = [](std::int64_t a, std::int64_t b) {
-    return (static_cast<std::uint64_t>(a) << 32) ^ static_cast<std::uint64_t>(b & 0xffffffff);
-  };
-  for (auto i : live) {
-    const auto [a, b] = cell(i);
-    grid[key(a, b)].push_back(i);
-  }
+  // Contacts by overlap.
   std::vector<int> touching(p.size(), 0);
-  std::size_t contacts = 0;
-  for (auto i : live) {
-    const auto [a, b] = cell(i);
-    for (std::int64_t da = -1; da <= 1; ++da)
-      for (std::int64_t db = -1; db <= 1; ++db) {
-        const auto it = grid.find(key(a + da, b + db));
-        if (it == grid.end()) continue;
-        for (auto j : it->second) {
-          if (j <= i) continue;
-          const double dist = std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
-          if (dist < p.radius[i] + p.radius[j]) {
-            ++contacts;
-            ++touching[i];
-            ++touching[j];
-          }
-        }
-      }
+  const auto pairs = overlapping_pairs(p);
+  const std::size_t contacts = pairs.size();
+  for (const auto& [i, j] : pairs) {
+    ++touching[i];
+    ++touching[j];
   }
   m.coordination = 2.0 * static_cast<double>(contacts) / static_cast<double>(live.size());
   std::size_t ratt = 0;
   for (auto i : live) ratt += touching[i] == 0;
   m.rattlers = static_cast<double>(ratt) / static_cast<double>(live.size());
   return m;
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> overlapping_pairs(const Particles& p) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  std::vector<std::uint32_t> live;
+  double rmax = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (!(p.flags.empty() ? false : (p.flags[i] & kFlagRemoved))) {
+      live.push_back(static_cast<std::uint32_t>(i));
+      rmax = std::max(rmax, p.radius[i]);
+    }
+  if (live.size() < 2 || !(rmax > 0.0)) return out;
+  double x0 = p.x[live[0]], z0 = p.z[live[0]];
+  for (auto i : live) {
+    x0 = std::min(x0, p.x[i]);
+    z0 = std::min(z0, p.z[i]);
+  }
+  // Cells of 2 r_max: a partner lies in the particle's cell or one of its eight neighbours. Hashed,
+  // so that a particle thrown far away costs no empty cells.
+  const double h = 2.0 * rmax;
+  auto cell = [&](std::uint32_t i) {
+    return std::pair{static_cast<std::int64_t>((p.x[i] - x0) / h),
+                     static_cast<std::int64_t>((p.z[i] - z0) / h)};
+  };
+  auto key = [](std::int64_t a, std::int64_t b) {
+    return (static_cast<std::uint64_t>(a) << 32) ^ static_cast<std::uint64_t>(b & 0xffffffff);
+  };
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+  grid.reserve(live.size());
+  for (auto i : live) {
+    const auto [a, b] = cell(i);
+    grid[key(a, b)].push_back(i);
+  }
+  std::vector<std::uint32_t> cand;
+  for (auto i : live) {
+    const auto [a, b] = cell(i);
+    cand.clear();
+    for (std::int64_t da = -1; da <= 1; ++da)
+      for (std::int64_t db = -1; db <= 1; ++db) {
+        const auto it = grid.find(key(a + da, b + db));
+        if (it == grid.end()) continue;
+        for (auto j : it->second)
+          if (j > i) cand.push_back(j);
+      }
+    std::sort(cand.begin(), cand.end()); // the all-pairs order
+    for (auto j : cand)
+      if (std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]) < p.radius[i] + p.radius[j])
+        out.emplace_back(i, j);
+  }
+  return out;
 }
 
 Particles place_particles(const scene::Scene& scene, int* layers) {

@@ -5,8 +5,12 @@
 // for a target in that band and checks that what is reported as met is met.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -123,4 +127,34 @@ TEST(PackTarget, DenserTargetTriesHalfTheFrictionFirst) {
   EXPECT_FALSE(dense.target_met);
   EXPECT_EQ(dense.trials, 3);
   EXPECT_EQ(dense.friction_scale, 0.0); // the densest bed, nearest to the target
+}
+
+// overlapping_pairs (the grid search behind the coordination number and the final figures' chains)
+// gives what testing every pair gives, in the same order: random disks of two sizes, some
+// removed, one pair exactly touching (not overlapping) and one particle far away.
+TEST(OverlappingPairs, SameAsEveryPairTested) {
+  dem::Particles p;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 3.0), r(0.02, 0.08);
+  auto add = [&](double x, double z, double rad, std::uint8_t flags) {
+    p.x.push_back(x);
+    p.z.push_back(z);
+    p.radius.push_back(rad);
+    p.flags.push_back(flags);
+  };
+  for (int k = 0; k < 2000; ++k)
+    add(u(rng), u(rng), r(rng), k % 97 == 0 ? std::uint8_t{dem::kFlagRemoved} : std::uint8_t{0});
+  add(10.0, 10.0, 0.05, 0); // exactly touching: |x_i − x_j| = r_i + r_j, not a contact
+  add(10.125, 10.0, 0.075, 0);
+  add(1.0e6, -3.0e5, 0.05, 0); // far away: no empty cells in between
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> all;
+  for (std::uint32_t i = 0; i < p.x.size(); ++i)
+    for (std::uint32_t j = i + 1; j < p.x.size(); ++j) {
+      if ((p.flags[i] | p.flags[j]) & dem::kFlagRemoved) continue;
+      if (std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]) < p.radius[i] + p.radius[j])
+        all.emplace_back(i, j);
+    }
+  const auto got = dem::overlapping_pairs(p);
+  EXPECT_GT(all.size(), 500u); // a dense enough set to mean something
+  EXPECT_EQ(got, all);
 }

@@ -43,6 +43,7 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "demfem/dem/state.hpp"
@@ -108,6 +109,12 @@ struct PackingMeasure {
   double z_bottom = 0.0, z_top = 0.0; // the measurement window [m]
 };
 [[nodiscard]] PackingMeasure measure_packing(const scene::Scene& scene, const Particles& p);
+
+// The particle pairs that overlap (|x_i − x_j| < r_i + r_j), i < j, ordered by i then j, removed
+// particles left out: what a test of every pair gives, found on a cell grid 2 r_max wide (O(N)
+// instead of O(N²): the all-pairs loop of the final figures took 25 s of a 10⁵-disk run).
+[[nodiscard]] std::vector<std::pair<std::uint32_t, std::uint32_t>>
+overlapping_pairs(const Particles& p);
 
 struct PackResult {
   // At rest, velocities zeroed, ids in placement order: 0…count−1, less the `carved` particles
