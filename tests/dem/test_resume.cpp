@@ -358,6 +358,20 @@ namespace {
   c.parallel_min_particles = 0;
   return c;
 }
+
+// The adaptive team's clock, faked (set_team_clock): each reading first advances `t` [s] by
+// cost(step, team size) for every step taken since the last reading. A test may add to `t` itself
+// (time spent outside the engine).
+void set_fake_team_clock(dem::Engine& e, double& t, std::function<double(long long, int)> cost) {
+  using clock = std::chrono::steady_clock;
+  e.set_team_clock([&e, &t, counted = 0LL, cost = std::move(cost)]() mutable {
+    const long long s = e.stats().steps;
+    t += static_cast<double>(s - counted) * cost(s, e.team_size());
+    counted = s;
+    return clock::time_point{} +
+           std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
+  });
+}
 } // namespace
 
 TEST(DemThreads, TeamSizeDoesNotChangeResults) {
@@ -391,19 +405,12 @@ TEST(DemThreads, TeamSizeDoesNotChangeResults) {
 // first slower window tries one thread at once, which wins: the team switches within a few
 // windows, not at the next scheduled probe.
 TEST(DemThreads, AFullTeamThatSlowsDownTriesOneThreadAtOnce) {
-  using clock = std::chrono::steady_clock;
   constexpr long long kBusy = 30000;
   dem::Engine e(team_test_config(2));
   add_shaken_lattice(e, 200, 20, 9);
   double t = 0.0;
-  long long counted = 0;
-  e.set_team_clock([&] {
-    const long long s = e.stats().steps;
-    const double cost = e.team_size() == 1 ? 1.0e-3 : (s < kBusy ? 0.6e-3 : 1.5e-3);
-    t += static_cast<double>(s - counted) * cost;
-    counted = s;
-    return clock::time_point{} +
-           std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
+  set_fake_team_clock(e, t, [](long long s, int team) {
+    return team == 1 ? 1.0e-3 : (s < kBusy ? 0.6e-3 : 1.5e-3);
   });
   e.set_idle_source({}, [] { return 1; }); // the other CPU free at the start: the full team
   e.run_steps(kBusy);
@@ -428,18 +435,10 @@ TEST(DemThreads, AFullTeamThatSlowsDownTriesOneThreadAtOnce) {
 // snapshot read as a slow team and probes of one thread won: 10⁵ disks with a snapshot every
 // 119 steps ran 35–38 % of their steps on one thread.)
 TEST(DemThreads, TheCallersTimeBetweenRunsIsNotTheTeams) {
-  using clock = std::chrono::steady_clock;
   dem::Engine e(team_test_config(2));
   add_shaken_lattice(e, 200, 20, 9);
   double t = 0.0;
-  long long counted = 0;
-  e.set_team_clock([&] {
-    const long long s = e.stats().steps;
-    t += static_cast<double>(s - counted) * (e.team_size() == 1 ? 1.0e-3 : 0.6e-3);
-    counted = s;
-    return clock::time_point{} +
-           std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
-  });
+  set_fake_team_clock(e, t, [](long long, int team) { return team == 1 ? 1.0e-3 : 0.6e-3; });
   e.set_idle_source({}, [] { return 1; }); // the other CPU free at the start: the full team
   constexpr int kRuns = 200;
   for (int r = 0; r < kRuns; ++r) {
