@@ -197,7 +197,8 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   // blocks 0–3 compression, 4–7 tension.
   constexpr int kClasses = 4;
   std::vector<bool> has_block(2 * kClasses, false);
-  {
+  const bool chains = spec.force_chains && !spec.velocity_arrows; // what the script draws
+  if (chains) {
     OutFile d(cdat);
     d.precision(8);
     for (int block = 0; block < 2 * kClasses; ++block) {
@@ -217,6 +218,9 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       d << "\n\n";
     }
     d.close();
+  } else { // a velocity field draws no chains: no file (nor one left from an earlier run)
+    std::error_code ec;
+    fs::remove(cdat, ec);
   }
   {
     OutFile d(bdat);
@@ -272,7 +276,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   g << "set style fill solid 0.85 noborder\nset key off\n";
   std::string cl =
       fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
-  for (int block = 0; spec.force_chains && !spec.velocity_arrows && block < 2 * kClasses; ++block) {
+  for (int block = 0; chains && block < 2 * kClasses; ++block) {
     if (!has_block[block]) continue;
     const bool tension = block >= kClasses;
     const double lw = 0.4 + spec.chain_width_max * ((block % kClasses) + 1) / kClasses;

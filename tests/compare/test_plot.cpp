@@ -110,6 +110,13 @@ TEST(Plot, ParticleSnapshotWithChains) {
   EXPECT_TRUE(is_png(d / "s.png"));
   EXPECT_FALSE(fs::exists(d / "s.svg")); // PNG only (plot.hpp); the script says how to get one
   EXPECT_TRUE(fs::exists(d / "s.gp"));
+  EXPECT_TRUE(fs::exists(d / "s.chains.dat"));
+  // A velocity field draws arrows, not chains: it writes no chains file (7.6 MB at 10⁵ disks)
+  ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0, true}, d / "v.png", &err))
+      << err;
+  EXPECT_TRUE(is_png(d / "v.png"));
+  EXPECT_TRUE(fs::exists(d / "v.velocity.dat"));
+  EXPECT_FALSE(fs::exists(d / "v.chains.dat"));
 }
 
 // A run's figures are queued and drawn a few scripts per gnuplot process: one result per figure
