@@ -199,6 +199,20 @@ TEST_F(IoTest, SnapshotWritesStartNoThread) {
   EXPECT_EQ(threads(), before);
 }
 
+// A snapshot that cannot be written names its file and the system's reason.
+TEST_F(IoTest, UnwritableVtpNamesTheFileAndTheCause) {
+  const fs::path file = dir_ / "no-such-folder" / "particles_000000.vtp";
+  try {
+    io::write_particles_vtp(file, make_particles(7));
+    FAIL() << "no error";
+  } catch (const io::IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(file.string()), std::string::npos) << what;
+    EXPECT_NE(what.find("No such file or directory"), std::string::npos) << what;
+  }
+  EXPECT_TRUE(no_tmp_files(dir_));
+}
+
 TEST_F(IoTest, EmptyParticlesVtpIsReadable) {
   const fs::path file = dir_ / "empty.vtp";
   io::write_particles_vtp(file, Particles{});

@@ -1,6 +1,9 @@
 // VTK XML PolyData writers for particles, force chains and boundary outlines.
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <fstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -37,12 +40,13 @@
 namespace demfem::dem::io {
 namespace {
 
-// Writes through VTK into "<path>.tmp" and renames it over path.
+// Encodes through VTK in memory, writes "<path>.tmp" in one piece and renames it over path.
+// (VTK writing the file itself made ≈ 1,400 small writes and position queries per snapshot of
+// 3,400 disks: 72,000 system calls in a wall run.)
 void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
-  const std::filesystem::path tmp = detail::temporary_path(path);
   vtkNew<vtkXMLPolyDataWriter> writer;
-  writer->SetFileName(tmp.c_str());
   writer->SetInputData(poly);
+  writer->WriteToOutputStringOn();
   writer->SetDataModeToAppended();
   writer->EncodeAppendedDataOff(); // raw binary, not base64
   writer->SetCompressorTypeToZLib();
@@ -52,13 +56,23 @@ void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
   // On this thread: no TBB worker left spinning after the write (vtk_serial.hpp).
   detail::vtk_serially([&] { ok = writer->Write(); });
   if (ok != 1 || writer->GetErrorCode() != 0) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
     const unsigned long code = writer->GetErrorCode();
     const char* why = vtkErrorCode::GetStringFromErrorCode(code);
     throw IoError(fmt::format("cannot write '{}': {} (VTK error code {})", path.string(),
                               why != nullptr && *why != '\0' ? why : "the VTK writer failed",
                               code));
+  }
+  const std::string bytes = writer->GetOutputString();
+  const std::filesystem::path tmp = detail::temporary_path(path);
+  std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+  if (f) f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (f) f.close();
+  if (!f) {
+    const int err = errno;
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw IoError(fmt::format("cannot write '{}': {}", path.string(),
+                              err != 0 ? std::strerror(err) : "the file could not be written"));
   }
   detail::rename_over(tmp, path);
 }
