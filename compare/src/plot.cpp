@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 namespace fs = std::filesystem;
 
@@ -318,6 +319,13 @@ std::vector<std::string> draw_queued(const PlotQueue& queue, unsigned processes)
     // gnuplot stops at a failing script: run the group's scripts again one by one.
     const auto one = detail::run_gnuplot_scripts(jobs[g], processes);
     for (std::size_t k = 0; k < jobs[g].size(); ++k) err[n * g / groups + k] = one[k];
+    // A group that failed although each of its scripts draws alone means the grouping itself is
+    // broken (as with relative script names until the twenty-fourth session): every figure is then
+    // drawn twice, silently. Say so.
+    if (std::all_of(one.begin(), one.end(), [](const std::string& e) { return e.empty(); }))
+      spdlog::warn("gnuplot: {} scripts from {} failed when run in one process but each drew "
+                   "alone: they were drawn one process each (slower)",
+                   jobs[g].size(), jobs[g].front().string());
   }
   return err;
 }

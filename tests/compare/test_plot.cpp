@@ -1,10 +1,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 #include "../scratch.hpp"
 
@@ -232,4 +236,41 @@ TEST(Plot, RelativeScriptNamesSurviveTheScriptsCd) {
   EXPECT_TRUE(err[0].empty()) << err[0];
   for (int k = 0; k < 3; ++k)
     EXPECT_TRUE(is_png(d / "elsewhere" / ("r" + std::to_string(k) + ".png"))) << k;
+}
+
+// A group of queued figures that fails in one process although each script draws alone (here the
+// first script's `cd` hides the second's data file, named relative to where gnuplot started) is
+// drawn one script per process, every figure made, and a warning says so: the grouping itself is
+// broken, and every figure costs twice.
+TEST(Plot, AGroupThatFailsOnlyTogetherIsReported) {
+  const auto d = tmpdir("plot_group_warn");
+  fs::create_directories(d / "elsewhere");
+  std::ofstream(d / "data.dat") << "1 1\n2 4\n";
+  const fs::path here = fs::current_path();
+  fs::current_path(d);
+  compare::PlotQueue q;
+  const std::vector<std::string> body{"cd '" + (d / "elsewhere").string() + "'\nplot x\n",
+                                      "plot 'data.dat' with lines\n"};
+  for (std::size_t k = 0; k < body.size(); ++k) {
+    const fs::path gp = d / ("g" + std::to_string(k) + ".gp");
+    const fs::path png = d / ("g" + std::to_string(k) + ".png");
+    std::ofstream(gp) << "set terminal pngcairo size 120,90\nset output '" << png.string() << "'\n"
+                      << body[k];
+    q.scripts.push_back(gp);
+    q.pngs.push_back(png);
+  }
+  std::ostringstream log;
+  const auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>(
+      "plot-test", std::make_shared<spdlog::sinks::ostream_sink_st>(log)));
+  const auto err = compare::draw_queued(q, 1); // one process: both scripts in one group
+  spdlog::set_default_logger(previous);
+  fs::current_path(here);
+  ASSERT_EQ(err.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_TRUE(err[k].empty()) << err[k];
+    EXPECT_TRUE(is_png(q.pngs[k])) << k;
+  }
+  EXPECT_NE(log.str().find("failed when run in one process but each drew alone"), std::string::npos)
+      << log.str();
 }
