@@ -594,16 +594,16 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       }
     }
     const auto pf = out / "vtk" / io::numbered_file_name("particles", snap, "vtp");
-    io::write_particles_vtp(pf, e.particles());
+    io::write_particles_vtp(pf, e.particles(), scene.output.vtk_compression);
     pvd_particles->add(e.time(), pf);
     e.boundary_views(bviews);
     const auto bf = out / "vtk" / io::numbered_file_name("boundaries", snap, "vtp");
-    io::write_boundaries_vtp(bf, bviews);
+    io::write_boundaries_vtp(bf, bviews, scene.output.vtk_compression);
     pvd_bounds->add(e.time(), bf);
     if (pvd_chains) {
       e.contacts(contacts);
       const auto cf = out / "vtk" / io::numbered_file_name("force_chains", snap, "vtp");
-      io::write_force_chains_vtp(cf, e.particles(), contacts);
+      io::write_force_chains_vtp(cf, e.particles(), contacts, scene.output.vtk_compression);
       pvd_chains->add(e.time(), cf);
     }
     ++snap;

@@ -1019,6 +1019,8 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     sc.output.interval = r.positive("interval", sc.output.interval);
     sc.output.probe_interval = r.positive("probe_interval", sc.output.probe_interval);
     sc.output.vtk = r.boolean("vtk", sc.output.vtk);
+    sc.output.vtk_compression =
+        read_enum(r, "vtk_compression", kVtkCompressionNames, sc.output.vtk_compression);
     sc.output.force_chains = r.boolean("force_chains", sc.output.force_chains);
     sc.output.figures = r.boolean("figures", sc.output.figures);
     sc.output.checkpoint_interval =
@@ -1034,8 +1036,8 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
       }
       if (!ok) r.error("series", "expected a list of increasing times ≥ 0 [s], e.g. [1, 5, 9]");
     }
-    r.finish({"interval", "probe_interval", "vtk", "force_chains", "figures", "checkpoint_interval",
-              "series"});
+    r.finish({"interval", "probe_interval", "vtk", "vtk_compression", "force_chains", "figures",
+              "checkpoint_interval", "series"});
   }
 
   // Cross references, located at the key that names the missing thing.

@@ -182,6 +182,43 @@ TEST_F(IoTest, ParticlesVtpReadsBackThroughVtk) {
   }
 }
 
+// [output] vtk_compression: lz4 and none write files that VTK reads back to the same values as
+// zlib's, with the compressor named (lz4) or absent (none).
+TEST_F(IoTest, SnapshotCompressionChoicesReadBackTheSame) {
+  const Particles p = make_particles(2000);
+  const fs::path zf = dir_ / "z.vtp", lf = dir_ / "l.vtp", nf = dir_ / "n.vtp";
+  io::write_particles_vtp(zf, p);
+  io::write_particles_vtp(lf, p, demfem::scene::VtkCompression::Lz4);
+  io::write_particles_vtp(nf, p, demfem::scene::VtkCompression::None);
+  EXPECT_NE(read_text(zf).find("compressor=\"vtkZLibDataCompressor\""), std::string::npos);
+  EXPECT_NE(read_text(lf).find("compressor=\"vtkLZ4DataCompressor\""), std::string::npos);
+  EXPECT_EQ(read_text(nf).find("compressor="), std::string::npos);
+  EXPECT_GT(fs::file_size(nf), fs::file_size(zf));
+  const auto z = read_vtp(zf), l = read_vtp(lf), n = read_vtp(nf);
+  ASSERT_EQ(l->GetNumberOfPoints(), z->GetNumberOfPoints());
+  ASSERT_EQ(n->GetNumberOfPoints(), z->GetNumberOfPoints());
+  for (const char* name : {"id", "radius", "velocity", "force", "material", "speed"}) {
+    SCOPED_TRACE(name);
+    vtkDataArray* a = z->GetPointData()->GetArray(name);
+    ASSERT_NE(a, nullptr);
+    for (const auto& other : {l, n}) {
+      vtkDataArray* b = other->GetPointData()->GetArray(name);
+      ASSERT_NE(b, nullptr);
+      ASSERT_EQ(b->GetNumberOfValues(), a->GetNumberOfValues());
+      for (vtkIdType v = 0; v < a->GetNumberOfTuples(); ++v)
+        for (int c = 0; c < a->GetNumberOfComponents(); ++c)
+          ASSERT_EQ(b->GetComponent(v, c), a->GetComponent(v, c)) << v;
+    }
+  }
+  for (vtkIdType v = 0; v < z->GetNumberOfPoints(); ++v) {
+    double a[3], b[3];
+    z->GetPoint(v, a);
+    l->GetPoint(v, b);
+    ASSERT_EQ(a[0], b[0]);
+    ASSERT_EQ(a[1], b[1]);
+  }
+}
+
 // Writing snapshots leaves no thread behind. (VTK's range computation through vtkSMPTools on
 // Debian's TBB backend started a worker that spun in sched_yield after every write, on the core
 // the other job or DEM thread needed; ctest runs each test in its own process, so the count before

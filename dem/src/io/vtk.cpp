@@ -43,14 +43,26 @@ namespace {
 // Encodes through VTK in memory, writes "<path>.tmp" in one piece and renames it over path.
 // (VTK writing the file itself made ≈ 1,400 small writes and position queries per snapshot of
 // 3,400 disks: 72,000 system calls in a wall run.)
-void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
+void write_polydata(const std::filesystem::path& path, vtkPolyData* poly,
+                    scene::VtkCompression compression) {
   vtkNew<vtkXMLPolyDataWriter> writer;
   writer->SetInputData(poly);
   writer->WriteToOutputStringOn();
   writer->SetDataModeToAppended();
   writer->EncodeAppendedDataOff(); // raw binary, not base64
-  writer->SetCompressorTypeToZLib();
-  writer->SetCompressionLevel(1); // fastest deflate: 1/5 of the time of VTK's default level 5
+  switch (compression) {
+  case scene::VtkCompression::Zlib:
+    writer->SetCompressorTypeToZLib();
+    writer->SetCompressionLevel(1); // fastest deflate: 1/5 of the time of VTK's default level 5
+    break;
+  case scene::VtkCompression::Lz4:
+    writer->SetCompressorTypeToLZ4();
+    writer->SetCompressionLevel(1); // LZ4's fastest
+    break;
+  case scene::VtkCompression::None:
+    writer->SetCompressorTypeToNone();
+    break;
+  }
   writer->SetHeaderTypeToUInt64();
   int ok = 0;
   // On this thread: no TBB worker left spinning after the write (vtk_serial.hpp).
@@ -107,7 +119,8 @@ std::string numbered_file_name(const std::string& stem, long long index,
   return fmt::format("{}_{:06d}{}", stem, index, ext);
 }
 
-void write_particles_vtp(const std::filesystem::path& path, const Particles& p) {
+void write_particles_vtp(const std::filesystem::path& path, const Particles& p,
+                         scene::VtkCompression compression) {
   check_particle_arrays(p, path);
   std::vector<std::size_t> keep;
   keep.reserve(p.size());
@@ -169,11 +182,12 @@ void write_particles_vtp(const std::filesystem::path& path, const Particles& p) 
   pd->AddArray(speed);
   pd->SetActiveScalars("diameter");
   pd->SetActiveVectors("velocity");
-  write_polydata(path, poly);
+  write_polydata(path, poly, compression);
 }
 
 void write_force_chains_vtp(const std::filesystem::path& path, const Particles& p,
-                            std::span<const ContactView> contacts) {
+                            std::span<const ContactView> contacts,
+                            scene::VtkCompression compression) {
   if (p.z.size() != p.size()) {
     throw IoError(
         fmt::format("cannot write '{}': the Particles arrays differ in length", path.string()));
@@ -233,11 +247,12 @@ void write_force_chains_vtp(const std::filesystem::path& path, const Particles& 
   cd->AddArray(tensile);
   cd->AddArray(boundary);
   cd->SetActiveScalars("normal_force");
-  write_polydata(path, poly);
+  write_polydata(path, poly, compression);
 }
 
 void write_boundaries_vtp(const std::filesystem::path& path,
-                          std::span<const BoundaryView> boundaries) {
+                          std::span<const BoundaryView> boundaries,
+                          scene::VtkCompression compression) {
   vtkIdType n_points = 0;
   vtkIdType n_conn = 0;
   for (std::size_t b = 0; b < boundaries.size(); ++b) {
@@ -294,7 +309,7 @@ void write_boundaries_vtp(const std::filesystem::path& path,
   cd->AddArray(closed);
   cd->AddArray(index);
   poly->GetFieldData()->AddArray(names);
-  write_polydata(path, poly);
+  write_polydata(path, poly, compression);
 }
 
 } // namespace demfem::dem::io

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "demfem/dem/state.hpp"
+#include "demfem/scene/scene.hpp"
 
 namespace demfem::dem::io {
 
@@ -30,15 +31,17 @@ public:
 [[nodiscard]] std::string numbered_file_name(const std::string& stem, long long index,
                                              const std::string& extension);
 
-// ---- VTK XML PolyData (.vtp): binary, zlib-compressed, appended raw data, UInt64 headers ----
-// Each file is written to "<path>.tmp" and renamed over <path>, so a reader never sees a
-// half-written snapshot.
+// ---- VTK XML PolyData (.vtp): binary, appended raw data, UInt64 headers ----
+// Compressed with zlib (level 1) unless `compression` says otherwise ([output] vtk_compression:
+// lz4, none; scene.hpp). Each file is written to "<path>.tmp" and renamed over <path>, so a
+// reader never sees a half-written snapshot.
 
 // One vertex per particle not flagged kFlagRemoved, at (x, z, 0). Point data:
 //   id (UInt32), radius, diameter (Float64), velocity (3 comp.), angular_velocity (omega,
 //   counter-clockwise positive), rotation (phi), force (3 comp.), material (UInt16),
 //   speed (|v|).
-void write_particles_vtp(const std::filesystem::path& path, const Particles& particles);
+void write_particles_vtp(const std::filesystem::path& path, const Particles& particles,
+                         scene::VtkCompression compression = scene::VtkCompression::Zlib);
 
 // One line cell per contact: a particle pair (j ≥ 0) between the two particle centres, a
 // particle–boundary contact (j < 0) from the particle's centre to its contact point (cx, cz) on
@@ -46,14 +49,16 @@ void write_particles_vtp(const std::filesystem::path& path, const Particles& par
 // (Float64), tensile (UInt8 0/1), boundary (Int32: −1 for a pair, else the boundary's index in
 // the order of the boundaries file, −1 − j). Throws IoError for an index out of range.
 void write_force_chains_vtp(const std::filesystem::path& path, const Particles& particles,
-                            std::span<const ContactView> contacts);
+                            std::span<const ContactView> contacts,
+                            scene::VtkCompression compression = scene::VtkCompression::Zlib);
 
 // One polyline cell per boundary through its vertices at (x, z, 0); a closed outline repeats its
 // first vertex at the end. Cell data: open (UInt8 0/1), closed (UInt8 0/1), boundary_index
 // (Int32, position in `boundaries`). Field data: names (String, one per boundary). Throws
 // IoError when x and z differ in length.
 void write_boundaries_vtp(const std::filesystem::path& path,
-                          std::span<const BoundaryView> boundaries);
+                          std::span<const BoundaryView> boundaries,
+                          scene::VtkCompression compression = scene::VtkCompression::Zlib);
 
 // ---- ParaView collection (.pvd) ----
 // One series (e.g. particles over time). Every add() rewrites the whole .pvd atomically

@@ -305,10 +305,16 @@ struct Probe {
   std::vector<Vec2> points; // loci: the particles nearest to these points are traced
 };
 
+// How the DEM's .vtp snapshots are compressed: zlib (level 1; every VTK reader), lz4 (≈ 4× less
+// CPU per snapshot, files ≈ 1.3× zlib's, ParaView ≥ 5.5), none (no CPU, files ≈ 2.2× zlib's).
+enum class VtkCompression { Zlib, Lz4, None };
+inline constexpr std::array<const char*, 3> kVtkCompressionNames = {"zlib", "lz4", "none"};
+
 struct Output {
   double interval = 0.5;        // snapshots (.vtp/.vtu) every … [s]
   double probe_interval = 0.01; // time series every … [s]
   bool vtk = true;
+  VtkCompression vtk_compression = VtkCompression::Zlib;
   bool force_chains = true;
   bool figures = true;
   double checkpoint_interval = 0.0; // [s] (0 = at the end and on interrupt only)
