@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <vtkDataArray.h>
+#include <vtkDataArraySelection.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
@@ -34,26 +35,33 @@ double loop_area(const std::vector<double>& x, const std::vector<double>& y) {
   return 0.5 * std::abs(a);
 }
 
-// Largest particle speed over the snapshots, counting only particles whose centre is at or above
-// `zmin` (e.g. the lowest ground point: blocks falling out through an opened wall are not debris).
-double peak_snapshot_speed(const fs::path& vtk_dir, double zmin) {
-  double vmax = 0.0;
+// Largest particle speed over the snapshots, of all particles and of those whose centre is at or
+// above `zmin`, in one pass that decodes only the `speed` array (and the points, which the reader
+// always reads): two full passes were ≈ 0.5 s of a 3,400-disk wall run's 53 snapshots.
+PeakSpeeds peak_snapshot_speeds(const fs::path& vtk_dir, double zmin) {
+  PeakSpeeds pk;
   std::error_code ec;
-  if (!fs::is_directory(vtk_dir, ec)) return 0.0;
+  if (!fs::is_directory(vtk_dir, ec)) return pk;
   for (const auto& f : fs::directory_iterator(vtk_dir, ec)) {
     const auto name = f.path().filename().string();
     if (name.rfind("particles_", 0) != 0 || f.path().extension() != ".vtp") continue;
     auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
     reader->SetFileName(f.path().string().c_str());
+    reader->UpdateInformation();
+    reader->GetPointDataArraySelection()->DisableAllArrays();
+    reader->GetPointDataArraySelection()->EnableArray("speed");
     reader->Update();
     auto* pd = reader->GetOutput();
     if (!pd || !pd->GetPointData()) continue;
     vtkDataArray* s = pd->GetPointData()->GetArray("speed");
     if (!s) continue;
-    for (vtkIdType i = 0; i < s->GetNumberOfTuples(); ++i)
-      if (pd->GetPoint(i)[1] >= zmin) vmax = std::max(vmax, s->GetTuple1(i)); // VTK y = scene z
+    for (vtkIdType i = 0; i < s->GetNumberOfTuples(); ++i) {
+      const double v = s->GetTuple1(i);
+      pk.all = std::max(pk.all, v);
+      if (pd->GetPoint(i)[1] >= zmin) pk.above = std::max(pk.above, v); // VTK y = scene z
+    }
   }
-  return vmax;
+  return pk;
 }
 
 namespace {
@@ -359,18 +367,20 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- peak speed over the snapshots; final snapshot with force chains -------------------------
-  const double vpk = peak_snapshot_speed(dem / "vtk");
-  if (vpk > 0.0) {
-    sum["snapshot_peak_speed_m_s"] = vpk;
-    sum["snapshot_peak_speed_km_h"] = vpk * 3.6;
-  }
+  double zg = -1e300; // lowest ground point
   if (!scene.walls.empty()) {
-    double zg = 1e300; // lowest ground point
+    zg = 1e300;
     for (const auto& w : scene.walls)
       for (const auto& q : w.points) zg = std::min(zg, q.z);
-    const double von = peak_snapshot_speed(dem / "vtk", zg);
-    sum["peak_speed_above_lowest_ground_m_s"] = von;
-    sum["peak_speed_above_lowest_ground_km_h"] = von * 3.6;
+  }
+  const PeakSpeeds pk = peak_snapshot_speeds(dem / "vtk", zg);
+  if (pk.all > 0.0) {
+    sum["snapshot_peak_speed_m_s"] = pk.all;
+    sum["snapshot_peak_speed_km_h"] = pk.all * 3.6;
+  }
+  if (!scene.walls.empty()) {
+    sum["peak_speed_above_lowest_ground_m_s"] = pk.above;
+    sum["peak_speed_above_lowest_ground_km_h"] = pk.above * 3.6;
   }
   std::error_code ec;
   if (fs::exists(dem / "final.ckpt", ec)) {

@@ -26,10 +26,13 @@ RunFigures write_run_figures(const scene::Scene& scene, const std::filesystem::p
 // Area enclosed by the polyline (x_i, y_i) taken as a closed loop (shoelace), |Σ| / 2.
 [[nodiscard]] double loop_area(const std::vector<double>& x, const std::vector<double>& y);
 
-// Largest |v| over every particles_*.vtp snapshot under dir (0 when none can be read).
-// Only particles whose centre is at or above zmin count (blocks falling out through an opened wall
-// are not debris on the section).
-[[nodiscard]] double peak_snapshot_speed(const std::filesystem::path& vtk_dir,
-                                         double zmin = -1e300);
+// Largest |v| over every particles_*.vtp snapshot under dir (0 when none can be read): `all` of
+// every particle, `above` of those whose centre is at or above zmin (blocks falling out through an
+// opened wall are not debris on the section).
+struct PeakSpeeds {
+  double all = 0.0, above = 0.0;
+};
+[[nodiscard]] PeakSpeeds peak_snapshot_speeds(const std::filesystem::path& vtk_dir,
+                                              double zmin = -1e300);
 
 } // namespace demfem::compare
