@@ -229,6 +229,7 @@ std::string raster_png(const Raster& g, const std::vector<Disk>& disks, double v
   }
   auto w = vtkSmartPointer<vtkPNGWriter>::New();
   w->SetWriteToMemory(1);
+  w->SetCompressionLevel(1); // fastest deflate (VTK's default 5): a layer gnuplot reads once
   w->SetInputData(img);
   w->Write();
   vtkUnsignedCharArray* bytes = w->GetResult();
@@ -441,11 +442,14 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     }
   }
 
-  // Every panel has the same colour range: one colour box, in the first empty slot of the layout
-  // when there is one (the wall's 7 panels in 2 × 4; not the footing's 6 in 2 × 3), drawn with the
-  // last panel. pngcairo draws a colour box as a scaled image, ≈ 60 ms each: 7 of them were 0.4 s
-  // of a 0.7 s strip (without its particles and vectors).
+  // Every panel has the same colour range: one colour box, drawn with the last panel. pngcairo
+  // draws a colour box as an image composited over the whole canvas, ≈ 50 ms each on these
+  // canvases: 7 of them were 0.4 s of a 0.7 s strip (without its particles and vectors), the
+  // footing's 6 were 0.32 s of its 0.9 s strip. It goes in the first empty slot of the layout when
+  // there is one (the wall's 7 panels in 2 × 4), else in a column of its own at the right of the
+  // canvas (the footing's 6 in 2 × 3: the panels are then placed one by one, as the layout would).
   const bool one_box = rows * cols > n;
+  constexpr int kBarColumn = 150; // pixels: the colour box, its tick labels and its label
   std::string one_box_cmd;
   if (one_box) {
     const auto slot_r = static_cast<double>(n / cols), slot_c = static_cast<double>(n % cols);
@@ -468,17 +472,31 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     g << "# series/p<k>.png (g<k>.png): the particles of panel k as an image, coloured by speed "
          "with the palette below (grey)\n";
     g << "cd " << quote(fs::absolute(dat).string()) << "\n";
-    g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,10'\n",
-                     pw * static_cast<int>(cols), ph * static_cast<int>(rows) + 40);
+    const bool bar_column = !one_box && kind != Kind::Loci; // Loci: no colour box
+    const int canvas_w = pw * static_cast<int>(cols) + (bar_column ? kBarColumn : 0);
+    const int canvas_h = ph * static_cast<int>(rows) + 40;
+    g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,10'\n", canvas_w,
+                     canvas_h);
     g << "set output " << quote(fs::absolute(png).string()) << "\n";
     g << "set palette defined " << kPaletteGnuplot << "\n";
     g << fmt::format("set cbrange [0:{}]\nset cblabel 'speed [m/s]'\n", vmax > 0 ? vmax : 1.0);
     g << "set key off\nset size ratio -1\n";
     g << fmt::format("set xrange [{}:{}]\nset yrange [{}:{}]\n", xmin, xmax, zmin, zmax);
-    g << fmt::format("set multiplot layout {},{} title {} noenhanced\n", rows, cols,
-                     quote(fmt::format("{} — {}", what, scene.label())));
+    const std::string title = quote(fmt::format("{} — {}", what, scene.label()));
+    // The panels' cells below the title (40 pixels), as `layout` divides them.
+    const double top = 1.0 - 40.0 / canvas_h;
+    const double cell_w = static_cast<double>(pw) / canvas_w;
+    const double cell_h = top / static_cast<double>(rows);
+    if (bar_column)
+      g << fmt::format("set multiplot title {} noenhanced\n", title);
+    else
+      g << fmt::format("set multiplot layout {},{} title {} noenhanced\n", rows, cols, title);
     for (std::size_t k = 0; k < n; ++k) {
       g << fmt::format("set title 't = {:.3g} s' noenhanced\n", frames[k].time);
+      if (bar_column)
+        g << fmt::format("set origin {:.5f},{:.5f}\nset size ratio -1 {:.5f},{:.5f}\n",
+                         static_cast<double>(k % cols) * cell_w,
+                         top - static_cast<double>(k / cols + 1) * cell_h, cell_w, cell_h);
       std::string cl;
       const int pixmap = static_cast<int>(k) + 1;
       if (kind == Kind::Loci) {
@@ -486,12 +504,15 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
         g << raster_pixmap(grid, fmt::format("g{}.png", k), pixmap);
         cl = fmt::format("'l{}.dat' using 1:2 with lines lw 2 lc rgb '#c0392b'", k);
       } else {
-        if (!one_box)
-          g << "set colorbox\n";
-        else if (k + 1 < n)
+        if (k + 1 < n)
           g << "unset colorbox\n";
-        else
+        else if (one_box)
           g << one_box_cmd;
+        else // the bar column, over the middle 70 % of the panels' height
+          g << fmt::format(
+              "set colorbox user origin screen {:.4f},{:.4f} size screen {:.4f},{:.4f}\n",
+              (static_cast<double>(pw * static_cast<int>(cols)) + 20.0) / canvas_w, 0.15 * top,
+              24.0 / canvas_w, 0.7 * top);
         g << raster_pixmap(grid, fmt::format("p{}.png", k), pixmap);
         cl = "NaN with lines lc palette frac 0"; // keeps the colour box
       }

@@ -123,7 +123,8 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
     double x = NAN, z = NAN, w = NAN, h = NAN;
   };
   std::vector<Pixmap> pixmaps;
-  int unset = 0;
+  int unset = 0, boxes = 0;
+  double box_x = NAN;
   {
     std::ifstream gp(o.out_dir / "figures" / "series_velocity.gp");
     std::string l;
@@ -135,10 +136,17 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
                       &m.index, m.file, &m.x, &m.z, &m.w, &m.h) == 6)
         pixmaps.push_back(m);
       if (l.rfind("unset pixmap ", 0) == 0) ++unset;
+      if (l.rfind("set colorbox", 0) == 0) ++boxes;
+      if (l.rfind("set colorbox user origin screen ", 0) == 0)
+        std::sscanf(l.c_str(), "set colorbox user origin screen %lf", &box_x);
     }
   }
   ASSERT_EQ(pixmaps.size(), 3u); // one per panel, each removed before the next panel
   EXPECT_EQ(unset, 3);
+  // 3 panels in 1 × 3 fill the layout: the one colour box (each costs ≈ 50 ms of pngcairo) in a
+  // column of its own at the right of the panels
+  EXPECT_EQ(boxes, 1);
+  EXPECT_GT(box_x, 0.9);
   ASSERT_TRUE(std::isfinite(x0) && std::isfinite(z0)) << "no ranges in series_velocity.gp";
   EXPECT_NEAR(x0, 0.0, 0.01);
   EXPECT_NEAR(x1 - x0, 1.0, 0.01);
