@@ -357,16 +357,29 @@ std::vector<std::string> run_gnuplot_scripts(const std::vector<fs::path>& script
 }
 
 namespace {
-// gnuplot's environment: ours, with glibc's malloc asked for transparent huge pages
-// (GLIBC_TUNABLES glibc.malloc.hugetlb=1, added to what the variable holds unless it sets
-// hugetlb itself). A 2,800 × 1,192 strip allocates its canvas, the decoded panel images and the
-// PNG encoder's rows afresh: 13,000 page faults with 4 KiB pages, 2,700–3,700 with huge pages,
-// and 7–22 % less gnuplot CPU time per figure on a virtual machine (bench/RESULTS.md,
-// twenty-first session). Where the kernel offers no huge pages the setting does nothing; other C
-// libraries ignore the variable.
+// gnuplot's environment: ours, with
+// - glibc's malloc asked for transparent huge pages (GLIBC_TUNABLES glibc.malloc.hugetlb=1, added
+//   to what the variable holds unless it sets hugetlb itself). A 2,800 × 1,192 strip allocates
+//   its canvas, the decoded panel images and the PNG encoder's rows afresh: 13,000 page faults
+//   with 4 KiB pages, 2,700–3,700 with huge pages, and 7–22 % less gnuplot CPU time per figure on
+//   a virtual machine (bench/RESULTS.md, twenty-first session). Where the kernel offers no huge
+//   pages the setting does nothing; other C libraries ignore the variable.
+// - the PNG encoder module (png_preload.cpp) added to LD_PRELOAD, when it is where the build put
+//   it and DEMFEM_PNG_PRELOAD is not 0: the same pixels, ≈ 30 % less gnuplot time per strip.
 std::vector<std::string> gnuplot_environment() {
+  std::string preload;
+#ifdef DEMFEM_PNG_PRELOAD
+  {
+    const char* off = std::getenv("DEMFEM_PNG_PRELOAD");
+    std::error_code ec;
+    const std::string path = DEMFEM_PNG_PRELOAD;
+    if (!(off && std::string(off) == "0") && path.find_first_of(" :") == std::string::npos &&
+        fs::is_regular_file(path, ec)) // (LD_PRELOAD splits at spaces and colons)
+      preload = path;
+  }
+#endif
   std::vector<std::string> e;
-  bool have = false;
+  bool have = false, have_preload = false;
   for (char** v = environ; v && *v; ++v) {
     std::string s(*v);
     if (s.rfind("GLIBC_TUNABLES=", 0) == 0) {
@@ -375,9 +388,14 @@ std::vector<std::string> gnuplot_environment() {
         s += (s.size() > std::strlen("GLIBC_TUNABLES=") ? ":" : "") +
              std::string("glibc.malloc.hugetlb=1");
     }
+    if (!preload.empty() && s.rfind("LD_PRELOAD=", 0) == 0) {
+      have_preload = true;
+      s += (s.size() > std::strlen("LD_PRELOAD=") ? ":" : "") + preload;
+    }
     e.push_back(std::move(s));
   }
   if (!have) e.emplace_back("GLIBC_TUNABLES=glibc.malloc.hugetlb=1");
+  if (!preload.empty() && !have_preload) e.push_back("LD_PRELOAD=" + preload);
   return e;
 }
 } // namespace

@@ -6,14 +6,25 @@
 #include <string>
 #include <vector>
 
+#include <array>
+#include <cstdlib>
+
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPNGReader.h>
+#include <vtkPointData.h>
 
 #include "../scratch.hpp"
 
 #include "../../compare/src/gnuplot_run.hpp"
+#include "demfem/compare/figures.hpp"
 #include "demfem/compare/plot.hpp"
+#include "demfem/dem/io.hpp"
+#include "demfem/dem/state.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
@@ -273,4 +284,86 @@ TEST(Plot, AGroupThatFailsOnlyTogetherIsReported) {
   }
   EXPECT_NE(log.str().find("failed when run in one process but each drew alone"), std::string::npos)
       << log.str();
+}
+
+namespace {
+// FLEVEL of a PNG's zlib stream (the second byte of its first IDAT's data, bits 6–7): 0 for zlib
+// levels 0–1, 1 for 2–5, 2 for 6 (libpng's default), 3 for 7–9; −1 when there is no IDAT.
+int png_zlib_flevel(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  const std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto at = d.find("IDAT");
+  if (at == std::string::npos || at + 6 > d.size()) return -1;
+  return static_cast<unsigned char>(d[at + 5]) >> 6;
+}
+std::vector<unsigned char> png_pixels(const fs::path& p) {
+  vtkNew<vtkPNGReader> r;
+  r->SetFileName(p.string().c_str());
+  r->Update();
+  auto* s = r->GetOutput()->GetPointData()->GetScalars();
+  std::vector<unsigned char> v;
+  for (vtkIdType i = 0; i < s->GetNumberOfValues(); ++i)
+    v.push_back(static_cast<unsigned char>(s->GetVariantValue(i).ToInt()));
+  return v;
+}
+} // namespace
+
+// The gnuplot processes demfem starts encode their PNGs with zlib level 3 (png_preload.cpp), not
+// libpng's default level 6, and draw the same pixels; DEMFEM_PNG_PRELOAD=0 turns the module off.
+TEST(Plot, PngsEncodedFastWithTheSamePixels) {
+  const auto d = tmpdir("gnuplot_png_level");
+  const fs::path gp = d / "f.gp", png = d / "f.png";
+  {
+    std::ofstream g(gp);
+    g << "set terminal pngcairo size 400,300\nset output '" << png.string()
+      << "'\nplot sin(x) with lines lw 3, cos(x) with points pt 7 lc rgb 'red'\n";
+  }
+  const auto draw = [&] {
+    fs::remove(png);
+    const auto err = compare::detail::run_gnuplot_scripts({gp}, 1);
+    EXPECT_TRUE(err.at(0).empty()) << err.at(0);
+    return is_png(png);
+  };
+  ASSERT_TRUE(draw());
+  EXPECT_EQ(png_zlib_flevel(png), 1);
+  const auto fast = png_pixels(png);
+  ::setenv("DEMFEM_PNG_PRELOAD", "0", 1);
+  const bool drawn = draw();
+  ::unsetenv("DEMFEM_PNG_PRELOAD");
+  ASSERT_TRUE(drawn);
+  EXPECT_EQ(png_zlib_flevel(png), 2); // libpng's default
+  const auto plain = png_pixels(png);
+  ASSERT_FALSE(fast.empty());
+  EXPECT_TRUE(fast == plain) << "the module changed the pixels";
+}
+
+// The peak speeds of summary.json come from every particles_*.vtp of the run: of all particles,
+// and of those at or above the lowest ground point; a removed particle is in no snapshot.
+TEST(Figures, PeakSnapshotSpeedsOfAllAndAboveAHeight) {
+  const auto d = tmpdir("peak_speeds");
+  const auto snapshot = [&](int k, std::vector<std::array<double, 3>> zvv) { // z, vx, vz
+    dem::Particles p;
+    for (std::size_t q = 0; q < zvv.size(); ++q) {
+      p.x.push_back(static_cast<double>(q));
+      p.z.push_back(zvv[q][0]);
+      p.vx.push_back(zvv[q][1]);
+      p.vz.push_back(zvv[q][2]);
+      for (auto* v : {&p.phi, &p.omega, &p.fx, &p.fz, &p.torque}) v->push_back(0.0);
+      p.radius.push_back(0.1);
+      p.mass.push_back(1.0);
+      p.inv_mass.push_back(1.0);
+      p.inv_inertia.push_back(1.0);
+      p.id.push_back(static_cast<std::uint32_t>(q));
+      p.material.push_back(0);
+      p.flags.push_back(q == 2 ? dem::kFlagRemoved : dem::kFlagNone);
+    }
+    dem::io::write_particles_vtp(d / dem::io::numbered_file_name("particles", k, "vtp"), p);
+  };
+  snapshot(0, {{2.0, 3.0, 4.0}, {-1.0, 0.0, 7.0}, {5.0, 100.0, 0.0}});  // 5 above, 7 below
+  snapshot(1, {{1.0, 6.0, 0.0}, {-2.0, 0.0, -9.0}, {5.0, 100.0, 0.0}}); // 6 above, 9 below
+  const auto pk = compare::peak_snapshot_speeds(d, 0.0);
+  EXPECT_DOUBLE_EQ(pk.all, 9.0);
+  EXPECT_DOUBLE_EQ(pk.above, 6.0);
+  EXPECT_DOUBLE_EQ(compare::peak_snapshot_speeds(d).above, 9.0); // no height: every particle
+  EXPECT_EQ(compare::peak_snapshot_speeds(d / "none").all, 0.0);
 }
