@@ -328,7 +328,7 @@ std::string to_toml(const Scene& s) {
                                     {"force_chains", s.output.force_chains},
                                     {"figures", s.output.figures},
                                     {"checkpoint_interval", s.output.checkpoint_interval}});
-  if (s.output.vtk_compression != VtkCompression::Zlib) // the default is left out, as before
+  if (s.output.vtk_compression != VtkCompression::Lz4) // the default is left out
     root.get_as<toml::table>("output")->insert(
         "vtk_compression",
         std::string(kVtkCompressionNames[static_cast<std::size_t>(s.output.vtk_compression)]));

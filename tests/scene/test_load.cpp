@@ -387,16 +387,16 @@ TEST(SceneGeometry, ThrustNormalPointsOutOfTheSoil) {
   EXPECT_GT(d.x, 0.0);
 }
 
-// [output] vtk_compression: a keyword (zlib by default), kept through the resolved scene's dump
+// [output] vtk_compression: a keyword (lz4 by default), kept through the resolved scene's dump
 // only when not the default; anything else is an error located at the key.
 TEST(SceneLoad, VtkCompressionKeyword) {
-  EXPECT_EQ(parse_scene(kValid, "test.toml").base.output.vtk_compression, VtkCompression::Zlib);
-  const std::string lz4 = std::string(kValid) + "\n[output]\nvtk_compression = \"lz4\"\n";
-  const Scene s = parse_scene(lz4, "test.toml").base;
-  EXPECT_EQ(s.output.vtk_compression, VtkCompression::Lz4);
+  EXPECT_EQ(parse_scene(kValid, "test.toml").base.output.vtk_compression, VtkCompression::Lz4);
+  const std::string zlib = std::string(kValid) + "\n[output]\nvtk_compression = \"zlib\"\n";
+  const Scene s = parse_scene(zlib, "test.toml").base;
+  EXPECT_EQ(s.output.vtk_compression, VtkCompression::Zlib);
   const std::string dumped = to_toml(s);
   EXPECT_NE(dumped.find("vtk_compression"), std::string::npos) << dumped;
-  EXPECT_EQ(parse_scene(dumped, "dumped.toml").base.output.vtk_compression, VtkCompression::Lz4);
+  EXPECT_EQ(parse_scene(dumped, "dumped.toml").base.output.vtk_compression, VtkCompression::Zlib);
   EXPECT_EQ(to_toml(parse_scene(kValid, "test.toml").base).find("vtk_compression"),
             std::string::npos);
   const std::string bad = std::string(kValid) + "\n[output]\nvtk_compression = \"gzip\"\n";

@@ -32,9 +32,9 @@ public:
                                              const std::string& extension);
 
 // ---- VTK XML PolyData (.vtp): binary, appended raw data, UInt64 headers ----
-// Compressed with zlib (level 1) unless `compression` says otherwise ([output] vtk_compression:
-// lz4, none; scene.hpp). Each file is written to "<path>.tmp" and renamed over <path>, so a
-// reader never sees a half-written snapshot.
+// Compressed as `compression` says: zlib (level 1) unless given (the packing's .vtp); a run passes
+// its [output] vtk_compression (lz4 by default; scene.hpp). Each file is written to "<path>.tmp"
+// and renamed over <path>, so a reader never sees a half-written snapshot.
 
 // One vertex per particle not flagged kFlagRemoved, at (x, z, 0). Point data:
 //   id (UInt32), radius, diameter (Float64), velocity (3 comp.), angular_velocity (omega,
