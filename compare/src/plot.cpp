@@ -1,6 +1,7 @@
 #include "demfem/compare/plot.hpp"
 #include "gnuplot_run.hpp"
 #include "out_file.hpp"
+#include "raster.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -171,27 +172,25 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   fs::create_directories(png.parent_path().empty() ? fs::path(".") : png.parent_path());
   fs::path stem = png;
   stem.replace_extension();
-  const fs::path pdat = stem.string() + ".particles.dat";
+  const fs::path ppng = stem.string() + ".particles.png";
   const fs::path cdat = stem.string() + ".chains.dat";
   const fs::path bdat = stem.string() + ".walls.dat";
   const fs::path gp = stem.string() + ".gp";
 
   double xmin = 1e300, xmax = -1e300, zmin = 1e300, zmax = -1e300, vmax = 0.0;
-  {
-    OutFile d(pdat);
-    d.precision(8);
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
-      const double v = std::hypot(p.vx[i], p.vz[i]);
-      vmax = std::max(vmax, v);
-      xmin = std::min(xmin, p.x[i] - p.radius[i]);
-      xmax = std::max(xmax, p.x[i] + p.radius[i]);
-      zmin = std::min(zmin, p.z[i] - p.radius[i]);
-      zmax = std::max(zmax, p.z[i] + p.radius[i]);
-      d << p.x[i] << " " << p.z[i] << " " << p.radius[i] << " " << v << "\n";
-    }
-    d.close();
+  std::vector<detail::RasterDisk> disks; // drawn as one image below (raster.hpp)
+  disks.reserve(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
+    const double v = std::hypot(p.vx[i], p.vz[i]);
+    vmax = std::max(vmax, v);
+    xmin = std::min(xmin, p.x[i] - p.radius[i]);
+    xmax = std::max(xmax, p.x[i] + p.radius[i]);
+    zmin = std::min(zmin, p.z[i] - p.radius[i]);
+    zmax = std::max(zmax, p.z[i] + p.radius[i]);
+    disks.push_back({p.x[i], p.z[i], p.radius[i], v});
   }
+  double pxmin = xmin, pxmax = xmax, pzmin = zmin, pzmax = zmax; // the particles' extent
   double fmax = 0.0;
   for (const auto& c : contacts) fmax = std::max(fmax, std::abs(c.fn));
   // Force chains in 4 width classes by |fn|/max (gnuplot's vectors take no variable width);
@@ -263,7 +262,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
 
   OutFile g(gp);
   g << "# demfem particle snapshot; re-plot with: gnuplot " << gp.filename().string() << "\n";
-  g << "cd " << quote(fs::absolute(pdat).parent_path().string()) << "\n";
+  g << "cd " << quote(fs::absolute(ppng).parent_path().string()) << "\n";
   g << fmt::format(
       "set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,11'\nset output {}\n", w, h,
       quote(fs::absolute(png).string()));
@@ -271,12 +270,20 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       "set title {} noenhanced\nset size ratio -1\nset xrange [{}:{}]\nset yrange [{}:{}]\n",
       quote(spec.title), xmin, xmax, zmin, zmax);
   g << "set xlabel 'x [m]'\nset ylabel 'z [m]'\nset cblabel 'speed [m/s]'\n";
-  g << "set palette defined (0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 "
-       "'#d7191c')\n";
+  g << "set palette defined " << detail::kPaletteGnuplot << "\n";
   g << fmt::format("set cbrange [0:{}]\n", vmax > 0 ? vmax : 1.0);
-  g << "set style fill solid 0.85 noborder\nset key off\n";
-  std::string cl =
-      fmt::format("{} using 1:2:3:4 with circles lc palette", quote(pdat.filename().string()));
+  g << "set key off\n";
+  // The particles: one image of filled disks, ≈ 1,000 pixels along the longer side (about the plot
+  // area), coloured by speed (raster.hpp); drawing each disk `with circles` (translucent, `fill
+  // solid 0.85`) was ≈ 0.1 s of the figure's 0.25 s at 3,400 disks.
+  {
+    const detail::Raster grid = detail::raster_grid(pxmin, pxmax, pzmin, pzmax, 1000.0);
+    OutFile d(ppng);
+    d << detail::raster_png(grid, disks, vmax, nullptr);
+    d.close();
+    g << detail::raster_pixmap(grid, ppng.filename().string(), 1);
+  }
+  std::string cl = "NaN with lines lc palette frac 0"; // keeps the colour box
   for (int block = 0; chains && block < 2 * kClasses; ++block) {
     if (!has_block[block]) continue;
     const bool tension = block >= kClasses;

@@ -1,9 +1,9 @@
 #include "demfem/compare/series.hpp"
 #include "gnuplot_run.hpp"
 #include "out_file.hpp"
+#include "raster.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -15,12 +15,9 @@
 #include <vtkCellData.h>
 #include <vtkDataArray.h>
 #include <vtkIdList.h>
-#include <vtkImageData.h>
-#include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
-#include <vtkUnsignedCharArray.h>
 #include <vtkXMLPolyDataReader.h>
 
 #include "demfem/compare/plot.hpp"
@@ -152,100 +149,6 @@ bool load_frame(const std::vector<std::pair<double, fs::path>>& particles,
   return true;
 }
 
-// The particles of a frame as a PNG layer for gnuplot's `with rgbalpha` (a filled disk per
-// particle, transparent between them), pixels of `px` metres. Drawing 3,400 disks `with circles`
-// took ≈ 0.35 s of gnuplot per panel (2.5 s of a 7-panel strip); the image ≈ 0.1 s.
-struct Raster {
-  double x0 = 0.0, z0 = 0.0, px = 1.0; // lower-left corner of pixel (0, 0), pixel size [m]
-  int w = 1, h = 1;
-};
-Raster raster_grid(double xmin, double xmax, double zmin, double zmax) {
-  Raster g;
-  constexpr double kPixels = 640.0; // along the longer side: about a panel's plot area
-  g.px = std::max(xmax - xmin, zmax - zmin) / kPixels;
-  if (!(g.px > 0.0)) g.px = 1.0;
-  g.x0 = xmin;
-  g.z0 = zmin;
-  g.w = static_cast<int>(std::ceil((xmax - xmin) / g.px)) + 1;
-  g.h = static_cast<int>(std::ceil((zmax - zmin) / g.px)) + 1;
-  return g;
-}
-// The strips' palette (gnuplot `set palette defined`, linear in RGB between its points).
-constexpr const char* kPaletteGnuplot =
-    "(0 '#2c7bb6', 0.25 '#abd9e9', 0.5 '#ffffbf', 0.75 '#fdae61', 1 '#d7191c')";
-std::array<unsigned char, 3> palette_rgb(double t) {
-  static constexpr double pos[5] = {0.0, 0.25, 0.5, 0.75, 1.0};
-  static constexpr unsigned char rgb[5][3] = {{0x2c, 0x7b, 0xb6},
-                                              {0xab, 0xd9, 0xe9},
-                                              {0xff, 0xff, 0xbf},
-                                              {0xfd, 0xae, 0x61},
-                                              {0xd7, 0x19, 0x1c}};
-  t = std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
-  std::size_t k = 0;
-  while (k < 3 && t > pos[k + 1]) ++k;
-  const double f = (t - pos[k]) / (pos[k + 1] - pos[k]);
-  std::array<unsigned char, 3> c{};
-  for (std::size_t q = 0; q < 3; ++q)
-    c[q] = static_cast<unsigned char>(
-        std::lround(rgb[k][q] + f * (static_cast<double>(rgb[k + 1][q]) - rgb[k][q])));
-  return c;
-}
-// PNG bytes (RGBA) of the disks: coloured by speed / vmax with the palette, or all `grey`.
-std::string raster_png(const Raster& g, const std::vector<Disk>& disks, double vmax,
-                       const unsigned char* grey) {
-  auto img = vtkSmartPointer<vtkImageData>::New();
-  img->SetDimensions(g.w, g.h, 1);
-  img->AllocateScalars(VTK_UNSIGNED_CHAR, 4);
-  auto* px = static_cast<unsigned char*>(img->GetScalarPointer());
-  std::fill(px, px + 4 * static_cast<std::size_t>(g.w) * static_cast<std::size_t>(g.h), 0);
-  const auto cell = [&](double v, double o, int n) {
-    return static_cast<int>(std::clamp(std::floor((v - o) / g.px), 0.0, n - 1.0));
-  };
-  for (const auto& d : disks) {
-    if (!std::isfinite(d.x) || !std::isfinite(d.z)) continue;
-    std::array<unsigned char, 3> c{};
-    if (grey)
-      c = {grey[0], grey[1], grey[2]};
-    else
-      c = palette_rgb(vmax > 0.0 ? d.speed / vmax : 0.0);
-    const auto put = [&](int i, int j) { // row 0 at zmin (VTK), written bottom row last
-      unsigned char* q = px + 4 * (static_cast<std::size_t>(j) * static_cast<std::size_t>(g.w) +
-                                   static_cast<std::size_t>(i));
-      q[0] = c[0];
-      q[1] = c[1];
-      q[2] = c[2];
-      q[3] = 255;
-    };
-    const int i0 = cell(d.x - d.r, g.x0, g.w), i1 = cell(d.x + d.r, g.x0, g.w);
-    const int j0 = cell(d.z - d.r, g.z0, g.h), j1 = cell(d.z + d.r, g.z0, g.h);
-    for (int j = j0; j <= j1; ++j) {
-      const double zc = g.z0 + (j + 0.5) * g.px - d.z;
-      for (int i = i0; i <= i1; ++i) {
-        const double xc = g.x0 + (i + 0.5) * g.px - d.x;
-        if (xc * xc + zc * zc <= d.r * d.r) put(i, j);
-      }
-    }
-    put(cell(d.x, g.x0, g.w), cell(d.z, g.z0, g.h)); // a disk below a pixel still shows
-  }
-  auto w = vtkSmartPointer<vtkPNGWriter>::New();
-  w->SetWriteToMemory(1);
-  w->SetCompressionLevel(1); // fastest deflate (VTK's default 5): a layer gnuplot reads once
-  w->SetInputData(img);
-  w->Write();
-  vtkUnsignedCharArray* bytes = w->GetResult();
-  if (!bytes) throw std::runtime_error("snapshot series: the PNG encoder returned nothing");
-  return {reinterpret_cast<const char*>(bytes->GetPointer(0)),
-          static_cast<std::size_t>(bytes->GetNumberOfTuples())};
-}
-// The gnuplot commands that draw a raster layer behind one panel's plot, as pixmap `index` (the
-// terminal scales the PNG onto the data rectangle it covers). `plot 'file' binary filetype=png
-// … with rgbalpha` drew the same pixels (0.1 % of a strip's pixels differ, at disk edges) but
-// took ≈ 1 s more per 7-panel strip: gnuplot handles such an image pixel by pixel.
-std::string raster_pixmap(const Raster& g, const std::string& file, int index) {
-  return fmt::format("set pixmap {} '{}' at first {:.9g},{:.9g} size first {:.9g},{:.9g} back\n",
-                     index, file, g.x0, g.z0, g.w * g.px, g.h * g.px);
-}
-
 std::string quote(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
@@ -370,13 +273,17 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
       }
   }
   const double vscale = vcell_max > 0.0 ? 0.9 * vcell / vcell_max : 0.0; // m per (m/s)
-  const Raster grid = raster_grid(xmin, xmax, zmin, zmax);
+  // 640 pixels along the longer side: about a panel's plot area
+  const detail::Raster grid = detail::raster_grid(xmin, xmax, zmin, zmax, 640.0);
   static constexpr unsigned char kGrey[3] = {0xd8, 0xd8, 0xd8}; // the particles behind the loci
   for (std::size_t k = 0; k < n; ++k) {
     const auto& f = frames[k];
+    std::vector<detail::RasterDisk> layer;
+    layer.reserve(f.disks.size());
+    for (const auto& d : f.disks) layer.push_back({d.x, d.z, d.r, d.speed});
     for (const bool grey : {false, true}) {
       OutFile d(dat / fmt::format("{}{}.png", grey ? "g" : "p", k));
-      d << raster_png(grid, f.disks, vmax, grey ? kGrey : nullptr);
+      d << detail::raster_png(grid, layer, vmax, grey ? kGrey : nullptr);
       d.close();
     }
     {
@@ -478,7 +385,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     g << fmt::format("set terminal pngcairo size {},{} enhanced font 'DejaVu Sans,10'\n", canvas_w,
                      canvas_h);
     g << "set output " << quote(fs::absolute(png).string()) << "\n";
-    g << "set palette defined " << kPaletteGnuplot << "\n";
+    g << "set palette defined " << detail::kPaletteGnuplot << "\n";
     g << fmt::format("set cbrange [0:{}]\nset cblabel 'speed [m/s]'\n", vmax > 0 ? vmax : 1.0);
     g << "set key off\nset size ratio -1\n";
     g << fmt::format("set xrange [{}:{}]\nset yrange [{}:{}]\n", xmin, xmax, zmin, zmax);
@@ -501,7 +408,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
       const int pixmap = static_cast<int>(k) + 1;
       if (kind == Kind::Loci) {
         g << "unset colorbox\n";
-        g << raster_pixmap(grid, fmt::format("g{}.png", k), pixmap);
+        g << detail::raster_pixmap(grid, fmt::format("g{}.png", k), pixmap);
         cl = fmt::format("'l{}.dat' using 1:2 with lines lw 2 lc rgb '#c0392b'", k);
       } else {
         if (k + 1 < n)
@@ -513,7 +420,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
               "set colorbox user origin screen {:.4f},{:.4f} size screen {:.4f},{:.4f}\n",
               (static_cast<double>(pw * static_cast<int>(cols)) + 20.0) / canvas_w, 0.15 * top,
               24.0 / canvas_w, 0.7 * top);
-        g << raster_pixmap(grid, fmt::format("p{}.png", k), pixmap);
+        g << detail::raster_pixmap(grid, fmt::format("p{}.png", k), pixmap);
         cl = "NaN with lines lc palette frac 0"; // keeps the colour box
       }
       if (kind == Kind::Chains)

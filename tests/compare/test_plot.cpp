@@ -34,6 +34,7 @@ namespace {
 fs::path tmpdir(const std::string& name) {
   return demfem::test::scratch_dir(name);
 }
+std::vector<unsigned char> png_pixels(const fs::path& p); // RGB(A) bytes read back through VTK
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   char sig[8] = {};
@@ -126,6 +127,18 @@ TEST(Plot, ParticleSnapshotWithChains) {
   EXPECT_FALSE(fs::exists(d / "s.svg")); // PNG only (plot.hpp); the script says how to get one
   EXPECT_TRUE(fs::exists(d / "s.gp"));
   EXPECT_TRUE(fs::exists(d / "s.chains.dat"));
+  // the particles: one image (1,000 pixels along the longer side of their extent, 0.6 m × 0.2 m)
+  // placed behind the plot, not a circle per disk
+  EXPECT_TRUE(is_png(d / "s.particles.png"));
+  EXPECT_EQ(png_pixels(d / "s.particles.png").size(), 4u * 1001u * 335u);
+  {
+    std::ifstream g(d / "s.gp");
+    const std::string text((std::istreambuf_iterator<char>(g)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("set pixmap 1 's.particles.png' at first -0.1,0 size first"),
+              std::string::npos)
+        << text;
+    EXPECT_EQ(text.find("with circles"), std::string::npos);
+  }
   // A velocity field draws arrows, not chains: it writes no chains file (7.6 MB at 10⁵ disks)
   ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0, true}, d / "v.png", &err))
       << err;
