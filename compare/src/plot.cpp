@@ -278,10 +278,15 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   // solid 0.85`) was ≈ 0.1 s of the figure's 0.25 s at 3,400 disks.
   {
     const detail::Raster grid = detail::raster_grid(pxmin, pxmax, pzmin, pzmax, 1000.0);
-    OutFile d(ppng);
-    d << detail::raster_png(grid, disks, vmax, nullptr);
-    d.close();
-    g << detail::raster_pixmap(grid, ppng.filename().string(), 1);
+    std::error_code ec;
+    if (disks.empty() || grid.w <= 0) { // no particle left in the model: no layer
+      fs::remove(ppng, ec);
+    } else {
+      OutFile d(ppng);
+      d << detail::raster_png(grid, disks, vmax, nullptr);
+      d.close();
+      g << detail::raster_pixmap(grid, ppng.filename().string(), 1);
+    }
   }
   std::string cl = "NaN with lines lc palette frac 0"; // keeps the colour box
   for (int block = 0; chains && block < 2 * kClasses; ++block) {

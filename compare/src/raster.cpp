@@ -15,6 +15,11 @@ namespace demfem::compare::detail {
 
 Raster raster_grid(double xmin, double xmax, double zmin, double zmax, double pixels) {
   Raster g;
+  if (!(std::isfinite(xmin) && std::isfinite(xmax) && std::isfinite(zmin) && std::isfinite(zmax) &&
+        xmax >= xmin && zmax >= zmin)) { // nothing to draw
+    g.w = g.h = 0;
+    return g;
+  }
   g.px = std::max(xmax - xmin, zmax - zmin) / std::max(pixels, 1.0);
   if (!(g.px > 0.0)) g.px = 1.0;
   g.x0 = xmin;

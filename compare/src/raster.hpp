@@ -20,7 +20,8 @@ struct Raster {
   double x0 = 0.0, z0 = 0.0, px = 1.0;
   int w = 1, h = 1;
 };
-// `pixels` along the longer side of [xmin, xmax] × [zmin, zmax] (about the plot area it fills).
+// `pixels` along the longer side of [xmin, xmax] × [zmin, zmax] (about the plot area it fills);
+// w = h = 0 (nothing to draw) when the rectangle is empty or not finite (no particle left).
 Raster raster_grid(double xmin, double xmax, double zmin, double zmax, double pixels);
 
 // The palette of the strips and snapshots, for gnuplot's `set palette defined` and in RGB

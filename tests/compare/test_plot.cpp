@@ -139,6 +139,14 @@ TEST(Plot, ParticleSnapshotWithChains) {
         << text;
     EXPECT_EQ(text.find("with circles"), std::string::npos);
   }
+  // Every particle gone from the model (a runout past the domain's end): the figure is drawn
+  // without a particle layer (the extent of no disk once made a grid of 2³¹ pixels)
+  dem::Particles gone = p;
+  for (auto& f : gone.flags) f = dem::kFlagRemoved;
+  ASSERT_TRUE(compare::plot_particles(gone, {}, b, {"no disks", true, 4.0}, d / "e.png", &err))
+      << err;
+  EXPECT_TRUE(is_png(d / "e.png"));
+  EXPECT_FALSE(fs::exists(d / "e.particles.png"));
   // A velocity field draws arrows, not chains: it writes no chains file (7.6 MB at 10⁵ disks)
   ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0, true}, d / "v.png", &err))
       << err;
