@@ -2,16 +2,52 @@
 
 #include <algorithm>
 #include <cmath>
+#include <csetjmp>
 #include <cstddef>
 #include <stdexcept>
 
 #include <fmt/format.h>
-#include <vtkImageData.h>
-#include <vtkPNGWriter.h>
-#include <vtkSmartPointer.h>
-#include <vtkUnsignedCharArray.h>
+#include <png.h>
 
 namespace demfem::compare::detail {
+
+namespace {
+// RGBA rows (row 0 at the bottom) as PNG bytes, through libpng: zlib level 1 and no row filter.
+// VTK's writer (level 5, libpng's adaptive filters, which it does not let one change) took 45 % of
+// a wall run's figure work in demfem for the strips' 14 layers (bench/RESULTS.md, twenty-fifth
+// session); these layers are read once, by gnuplot.
+std::string encode_png(const std::vector<unsigned char>& rgba, std::size_t w, std::size_t h) {
+  std::string out;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) {
+    png_destroy_write_struct(&png, &info);
+    throw std::runtime_error("particle layer: libpng could not start an image");
+  }
+  if (setjmp(png_jmpbuf(png))) { // libpng's errors return here
+    png_destroy_write_struct(&png, &info);
+    throw std::runtime_error("particle layer: libpng failed to encode the image");
+  }
+  png_set_write_fn(
+      png, &out,
+      [](png_structp p, png_bytep data, png_size_t n) {
+        static_cast<std::string*>(png_get_io_ptr(p))
+            ->append(reinterpret_cast<const char*>(data), n);
+      },
+      nullptr);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(w), static_cast<png_uint_32>(h), 8,
+               PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+               PNG_FILTER_TYPE_DEFAULT);
+  png_set_compression_level(png, 1);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+  png_write_info(png, info);
+  for (std::size_t r = h; r-- > 0;) // the top row first
+    png_write_row(png, rgba.data() + 4 * w * r);
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  return out;
+}
+} // namespace
 
 Raster raster_grid(double xmin, double xmax, double zmin, double zmax, double pixels) {
   Raster g;
@@ -52,11 +88,10 @@ std::array<unsigned char, 3> palette_rgb(double t) {
 
 std::string raster_png(const Raster& g, const std::vector<RasterDisk>& disks, double vmax,
                        const unsigned char* grey) {
-  auto img = vtkSmartPointer<vtkImageData>::New();
-  img->SetDimensions(g.w, g.h, 1);
-  img->AllocateScalars(VTK_UNSIGNED_CHAR, 4);
-  auto* px = static_cast<unsigned char*>(img->GetScalarPointer());
-  std::fill(px, px + 4 * static_cast<std::size_t>(g.w) * static_cast<std::size_t>(g.h), 0);
+  const auto w = static_cast<std::size_t>(std::max(g.w, 0));
+  const auto h = static_cast<std::size_t>(std::max(g.h, 0));
+  std::vector<unsigned char> pixels(4 * w * h, 0); // RGBA, row 0 at zmin
+  unsigned char* px = pixels.data();
   const auto cell = [&](double v, double o, int n) {
     return static_cast<int>(std::clamp(std::floor((v - o) / g.px), 0.0, n - 1.0));
   };
@@ -68,8 +103,7 @@ std::string raster_png(const Raster& g, const std::vector<RasterDisk>& disks, do
     else
       c = palette_rgb(vmax > 0.0 ? d.speed / vmax : 0.0);
     const auto put = [&](int i, int j) { // row 0 at zmin (VTK), written bottom row last
-      unsigned char* q = px + 4 * (static_cast<std::size_t>(j) * static_cast<std::size_t>(g.w) +
-                                   static_cast<std::size_t>(i));
+      unsigned char* q = px + 4 * (static_cast<std::size_t>(j) * w + static_cast<std::size_t>(i));
       q[0] = c[0];
       q[1] = c[1];
       q[2] = c[2];
@@ -86,15 +120,7 @@ std::string raster_png(const Raster& g, const std::vector<RasterDisk>& disks, do
     }
     put(cell(d.x, g.x0, g.w), cell(d.z, g.z0, g.h)); // a disk below a pixel still shows
   }
-  auto w = vtkSmartPointer<vtkPNGWriter>::New();
-  w->SetWriteToMemory(1);
-  w->SetCompressionLevel(1); // fastest deflate (VTK's default 5): a layer gnuplot reads once
-  w->SetInputData(img);
-  w->Write();
-  vtkUnsignedCharArray* bytes = w->GetResult();
-  if (!bytes) throw std::runtime_error("particle layer: the PNG encoder returned nothing");
-  return {reinterpret_cast<const char*>(bytes->GetPointer(0)),
-          static_cast<std::size_t>(bytes->GetNumberOfTuples())};
+  return encode_png(pixels, w, h);
 }
 
 // `plot 'file' binary filetype=png … with rgbalpha` drew the same pixels (0.1 % of a strip's
