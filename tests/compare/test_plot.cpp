@@ -3,12 +3,14 @@
 #include <iterator>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <array>
 #include <cstdlib>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
@@ -21,6 +23,7 @@
 #include "../scratch.hpp"
 
 #include "../../compare/src/gnuplot_run.hpp"
+#include "../../compare/src/raster.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/dem/io.hpp"
@@ -215,18 +218,18 @@ TEST(Plot, ScriptsRunTogetherWithErrorsInOrder) {
   const auto d = tmpdir("gnuplot_jobs");
   std::vector<fs::path> scripts;
   for (int k = 0; k < 5; ++k) {
-    const fs::path gp = d / ("s" + std::to_string(k) + ".gp");
+    const fs::path gp = d / fmt::format("s{}.gp", k);
     std::ofstream g(gp);
     if (k == 2)
       g << "this is not gnuplot\n";
     else
       g << "set terminal pngcairo size 200,150\nset output '"
-        << (d / ("s" + std::to_string(k) + ".png")).string() << "'\nplot sin(x)\n";
+        << (d / fmt::format("s{}.png", k)).string() << "'\nplot sin(x)\n";
     scripts.push_back(gp);
   }
   for (const unsigned parallel : {1u, 2u, 0u}) {
     SCOPED_TRACE(parallel);
-    for (int k = 0; k < 5; ++k) fs::remove(d / ("s" + std::to_string(k) + ".png"));
+    for (int k = 0; k < 5; ++k) fs::remove(d / fmt::format("s{}.png", k));
     const auto err = compare::detail::run_gnuplot_scripts(scripts, parallel);
     ASSERT_EQ(err.size(), 5u);
     for (int k = 0; k < 5; ++k) {
@@ -237,7 +240,7 @@ TEST(Plot, ScriptsRunTogetherWithErrorsInOrder) {
         EXPECT_TRUE(fs::exists(log));
       } else {
         EXPECT_TRUE(err[static_cast<std::size_t>(k)].empty()) << err[static_cast<std::size_t>(k)];
-        EXPECT_TRUE(is_png(d / ("s" + std::to_string(k) + ".png"))) << k;
+        EXPECT_TRUE(is_png(d / fmt::format("s{}.png", k))) << k;
         EXPECT_FALSE(fs::exists(log)) << log;
       }
     }
@@ -387,4 +390,26 @@ TEST(Figures, PeakSnapshotSpeedsOfAllAndAboveAHeight) {
   EXPECT_DOUBLE_EQ(pk.above, 6.0);
   EXPECT_DOUBLE_EQ(compare::peak_snapshot_speeds(d).above, 9.0); // no height: every particle
   EXPECT_EQ(compare::peak_snapshot_speeds(d / "none").all, 0.0);
+}
+
+// The particle layer's encoder: a grid of a few pixels round-trips through VTK's reader, with
+// transparency between the disks; an empty grid is an error, not a crash.
+TEST(Raster, LayerReadsBackAndAnEmptyGridIsAnError) {
+  const auto d = tmpdir("raster_layer");
+  const compare::detail::Raster g = compare::detail::raster_grid(0.0, 4.0, 0.0, 2.0, 4.0);
+  ASSERT_EQ(g.w, 5);
+  ASSERT_EQ(g.h, 3);
+  {
+    std::ofstream f(d / "l.png", std::ios::binary);
+    f << compare::detail::raster_png(g, {{0.5, 0.5, 0.4, 0.0}}, 1.0, nullptr);
+  }
+  const auto px = png_pixels(d / "l.png"); // RGBA, row 0 at the bottom
+  ASSERT_EQ(px.size(), 4u * 5u * 3u);
+  EXPECT_EQ(px[0], 0x2c); // pixel (0, 0): the disk, the palette's first colour, opaque
+  EXPECT_EQ(px[3], 255);
+  EXPECT_EQ(px[4 * (2 * 5 + 4) + 3], 0); // pixel (4, 2): transparent
+  compare::detail::Raster empty = g;
+  empty.w = empty.h = 0;
+  EXPECT_THROW((void)compare::detail::raster_png(empty, {}, 1.0, nullptr), std::runtime_error);
+  EXPECT_EQ(compare::detail::raster_grid(1e300, -1e300, 0.0, 1.0, 100.0).w, 0);
 }
