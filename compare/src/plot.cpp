@@ -190,7 +190,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
     zmax = std::max(zmax, p.z[i] + p.radius[i]);
     disks.push_back({p.x[i], p.z[i], p.radius[i], v});
   }
-  double pxmin = xmin, pxmax = xmax, pzmin = zmin, pzmax = zmax; // the particles' extent
+  const double pxmin = xmin, pxmax = xmax, pzmin = zmin, pzmax = zmax; // the particles' extent
   double fmax = 0.0;
   for (const auto& c : contacts) fmax = std::max(fmax, std::abs(c.fn));
   // Force chains in 4 width classes by |fn|/max (gnuplot's vectors take no variable width);

@@ -102,7 +102,7 @@ std::string raster_png(const Raster& g, const std::vector<RasterDisk>& disks, do
       c = {grey[0], grey[1], grey[2]};
     else
       c = palette_rgb(vmax > 0.0 ? d.speed / vmax : 0.0);
-    const auto put = [&](int i, int j) { // row 0 at zmin (VTK), written bottom row last
+    const auto put = [&](int i, int j) { // row 0 at zmin, written to the PNG last
       unsigned char* q = px + 4 * (static_cast<std::size_t>(j) * w + static_cast<std::size_t>(i));
       q[0] = c[0];
       q[1] = c[1];
