@@ -452,7 +452,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
       // Velocity field at the end of the run (the paper's Figs. 3.6 and 6.x).
       SnapshotSpec vs = ss;
       vs.velocity_arrows = true;
-      vs.title = fmt::format("velocity field at t = {:.3g} s (arrows ∝ velocity) — {}",
+      vs.title = fmt::format("velocity field at t = {:.3g} s (arrows: mean velocity of the "
+                             "particles in each cell) — {}",
                              ck.meta.time, scene.label());
       if (!plot_particles(p, cv, bv, vs, fig / "velocity_field_final.png", &err, &queue))
         out.problems.push_back("velocity_field_final: " + err);

@@ -188,7 +188,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
     xmax = std::max(xmax, p.x[i] + p.radius[i]);
     zmin = std::min(zmin, p.z[i] - p.radius[i]);
     zmax = std::max(zmax, p.z[i] + p.radius[i]);
-    disks.push_back({p.x[i], p.z[i], p.radius[i], v});
+    disks.push_back({p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], v});
   }
   const double pxmin = xmin, pxmax = xmax, pzmin = zmin, pzmax = zmax; // the particles' extent
   double fmax = 0.0;
@@ -242,15 +242,12 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   }
   if (!(xmax > xmin)) xmin = 0, xmax = 1;
   const fs::path vdat = stem.string() + ".velocity.dat";
-  if (spec.velocity_arrows) {
+  if (spec.velocity_arrows) { // cell means, as the strips draw them (raster.hpp); the longest
+                              // arrow 0.9 cells
+    const double cell = std::max(pxmax - pxmin, pzmax - pzmin) / 48.0;
+    const auto v = detail::cell_mean_velocity(disks, pxmin, pxmax, pzmin, pzmax, cell);
     OutFile d(vdat);
-    d.precision(8);
-    const double scale = vmax > 0.0 ? 0.04 * (xmax - xmin) / vmax : 0.0; // metres per (m/s)
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      if (!p.flags.empty() && (p.flags[i] & dem::kFlagRemoved)) continue;
-      d << p.x[i] << " " << p.z[i] << " " << p.vx[i] * scale << " " << p.vz[i] * scale << "\n";
-    }
-    d << "NaN NaN NaN NaN\n";
+    d << detail::cell_arrows(v, pxmin, pzmin, v.vmax > 0.0 ? 0.9 * cell / v.vmax : 0.0);
     d.close();
   }
   if (!(zmax > zmin)) zmin = 0, zmax = 1;

@@ -67,9 +67,7 @@ std::vector<std::pair<double, fs::path>> read_pvd(const fs::path& pvd) {
 
 namespace {
 
-struct Disk {
-  double x, z, r, vx, vz, speed;
-};
+using Disk = detail::RasterDisk; // x, z, r, vx, vz, speed
 struct Chain {
   double x0, z0, x1, z1, fn;
   bool tensile;
@@ -238,39 +236,14 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   const auto lt = loci.column("time");
 
   constexpr int kClasses = 4; // chain widths by |f_n| / max over the strip
-  // Velocity arrows: the mass-weighted mean velocity (disks of one density: weights r²) of the
-  // particles whose centres lie in each square cell, about 36 cells along the longer side; one
-  // arrow per particle (3,400 on the wall) drew a black mat. The longest arrow is 0.9 cells.
+  // Velocity arrows: cell means (raster.hpp), about 36 cells along the longer side, one scale for
+  // the strip: the longest arrow is 0.9 cells.
   const double vcell = std::max(xmax - xmin, zmax - zmin) / 36.0;
-  const auto ncx = static_cast<std::size_t>(std::ceil((xmax - xmin) / vcell));
-  const auto ncz = static_cast<std::size_t>(std::ceil((zmax - zmin) / vcell));
-  struct CellMean {
-    std::vector<double> vx, vz; // per cell; NaN where no particle centre lies
-  };
-  std::vector<CellMean> cell_means(n);
+  std::vector<detail::CellVelocity> cell_means;
   double vcell_max = 0.0;
-  for (std::size_t k = 0; k < n; ++k) {
-    std::vector<double> w(ncx * ncz, 0.0), sx(ncx * ncz, 0.0), sz(ncx * ncz, 0.0);
-    for (const auto& q : frames[k].disks) {
-      if (!std::isfinite(q.x) || !std::isfinite(q.z)) continue;
-      const auto ix =
-          std::min(ncx - 1, static_cast<std::size_t>(std::max(0.0, (q.x - xmin) / vcell)));
-      const auto iz =
-          std::min(ncz - 1, static_cast<std::size_t>(std::max(0.0, (q.z - zmin) / vcell)));
-      const double m = q.r * q.r;
-      w[iz * ncx + ix] += m;
-      sx[iz * ncx + ix] += m * q.vx;
-      sz[iz * ncx + ix] += m * q.vz;
-    }
-    auto& cm = cell_means[k];
-    cm.vx.assign(ncx * ncz, std::nan(""));
-    cm.vz.assign(ncx * ncz, std::nan(""));
-    for (std::size_t c = 0; c < w.size(); ++c)
-      if (w[c] > 0.0) {
-        cm.vx[c] = sx[c] / w[c];
-        cm.vz[c] = sz[c] / w[c];
-        vcell_max = std::max(vcell_max, std::hypot(cm.vx[c], cm.vz[c]));
-      }
+  for (const auto& f : frames) {
+    cell_means.push_back(detail::cell_mean_velocity(f.disks, xmin, xmax, zmin, zmax, vcell));
+    vcell_max = std::max(vcell_max, cell_means.back().vmax);
   }
   const double vscale = vcell_max > 0.0 ? 0.9 * vcell / vcell_max : 0.0; // m per (m/s)
   // 640 pixels along the longer side: about a panel's plot area
@@ -278,12 +251,9 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   static constexpr unsigned char kGrey[3] = {0xd8, 0xd8, 0xd8}; // the particles behind the loci
   for (std::size_t k = 0; k < n; ++k) {
     const auto& f = frames[k];
-    std::vector<detail::RasterDisk> layer;
-    layer.reserve(f.disks.size());
-    for (const auto& d : f.disks) layer.push_back({d.x, d.z, d.r, d.speed});
     for (const bool grey : {false, true}) {
       OutFile d(dat / fmt::format("{}{}.png", grey ? "g" : "p", k));
-      d << detail::raster_png(grid, layer, vmax, grey ? kGrey : nullptr);
+      d << detail::raster_png(grid, f.disks, vmax, grey ? kGrey : nullptr);
       d.close();
     }
     {
@@ -308,19 +278,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     }
     {
       OutFile d(dat / fmt::format("v{}.dat", k));
-      d.precision(7);
-      const auto& cm = cell_means[k];
-      for (std::size_t iz = 0; iz < ncz; ++iz)
-        for (std::size_t ix = 0; ix < ncx; ++ix) {
-          const std::size_t c = iz * ncx + ix;
-          if (!std::isfinite(cm.vx[c])) continue;
-          // from the cell centre, centred on it
-          const double ax = cm.vx[c] * vscale, az = cm.vz[c] * vscale;
-          d << xmin + (static_cast<double>(ix) + 0.5) * vcell - 0.5 * ax << " "
-            << zmin + (static_cast<double>(iz) + 0.5) * vcell - 0.5 * az << " " << ax << " " << az
-            << "\n";
-        }
-      d << "NaN NaN NaN NaN\n";
+      d << detail::cell_arrows(cell_means[k], xmin, zmin, vscale);
       d.close();
     }
     {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <array>
+#include <cmath>
 #include <cstdlib>
 
 #include <fmt/format.h>
@@ -156,6 +157,26 @@ TEST(Plot, ParticleSnapshotWithChains) {
   EXPECT_TRUE(is_png(d / "v.png"));
   EXPECT_TRUE(fs::exists(d / "v.velocity.dat"));
   EXPECT_FALSE(fs::exists(d / "v.chains.dat"));
+  // its arrows: the mean velocity in each of 48 cells along the particles' longer side (0.6 m:
+  // cells of 0.0125 m, one disk centre in each of three), centred on the cell's centre, the
+  // longest (0.2 m/s) 0.9 cells long; a NaN line ends the file
+  std::ifstream v(d / "v.velocity.dat");
+  std::vector<std::array<double, 4>> arrows;
+  std::string line;
+  while (std::getline(v, line)) {
+    std::istringstream ls(line);
+    std::array<double, 4> a{};
+    if (ls >> a[0] >> a[1] >> a[2] >> a[3] && std::isfinite(a[0])) arrows.push_back(a);
+  }
+  ASSERT_EQ(arrows.size(), 3u); // one arrow per disk here, where 10⁶ disks make ≤ 48 × 48
+  const double cell = 0.6 / 48.0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double vx = 0.1 * static_cast<double>(k);
+    EXPECT_NEAR(arrows[k][2], 0.9 * cell * vx / 0.2, 1e-9) << k;
+    EXPECT_NEAR(arrows[k][3], 0.0, 1e-12);
+    const double cx = arrows[k][0] + 0.5 * arrows[k][2]; // the cell's centre
+    EXPECT_NEAR(std::fmod(cx - (-0.1), cell), 0.5 * cell, 1e-9) << k;
+  }
 }
 
 // A run's figures are queued and drawn a few scripts per gnuplot process: one result per figure
@@ -401,7 +422,7 @@ TEST(Raster, LayerReadsBackAndAnEmptyGridIsAnError) {
   ASSERT_EQ(g.h, 3);
   {
     std::ofstream f(d / "l.png", std::ios::binary);
-    f << compare::detail::raster_png(g, {{0.5, 0.5, 0.4, 0.0}}, 1.0, nullptr);
+    f << compare::detail::raster_png(g, {{0.5, 0.5, 0.4, 0.0, 0.0, 0.0}}, 1.0, nullptr);
   }
   const auto px = png_pixels(d / "l.png"); // RGBA, row 0 at the bottom
   ASSERT_EQ(px.size(), 4u * 5u * 3u);

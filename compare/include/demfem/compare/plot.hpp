@@ -58,8 +58,9 @@ struct SnapshotSpec {
   std::string title;
   bool force_chains = true;
   double chain_width_max = 4.0; // line width of the largest normal force
-  bool velocity_arrows = false; // velocity field: an arrow per particle, the fastest 4 % of the
-                                // picture's width long (drawn instead of force chains)
+  bool velocity_arrows = false; // velocity field: the mean velocity of the particles in each of
+                                // ≈ 48 cells along the longer side, the longest 0.9 cells long
+                                // (drawn instead of force chains)
 };
 
 // Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|
