@@ -276,7 +276,8 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   {
     const detail::Raster grid = detail::raster_grid(pxmin, pxmax, pzmin, pzmax, 1000.0);
     std::error_code ec;
-    if (disks.empty() || grid.w <= 0) { // no particle left in the model: no layer
+    fs::remove(stem.string() + ".particles.dat", ec); // the disks' table of earlier versions
+    if (disks.empty() || grid.w <= 0) {               // no particle left in the model: no layer
       fs::remove(ppng, ec);
     } else {
       OutFile d(ppng);

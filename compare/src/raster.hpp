@@ -1,7 +1,7 @@
 // Internal to compare/: particles drawn as a PNG layer that gnuplot places behind a plot
 // (`set pixmap … back`), for the snapshot strips (series.cpp) and the final snapshot figures
 // (plot.cpp). Drawing thousands of disks `with circles` costs gnuplot one cairo fill each
-// (≈ 0.35 s per panel of 3,400 disks, 42 s for the five figures of 10⁶); the layer is one image.
+// (≈ 0.35 s per strip panel of 3,400 disks); the layer is one image.
 #pragma once
 
 #include <array>

@@ -315,17 +315,6 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   // canvas (the footing's 6 in 2 × 3: the panels are then placed one by one, as the layout would).
   const bool one_box = rows * cols > n;
   constexpr int kBarColumn = 150; // pixels: the colour box, its tick labels and its label
-  std::string one_box_cmd;
-  if (one_box) {
-    const auto slot_r = static_cast<double>(n / cols), slot_c = static_cast<double>(n % cols);
-    const double canvas_h = ph * static_cast<double>(rows) + 40.0;
-    const double top = 1.0 - 40.0 / canvas_h; // below the strip's title
-    const double cell_w = 1.0 / static_cast<double>(cols), cell_h = top / static_cast<double>(rows);
-    one_box_cmd = fmt::format("set colorbox user origin screen {:.4f},{:.4f} size screen "
-                              "{:.4f},{:.4f}\n",
-                              (slot_c + 0.12) * cell_w, top - (slot_r + 0.85) * cell_h,
-                              0.06 * cell_w, 0.65 * cell_h);
-  }
   enum class Kind { Chains, Velocity, Loci };
   std::vector<fs::path> scripts, pngs; // drawn together below, one gnuplot per core
   auto strip = [&](Kind kind, const std::string& name, const std::string& what) {
@@ -369,15 +358,21 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
         g << detail::raster_pixmap(grid, fmt::format("g{}.png", k), pixmap);
         cl = fmt::format("'l{}.dat' using 1:2 with lines lw 2 lc rgb '#c0392b'", k);
       } else {
-        if (k + 1 < n)
+        // the colour box: in the first empty cell, or over the middle 70 % of the bar column
+        if (k + 1 < n) {
           g << "unset colorbox\n";
-        else if (one_box)
-          g << one_box_cmd;
-        else // the bar column, over the middle 70 % of the panels' height
+        } else if (one_box) {
+          const auto slot_r = static_cast<double>(n / cols), slot_c = static_cast<double>(n % cols);
+          g << fmt::format(
+              "set colorbox user origin screen {:.4f},{:.4f} size screen {:.4f},{:.4f}\n",
+              (slot_c + 0.12) * cell_w, top - (slot_r + 0.85) * cell_h, 0.06 * cell_w,
+              0.65 * cell_h);
+        } else {
           g << fmt::format(
               "set colorbox user origin screen {:.4f},{:.4f} size screen {:.4f},{:.4f}\n",
               (static_cast<double>(pw * static_cast<int>(cols)) + 20.0) / canvas_w, 0.15 * top,
               24.0 / canvas_w, 0.7 * top);
+        }
         g << detail::raster_pixmap(grid, fmt::format("p{}.png", k), pixmap);
         cl = "NaN with lines lc palette frac 0"; // keeps the colour box
       }

@@ -125,8 +125,10 @@ TEST(Plot, ParticleSnapshotWithChains) {
                                   {1, 2, 0.3, 0.1, -2.0, 0.0, true}};
   std::vector<dem::BoundaryView> b{{"base", {-0.2, 0.6}, {0.0, 0.0}, false, false}};
   std::string err;
+  { std::ofstream(d / "s.particles.dat") << "0 0 1 0\n"; } // an earlier version's disks table
   ASSERT_TRUE(compare::plot_particles(p, c, b, {"three disks", true, 4.0}, d / "s.png", &err))
       << err;
+  EXPECT_FALSE(fs::exists(d / "s.particles.dat")); // not left beside this run's figure
   EXPECT_TRUE(is_png(d / "s.png"));
   EXPECT_FALSE(fs::exists(d / "s.svg")); // PNG only (plot.hpp); the script says how to get one
   EXPECT_TRUE(fs::exists(d / "s.gp"));
