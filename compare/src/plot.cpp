@@ -198,15 +198,29 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
   constexpr int kClasses = 4;
   std::vector<bool> has_block(2 * kClasses, false);
   const bool chains = spec.force_chains && !spec.velocity_arrows; // what the script draws
+  std::string title = spec.title;
   if (chains) {
+    // The pairs (a wall contact draws no chain), at most max_chain_lines of them: the strongest.
+    std::vector<std::size_t> pairs;
+    std::vector<double> magnitude;
+    for (std::size_t k = 0; k < contacts.size(); ++k)
+      if (contacts[k].j >= 0) {
+        pairs.push_back(k);
+        magnitude.push_back(std::abs(contacts[k].fn));
+      }
+    const auto drawn = detail::strongest(magnitude, spec.max_chain_lines);
+    if (drawn.size() < pairs.size())
+      title +=
+          fmt::format(" (chains: the strongest {} of {} contacts)", drawn.size(), pairs.size());
     OutFile d(cdat);
     d.precision(8);
     for (int block = 0; block < 2 * kClasses; ++block) {
       const bool tension = block >= kClasses;
       const int cls = block % kClasses;
       d << "# " << (tension ? "tension" : "compression") << " class " << cls << "\n";
-      for (const auto& c : contacts) {
-        if (c.j < 0 || c.tensile != tension || fmax <= 0.0) continue;
+      for (const std::size_t q : drawn) {
+        const auto& c = contacts[pairs[q]];
+        if (c.tensile != tension || fmax <= 0.0) continue;
         const int k = std::min(kClasses - 1, static_cast<int>(kClasses * std::abs(c.fn) / fmax));
         if (k != cls) continue;
         const auto j = static_cast<std::size_t>(c.j);
@@ -265,7 +279,7 @@ bool plot_particles(const dem::Particles& p, const std::vector<dem::ContactView>
       quote(fs::absolute(png).string()));
   g << fmt::format(
       "set title {} noenhanced\nset size ratio -1\nset xrange [{}:{}]\nset yrange [{}:{}]\n",
-      quote(spec.title), xmin, xmax, zmin, zmax);
+      quote(title), xmin, xmax, zmin, zmax);
   g << "set xlabel 'x [m]'\nset ylabel 'z [m]'\nset cblabel 'speed [m/s]'\n";
   g << "set palette defined " << detail::kPaletteGnuplot << "\n";
   g << fmt::format("set cbrange [0:{}]\n", vmax > 0 ? vmax : 1.0);

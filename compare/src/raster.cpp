@@ -4,6 +4,7 @@
 #include <cmath>
 #include <csetjmp>
 #include <cstddef>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -173,6 +174,23 @@ std::string cell_arrows(const CellVelocity& v, double xmin, double zmin, double 
 // `plot 'file' binary filetype=png … with rgbalpha` drew the same pixels (0.1 % of a strip's
 // pixels differ, at disk edges) but took ≈ 1 s more per 7-panel strip: gnuplot handles such an
 // image pixel by pixel. A pixmap is scaled onto the rectangle by the terminal.
+std::vector<std::size_t> strongest(const std::vector<double>& magnitude, std::size_t cap) {
+  std::vector<std::size_t> idx(magnitude.size());
+  for (std::size_t k = 0; k < idx.size(); ++k) idx[k] = k;
+  if (idx.size() <= cap) return idx;
+  const auto key = [&](std::size_t k) {
+    return std::isnan(magnitude[k]) ? -std::numeric_limits<double>::infinity() : magnitude[k];
+  };
+  const auto first = [&](std::size_t a, std::size_t b) {
+    const double ka = key(a), kb = key(b);
+    return ka != kb ? ka > kb : a < b;
+  };
+  std::nth_element(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(cap), idx.end(), first);
+  idx.resize(cap);
+  std::sort(idx.begin(), idx.end());
+  return idx;
+}
+
 std::string raster_pixmap(const Raster& g, const std::string& file, int index) {
   return fmt::format("set pixmap {} '{}' at first {:.9g},{:.9g} size first {:.9g},{:.9g} back\n",
                      index, file, g.x0, g.z0, g.w * g.px, g.h * g.px);

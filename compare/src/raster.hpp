@@ -53,6 +53,11 @@ CellVelocity cell_mean_velocity(const std::vector<RasterDisk>& disks, double xmi
 // centre, `scale` metres per (m/s), then a "NaN" line (an empty field still plots).
 std::string cell_arrows(const CellVelocity& v, double xmin, double zmin, double scale);
 
+// The indices of the `cap` largest of `magnitude` (ties: the lower index; NaN the smallest), in
+// increasing index order; every index when there are at most `cap`. The force chains drawn
+// (SnapshotSpec::max_chain_lines).
+std::vector<std::size_t> strongest(const std::vector<double>& magnitude, std::size_t cap);
+
 // The gnuplot command that places the PNG `file` over the grid's rectangle, as pixmap `index`.
 std::string raster_pixmap(const Raster& g, const std::string& file, int index);
 

@@ -236,6 +236,9 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   const auto lt = loci.column("time");
 
   constexpr int kClasses = 4; // chain widths by |f_n| / max over the strip
+  // The strongest chains of each panel, as many as a final snapshot draws (SnapshotSpec).
+  const std::size_t max_chains = SnapshotSpec{}.max_chain_lines;
+  std::size_t chains_total = 0; // the most in a panel
   // Velocity arrows: cell means (raster.hpp), about 36 cells along the longer side, one scale for
   // the strip: the longest arrow is 0.9 cells.
   const double vcell = std::max(xmax - xmin, zmax - zmin) / 36.0;
@@ -257,13 +260,19 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
       d.close();
     }
     {
+      std::vector<double> magnitude;
+      magnitude.reserve(f.chains.size());
+      for (const auto& c : f.chains) magnitude.push_back(std::abs(c.fn));
+      const auto drawn = detail::strongest(magnitude, max_chains);
+      chains_total = std::max(chains_total, f.chains.size());
       OutFile d(dat / fmt::format("c{}.dat", k));
       d.precision(7);
       for (int block = 0; block < 2 * kClasses; ++block) {
         const bool tension = block >= kClasses;
         d << "# " << (tension ? "tension" : "compression") << " class " << block % kClasses << "\n";
         bool any = false;
-        for (const auto& c : f.chains) {
+        for (const std::size_t q : drawn) {
+          const auto& c = f.chains[q];
           if (c.tensile != tension || fmax <= 0.0) continue;
           const int cls =
               std::min(kClasses - 1, static_cast<int>(kClasses * std::abs(c.fn) / fmax));
@@ -398,9 +407,13 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
     pngs.push_back(png);
   };
   strip(Kind::Chains, "series_force_chains",
-        fmt::format("particles (colour = speed) and normal-force chains (width ∝ |f_n|, max "
-                    "{:.3g} N)",
-                    fmax));
+        fmt::format(
+            "particles (colour = speed) and normal-force chains (width ∝ |f_n|, max "
+            "{:.3g} N{})",
+            fmax,
+            chains_total > max_chains
+                ? fmt::format("; the strongest {} of up to {} per panel", max_chains, chains_total)
+                : std::string()));
   strip(Kind::Velocity, "series_velocity",
         fmt::format("velocity field: colour = particle speed (max {:.3g} m/s); arrows = mean "
                     "velocity of the particles in each {:.3g} m cell (longest {:.3g} m/s)",

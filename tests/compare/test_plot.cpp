@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -435,4 +436,66 @@ TEST(Raster, LayerReadsBackAndAnEmptyGridIsAnError) {
   empty.w = empty.h = 0;
   EXPECT_THROW((void)compare::detail::raster_png(empty, {}, 1.0, nullptr), std::runtime_error);
   EXPECT_EQ(compare::detail::raster_grid(1e300, -1e300, 0.0, 1.0, 100.0).w, 0);
+}
+
+// The chains a figure draws: the `cap` largest |f_n| (ties: the lower index; NaN the smallest),
+// in the contacts' order; every contact when there are at most `cap`.
+TEST(Raster, StrongestChainsInTheirOrder) {
+  using compare::detail::strongest;
+  const double nan = std::nan("");
+  const std::vector<double> m{3.0, 9.0, nan, 1.0, 9.0, 7.0, 3.0};
+  EXPECT_EQ(strongest(m, 3), (std::vector<std::size_t>{1, 4, 5}));
+  EXPECT_EQ(strongest(m, 4), (std::vector<std::size_t>{0, 1, 4, 5})); // 0 before 6 (equal)
+  EXPECT_EQ(strongest(m, 6), (std::vector<std::size_t>{0, 1, 3, 4, 5, 6}));
+  EXPECT_EQ(strongest(m, 7).size(), 7u);
+  EXPECT_EQ(strongest(m, 100).size(), 7u);
+  EXPECT_TRUE(strongest(m, 0).empty());
+  EXPECT_TRUE(strongest({}, 5).empty());
+}
+
+// A snapshot with more contacts than max_chain_lines draws the strongest of them and says so in
+// its title (10⁶ disks: 1.7 million sub-pixel lines, a 77 MB table and 3 s of gnuplot before).
+TEST(Plot, SnapshotDrawsTheStrongestChainsWhenThereAreMany) {
+  const auto d = tmpdir("snap_cap");
+  dem::Particles p;
+  for (int i = 0; i < 40; ++i) {
+    p.x.push_back(i * 0.2);
+    p.z.push_back(0.1);
+    p.vx.push_back(0.0);
+    p.vz.push_back(0.0);
+    p.radius.push_back(0.1);
+    p.flags.push_back(0);
+  }
+  std::vector<dem::ContactView> c;
+  for (std::uint32_t i = 0; i + 1 < 40; ++i) // |f_n| = i + 1; every third pair in tension
+    c.push_back(
+        {i, i + 1, 0.2 * i + 0.1, 0.1, (i % 3 == 2 ? -1.0 : 1.0) * (i + 1), 0.0, i % 3 == 2});
+  c.push_back({5, -1, 1.0, 0.0, 1000.0, 0.0, false}); // a wall contact: never a chain
+  compare::SnapshotSpec spec{"forty disks", true, 4.0};
+  spec.max_chain_lines = 10;
+  std::string err;
+  ASSERT_TRUE(compare::plot_particles(p, c, {}, spec, d / "s.png", &err)) << err;
+  EXPECT_TRUE(is_png(d / "s.png"));
+  std::ifstream f(d / "s.chains.dat");
+  std::vector<double> x0;
+  std::string line;
+  while (std::getline(f, line)) {
+    std::istringstream ls(line);
+    double a = 0.0;
+    if (line.empty() || line[0] == '#' || !(ls >> a) || !std::isfinite(a)) continue;
+    x0.push_back(a);
+  }
+  std::sort(x0.begin(), x0.end());
+  ASSERT_EQ(x0.size(), 10u); // the pairs 29 … 38 (|f_n| 30 … 39)
+  for (std::size_t k = 0; k < 10; ++k) EXPECT_NEAR(x0[k], 0.2 * (29 + k), 1e-9) << k;
+  std::ifstream g(d / "s.gp");
+  const std::string text((std::istreambuf_iterator<char>(g)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("forty disks (chains: the strongest 10 of 39 contacts)"), std::string::npos)
+      << text;
+  // at most max_chain_lines: all drawn, the title as given
+  spec.max_chain_lines = 39;
+  ASSERT_TRUE(compare::plot_particles(p, c, {}, spec, d / "a.png", &err)) << err;
+  std::ifstream ga(d / "a.gp");
+  const std::string ta((std::istreambuf_iterator<char>(ga)), std::istreambuf_iterator<char>());
+  EXPECT_NE(ta.find("set title 'forty disks' noenhanced"), std::string::npos) << ta;
 }
