@@ -1660,8 +1660,8 @@ int main(int argc, char** argv) {
   std::string check_path;
   bool quiet = false;
   auto* check =
-      app.add_subcommand("check", "Validate a scene file and summarise it (one line per variant) "
-                                  "(all variants) or its errors with file:line:column.");
+      app.add_subcommand("check", "Validate a scene file (all its variants) and summarise it, one "
+                                  "line per variant, or list its errors with file:line:column.");
   check->add_option("scene", check_path, "Scene file (TOML)")->required();
   check->add_flag("-q,--quiet", quiet, "Only report OK or the errors");
   bool resolved = false;
