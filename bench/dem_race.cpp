@@ -128,12 +128,12 @@ int main(int argc, char** argv) {
   const auto m = e.memory_use();
   std::fprintf(stderr,
                "# rebuilds %lld, reorders %lld, pair entries/particle %.2f, rebuild+check %.3f s, "
-               "forces %.3f s, bytes/particle %.1f (particles %.1f, history %.1f, lists %.1f, "
+               "forces%s %.3f s, bytes/particle %.1f (particles %.1f, history %.1f, lists %.1f, "
                "grid %.1f, other %.1f), team steps full/one %lld/%lld (in regions %lld), switches "
                "%lld, probes skipped %lld%s%s\n",
                st.neighbour_rebuilds, st.reorders,
                static_cast<double>(st.pair_entries) / static_cast<double>(n), st.rebuild_seconds,
-               st.force_seconds, static_cast<double>(m.total()) / static_cast<double>(n),
+               e.threads_in_use() > 1 ? " and integration" : "", st.force_seconds, static_cast<double>(m.total()) / static_cast<double>(n),
                static_cast<double>(m.particles) / static_cast<double>(n),
                static_cast<double>(m.contact_history) / static_cast<double>(n),
                static_cast<double>(m.neighbour_lists) / static_cast<double>(n),

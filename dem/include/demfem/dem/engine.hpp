@@ -145,8 +145,9 @@ struct EngineStats {
   long long structure_updates = 0; // stays 0 for scenes without structures (issue item 8)
   std::size_t pair_entries = 0;    // particle pairs within cut-off + skin
   std::size_t boundary_entries = 0;
-  // Wall-clock seconds spent in the neighbour rebuild (incl. reorder) and the force loops
-  // (profiling; not part of the state).
+  // Wall-clock seconds spent in the neighbour rebuild (incl. reorder) and the force loops, with
+  // the integration when threads_in_use() > 1 (each part integrates its particles with its
+  // forces, on a team of one as well) (profiling; not part of the state).
   double rebuild_seconds = 0.0, force_seconds = 0.0;
   // threads > 1: steps run by the full team / by one thread (adaptive team), team switches.
   long long team_full_steps = 0, team_one_steps = 0, team_switches = 0;
