@@ -416,10 +416,10 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
       const bool same_density =
           std::abs(c.density - f.cal_bulk_density) <= 1e-3 * f.cal_bulk_density;
       matched = same_density && std::abs(ratio - 1.0) <= 0.01;
-      why = matched ? fmt::format("Same density, and the same soil mass within {:+.2f} %: the "
-                                  "static loads (weight, thrust at rest) start from the same "
-                                  "soil.",
-                                  100.0 * (ratio - 1.0))
+      why = matched ? fmt::format("Same density, and the same soil mass to within 1 % "
+                                  "(continuum/DEM {:.4f}): the static loads (weight, thrust at "
+                                  "rest) start from the same soil.",
+                                  ratio)
                     : fmt::format("Continuum soil mass {:.3f} × the DEM's (surface {} m against "
                                   "the bed's mass-matched {} m, density {} against {} kg/m³): "
                                   "the at-rest loads differ accordingly.",
