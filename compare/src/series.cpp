@@ -155,7 +155,8 @@ std::string quote(const std::string& s) {
 
 } // namespace
 
-SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& run_dir) {
+SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& run_dir,
+                                     std::size_t max_chains) {
   SnapshotSeries res;
   res.requested = series_times(scene);
   const fs::path dem = run_dir / "dem";
@@ -235,9 +236,7 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   }
   const auto lt = loci.column("time");
 
-  constexpr int kClasses = 4; // chain widths by |f_n| / max over the strip
-  // The strongest chains of each panel, as many as a final snapshot draws (SnapshotSpec).
-  const std::size_t max_chains = SnapshotSpec{}.max_chain_lines;
+  constexpr int kClasses = 4;   // chain widths by |f_n| / max over the strip
   std::size_t chains_total = 0; // the most in a panel
   // Velocity arrows: cell means (raster.hpp), about 36 cells along the longer side, one scale for
   // the strip: the longest arrow is 0.9 cells.

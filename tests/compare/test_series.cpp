@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -211,5 +212,45 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
   }
   EXPECT_GE(arrows, 10);
   EXPECT_LE(arrows, 40); // one per occupied cell, at most one cell per disk here
+  fs::remove_all(o.out_dir);
+}
+
+// A panel with more chains than max_chain_lines draws the strongest of them, and the strip's title
+// says so (10⁶ disks: 1.7 million sub-pixel lines per panel before); with the default every chain
+// of this small box is drawn and the title is as before.
+TEST(SnapshotSeries, PanelsDrawTheStrongestChainsWhenThereAreMany) {
+  const auto file = scene::parse_scene(box_scene(box_disks()), "series_box_cap.toml");
+  dem::RunOptions o;
+  o.out_dir = test::scratch("series_box_cap");
+  ASSERT_TRUE(dem::run(file.base, o).ok);
+  const fs::path dat = o.out_dir / "figures" / "series";
+  auto lines = [&](std::size_t k) { // chains in panel k's table
+    std::ifstream f(dat / fmt::format("c{}.dat", k));
+    std::size_t n = 0;
+    std::string l;
+    while (std::getline(f, l)) {
+      std::istringstream ls(l);
+      double x = NAN;
+      if (!l.empty() && l[0] != '#' && (ls >> x) && std::isfinite(x)) ++n;
+    }
+    return n;
+  };
+  auto title = [&] {
+    std::ifstream g(o.out_dir / "figures" / "series_force_chains.gp");
+    return std::string((std::istreambuf_iterator<char>(g)), std::istreambuf_iterator<char>());
+  };
+  auto all = compare::write_snapshot_series(file.base, o.out_dir);
+  for (const auto& p : all.problems) ADD_FAILURE() << p;
+  std::vector<std::size_t> n;
+  for (std::size_t k = 0; k < 3; ++k) n.push_back(lines(k));
+  const std::size_t most = *std::max_element(n.begin(), n.end());
+  ASSERT_GT(most, 4u) << "the settled box has chains";
+  EXPECT_EQ(title().find("the strongest"), std::string::npos);
+  const auto capped = compare::write_snapshot_series(file.base, o.out_dir, 4);
+  for (const auto& p : capped.problems) ADD_FAILURE() << p;
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(lines(k), std::min<std::size_t>(n[k], 4)) << k;
+  EXPECT_NE(title().find(fmt::format("the strongest 4 of up to {} per panel", most)),
+            std::string::npos)
+      << title();
   fs::remove_all(o.out_dir);
 }

@@ -55,6 +55,11 @@ struct PlotQueue {
 bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* error = nullptr,
           PlotQueue* queue = nullptr);
 
+// Force chains drawn per particle figure or strip panel: the strongest this many (|f_n|), the title
+// saying so when there are more. A paper scene has a few thousand contacts, all drawn; 10⁶ disks
+// have 1.7 million, each far below a pixel, which took 3 s of gnuplot and a 77 MB table per figure.
+inline constexpr std::size_t kChainLinesMax = 20000;
+
 struct SnapshotSpec {
   std::string title;
   bool force_chains = true;
@@ -62,11 +67,7 @@ struct SnapshotSpec {
   bool velocity_arrows = false; // velocity field: the mean velocity of the particles in each of
                                 // ≈ 48 cells along the longer side, the longest 0.9 cells long
                                 // (drawn instead of force chains)
-  // At most this many chains, the strongest (|f_n|), drawn; the title says so when there are
-  // more. A paper scene has a few thousand contacts, all drawn; 10⁶ disks have 1.7 million, each
-  // far below a pixel, which took 3 s of gnuplot and a 77 MB table per figure. The snapshot
-  // strips take the same number per panel.
-  std::size_t max_chain_lines = 20000;
+  std::size_t max_chain_lines = kChainLinesMax; // the strongest chains drawn
 };
 
 // Particles as disks coloured by speed, force chains as lines between centres with width ∝ |fn|

@@ -3,7 +3,8 @@
 // .vtp output (dem/particles.pvd, force_chains.pvd, boundaries.pvd) and loci.csv, at the
 // scene's output.series times (each from the nearest snapshot), three strips of panels:
 //   series_force_chains.png  particles coloured by speed, normal-force chains (width ∝ |f_n|,
-//                            one scale for the whole strip; tension dashed)
+//                            one scale for the whole strip; tension dashed; at most the
+//                            strongest max_chain_lines per panel)
 //   series_velocity.png      particles coloured by speed; arrows: the mass-weighted mean
 //                            velocity of the particles in each of ≈ 36 cells along the longer
 //                            side (one scale for the whole strip)
@@ -13,10 +14,12 @@
 // Report-side code, called by write_run_figures.
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "demfem/compare/plot.hpp"
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::compare {
@@ -36,7 +39,10 @@ struct SnapshotSeries {
 [[nodiscard]] std::vector<std::pair<double, std::filesystem::path>>
 read_pvd(const std::filesystem::path& pvd);
 
+// max_chain_lines: the chains drawn per panel, the strongest (|f_n|); the strip's title says so
+// when a panel has more.
 SnapshotSeries write_snapshot_series(const scene::Scene& scene,
-                                     const std::filesystem::path& run_dir);
+                                     const std::filesystem::path& run_dir,
+                                     std::size_t max_chain_lines = kChainLinesMax);
 
 } // namespace demfem::compare
