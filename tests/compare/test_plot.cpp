@@ -40,6 +40,19 @@ fs::path tmpdir(const std::string& name) {
   return demfem::test::scratch_dir(name);
 }
 std::vector<unsigned char> png_pixels(const fs::path& p); // RGB(A) bytes read back through VTK
+// n disks of radius 0.1 m in a row at z = 0.1 m, 0.2 m apart, disk i moving at vx = i·vx_step.
+dem::Particles disk_row(int n, double vx_step) {
+  dem::Particles p;
+  for (int i = 0; i < n; ++i) {
+    p.x.push_back(i * 0.2);
+    p.z.push_back(0.1);
+    p.vx.push_back(vx_step * i);
+    p.vz.push_back(0.0);
+    p.radius.push_back(0.1);
+    p.flags.push_back(0);
+  }
+  return p;
+}
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   char sig[8] = {};
@@ -113,15 +126,7 @@ TEST(Plot, UnwritableInputIsAClearError) {
 
 TEST(Plot, ParticleSnapshotWithChains) {
   const auto d = tmpdir("snap");
-  dem::Particles p;
-  for (int i = 0; i < 3; ++i) {
-    p.x.push_back(i * 0.2);
-    p.z.push_back(0.1);
-    p.vx.push_back(0.1 * i);
-    p.vz.push_back(0.0);
-    p.radius.push_back(0.1);
-    p.flags.push_back(0);
-  }
+  const dem::Particles p = disk_row(3, 0.1);
   std::vector<dem::ContactView> c{{0, 1, 0.1, 0.1, 5.0, 1.0, false},
                                   {1, 2, 0.3, 0.1, -2.0, 0.0, true}};
   std::vector<dem::BoundaryView> b{{"base", {-0.2, 0.6}, {0.0, 0.0}, false, false}};
@@ -457,15 +462,7 @@ TEST(Raster, StrongestChainsInTheirOrder) {
 // its title (10⁶ disks: 1.7 million sub-pixel lines, a 77 MB table and 3 s of gnuplot before).
 TEST(Plot, SnapshotDrawsTheStrongestChainsWhenThereAreMany) {
   const auto d = tmpdir("snap_cap");
-  dem::Particles p;
-  for (int i = 0; i < 40; ++i) {
-    p.x.push_back(i * 0.2);
-    p.z.push_back(0.1);
-    p.vx.push_back(0.0);
-    p.vz.push_back(0.0);
-    p.radius.push_back(0.1);
-    p.flags.push_back(0);
-  }
+  const dem::Particles p = disk_row(40, 0.0);
   std::vector<dem::ContactView> c;
   for (std::uint32_t i = 0; i + 1 < 40; ++i) // |f_n| = i + 1; every third pair in tension
     c.push_back(
