@@ -450,7 +450,7 @@ void Engine::update_structures() {
   update_boundary_vertices();
 }
 
-void Engine::step() {
+void Engine::first_step_setup() {
   if (!(dt_ > 0.0)) set_dt(auto_dt());
   if (!pe_ref_set_) {
     pe_ref_set_ = true;
@@ -460,6 +460,20 @@ void Engine::step() {
     for (const auto& st : structures_)
       if (st.spec.dead_weight) pe_ref_ += st.mass * g * (st.pz0 + st.uz + st.cz_local);
   }
+}
+
+void Engine::prepare() {
+  first_step_setup();
+  const auto t0 = std::chrono::steady_clock::now();
+  // The next step's check: it then finds the particles where this one left them, and rebuilds
+  // only if this one would have.
+  check_rebuild();
+  stats_.rebuild_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void Engine::step() {
+  first_step_setup();
   const auto t0 = std::chrono::steady_clock::now();
   if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads && threads_in_use() > 1)
     start_team(team_clock_ ? team_now() : t0);
