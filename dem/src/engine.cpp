@@ -477,8 +477,11 @@ void Engine::step() {
   const auto t0 = std::chrono::steady_clock::now();
   if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads && threads_in_use() > 1)
     start_team(team_clock_ ? team_now() : t0);
+  const auto r0 = team_clock_ ? team_now() : t0;
   check_rebuild();
   const auto t1 = std::chrono::steady_clock::now();
+  if (tuner_.started) // on the team's clock (tune_team)
+    tuner_.rebuild_s += std::chrono::duration<double>((team_clock_ ? team_now() : t1) - r0).count();
   compute_forces();
   const auto t2 = std::chrono::steady_clock::now();
   stats_.rebuild_seconds += std::chrono::duration<double>(t1 - t0).count();
@@ -501,6 +504,7 @@ void Engine::start_team(std::chrono::steady_clock::time_point now) {
   tu.started = true;
   tu.t0 = now;
   tu.steps = 0;
+  tu.rebuild_s = 0.0;
   const int need = threads_in_use() - 1;
   const bool free = free_now_ && free_now_() >= need;
   tu.current = free ? 0 : 1;
@@ -528,7 +532,12 @@ void Engine::tune_team() {
     return;
   }
   ++tu.steps;
-  const double elapsed = std::chrono::duration<double>(now - tu.t0).count();
+  // The window's time without the neighbour rebuilds in it: they come every 10²–10³ steps, and
+  // one rebuild of 10⁶ disks (0.27 s) in a window of 8 steps of 17 ms tripled its pace, so that
+  // the probe of one thread after it "won" and ran 8 steps at half speed (bench/RESULTS.md,
+  // twenty-sixth session).
+  const double elapsed =
+      std::max(0.0, std::chrono::duration<double>(now - tu.t0).count() - tu.rebuild_s);
   // A probe behind the current choice's pace (after at least 8 steps' worth of time, or a
   // quarter window when that is shorter) has lost: stop it now. A stalled team can be 10–50×
   // slower: one scheduler slice of the other process costs several steps, and a probe that waited
@@ -579,6 +588,7 @@ void Engine::tune_team() {
   }
   tu.t0 = now;
   tu.steps = 0;
+  tu.rebuild_s = 0.0;
 }
 
 int Engine::others_idle(std::chrono::steady_clock::time_point now) {

@@ -398,15 +398,21 @@ namespace {
 // The adaptive team's clock, faked (set_team_clock): each reading first advances `t` [s] by
 // cost(step, team size) for every step taken since the last reading. A test may add to `t` itself
 // (time spent outside the engine).
-void set_fake_team_clock(dem::Engine& e, double& t, std::function<double(long long, int)> cost) {
+// The team's clock at t: each step adds cost(step, team size), each neighbour rebuild
+// rebuild_cost (both at the clock's first reading after them).
+void set_fake_team_clock(dem::Engine& e, double& t, std::function<double(long long, int)> cost,
+                         double rebuild_cost = 0.0) {
   using clock = std::chrono::steady_clock;
-  e.set_team_clock([&e, &t, counted = 0LL, cost = std::move(cost)]() mutable {
-    const long long s = e.stats().steps;
-    t += static_cast<double>(s - counted) * cost(s, e.team_size());
-    counted = s;
-    return clock::time_point{} +
-           std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
-  });
+  e.set_team_clock(
+      [&e, &t, counted = 0LL, rebuilds = 0LL, rebuild_cost, cost = std::move(cost)]() mutable {
+        const long long s = e.stats().steps;
+        t += static_cast<double>(s - counted) * cost(s, e.team_size());
+        counted = s;
+        t += static_cast<double>(e.stats().neighbour_rebuilds - rebuilds) * rebuild_cost;
+        rebuilds = e.stats().neighbour_rebuilds;
+        return clock::time_point{} +
+               std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(t));
+      });
 }
 } // namespace
 
@@ -486,6 +492,25 @@ TEST(DemThreads, TheCallersTimeBetweenRunsIsNotTheTeams) {
   EXPECT_EQ(st.steps, 100 * kRuns);
   EXPECT_EQ(st.team_switches, 0);
   EXPECT_GT(st.team_full_steps, 0.95 * static_cast<double>(st.steps)) << st.team_one_steps;
+}
+
+// A window's pace leaves out the neighbour rebuilds in it. Fake clock: a step costs 0.6 ms on
+// the full team and 1 ms on one thread, a rebuild 0.2 s on either. When the rebuilds counted, a
+// window holding one read as 2–3× slower, the probe of one thread that followed "won", and the
+// team switched to one thread (10⁶ disks: 20 of 200 steps on one thread, 8 % of the loop).
+TEST(DemThreads, ARebuildDoesNotMakeTheFullTeamLookSlow) {
+  dem::Engine e(team_test_config(2));
+  add_shaken_lattice(e, 200, 20, 9);
+  double t = 0.0;
+  set_fake_team_clock(
+      e, t, [](long long, int team) { return team == 1 ? 1.0e-3 : 0.6e-3; }, 0.2);
+  e.set_idle_source({}, [] { return 1; }); // the other CPU free at the start: the full team
+  e.run_steps(20000);
+  ASSERT_FALSE(e.failed()) << e.failure();
+  const auto st = e.stats();
+  EXPECT_GT(st.neighbour_rebuilds, 20); // many windows hold a rebuild
+  EXPECT_EQ(st.team_switches, 0);
+  EXPECT_GT(st.team_full_steps, 0.98 * static_cast<double>(st.steps)) << st.team_one_steps;
 }
 
 // run_until and run_steps run many steps in one parallel region (Engine::team_steps: a spin

@@ -430,7 +430,8 @@ private:
     bool fixed = false, started = false, probing = false;
     std::chrono::steady_clock::time_point t0{};
     long steps = 0, window = 8;
-    int current = 0;             // team size outside probes (0: full)
+    double rebuild_s = 0; // the neighbour rebuilds' time in this window (left out of its pace)
+    int current = 0;      // team size outside probes (0: full)
     double current_per_step = 0; // seconds per step of the last window with `current`
     int until_probe = 4, probe_every = 4;
     std::chrono::steady_clock::time_point idle_t{}; // last reading of the idle counter
