@@ -21,7 +21,10 @@
 # (bed2d.in MODE timed); demfem reads the same positions, converted once per N by
 # bench/lammps_tile_scene.py into a scene with particles_file = bed_<N>.npy (see that script for
 # the parameter mapping). Each repeat runs LAMMPS and demfem back to back (the order alternates
-# between repeats), so drifting machine load hits both alike; the load average is logged.
+# between repeats), so drifting machine load hits both alike; the load average is logged. Both
+# clocks start after the setup: LAMMPS's "Loop time" after its first neighbour list and forces,
+# demfem's loop_s after its first neighbour build (Engine::prepare; at 10⁶ it includes the sort
+# into cell order).
 #
 # The machine: before each repeat, bench/machine-probe.sh prints
 #   machine cpuA=<s> cpuB=<s> together=<s>/<s> ceiling=<x>
