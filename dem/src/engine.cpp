@@ -465,8 +465,8 @@ void Engine::first_step_setup() {
 void Engine::prepare() {
   first_step_setup();
   const auto t0 = std::chrono::steady_clock::now();
-  // The next step's check: it then finds the particles where this one left them, and rebuilds
-  // only if this one would have.
+  // The check the next step would make; that step's own check then finds the particles where
+  // this one left them and builds nothing more.
   check_rebuild();
   stats_.rebuild_seconds +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
