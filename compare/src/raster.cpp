@@ -171,9 +171,6 @@ std::string cell_arrows(const CellVelocity& v, double xmin, double zmin, double 
   return out + "NaN NaN NaN NaN\n";
 }
 
-// `plot 'file' binary filetype=png … with rgbalpha` drew the same pixels (0.1 % of a strip's
-// pixels differ, at disk edges) but took ≈ 1 s more per 7-panel strip: gnuplot handles such an
-// image pixel by pixel. A pixmap is scaled onto the rectangle by the terminal.
 std::vector<std::size_t> strongest(const std::vector<double>& magnitude, std::size_t cap) {
   std::vector<std::size_t> idx(magnitude.size());
   for (std::size_t k = 0; k < idx.size(); ++k) idx[k] = k;
@@ -191,6 +188,9 @@ std::vector<std::size_t> strongest(const std::vector<double>& magnitude, std::si
   return idx;
 }
 
+// `plot 'file' binary filetype=png … with rgbalpha` drew the same pixels (0.1 % of a strip's
+// pixels differ, at disk edges) but took ≈ 1 s more per 7-panel strip: gnuplot handles such an
+// image pixel by pixel. A pixmap is scaled onto the rectangle by the terminal.
 std::string raster_pixmap(const Raster& g, const std::string& file, int index) {
   return fmt::format("set pixmap {} '{}' at first {:.9g},{:.9g} size first {:.9g},{:.9g} back\n",
                      index, file, g.x0, g.z0, g.w * g.px, g.h * g.px);
