@@ -313,42 +313,6 @@ TEST(DemThreads, TwoThreadsDeterministicAndCloseToOne) {
 // A structure's soil force is summed per part (each part over its particles' contacts) and the
 // parts added in part order: a fixed lid just above a shaken lattice, hit by the rising disks,
 // gets the same impulse in two runs at 2 threads and, to round-off, at 1 thread.
-// Engine::prepare builds the first neighbour list (for 5,000 disks, after the sort into cell
-// order) before the first step, as LAMMPS's setup does before its timed loop: the steps after it
-// have the same bits and the same rebuilds as without it, on 1 and 2 threads, and a second call
-// builds nothing.
-TEST(DemEngine, PrepareBuildsTheFirstListWithTheSameBits) {
-  for (const int threads : {1, 2}) {
-    auto run = [&](bool prepare) {
-      dem::EngineConfig c;
-      c.kn = 1e7;
-      c.ks = 3e6;
-      c.threads = threads;
-      c.parallel_min_particles = 0;
-      dem::Engine e(c);
-      add_shaken_lattice(e, 5000, 100, 3);
-      if (prepare) {
-        e.prepare();
-        EXPECT_EQ(e.stats().neighbour_rebuilds, 1);
-        EXPECT_EQ(e.stats().reorders, 1);
-        e.prepare();
-        EXPECT_EQ(e.stats().neighbour_rebuilds, 1);
-        EXPECT_EQ(e.stats().steps, 0);
-      }
-      e.run_steps(200);
-      EXPECT_FALSE(e.failed()) << e.failure();
-      return std::tuple{e.particles(), e.stats().neighbour_rebuilds, e.energy().friction};
-    };
-    const auto [pa, ra, fa] = run(false);
-    const auto [pb, rb, fb] = run(true);
-    SCOPED_TRACE(threads);
-    expect_same_particles(pa, pb);
-    EXPECT_EQ(ra, rb);
-    EXPECT_GT(ra, 1); // rebuilds during the run too
-    EXPECT_EQ(fa, fb);
-  }
-}
-
 TEST(DemThreads, StructureForceAddsUpOverParts) {
   auto run = [](int threads) {
     dem::EngineConfig c;
@@ -415,6 +379,37 @@ void set_fake_team_clock(dem::Engine& e, double& t, std::function<double(long lo
       });
 }
 } // namespace
+
+// Engine::prepare builds the first neighbour list (for 5,000 disks, after the sort into cell
+// order) before the first step, as LAMMPS's setup does before its timed loop: the steps after it
+// have the same bits and the same rebuilds as without it, on 1 and 2 threads, and a second call
+// builds nothing.
+TEST(DemEngine, PrepareBuildsTheFirstListWithTheSameBits) {
+  for (const int threads : {1, 2}) {
+    auto run = [&](bool prepare) {
+      dem::Engine e(team_test_config(threads));
+      add_shaken_lattice(e, 5000, 100, 3);
+      if (prepare) {
+        e.prepare();
+        EXPECT_EQ(e.stats().neighbour_rebuilds, 1);
+        EXPECT_EQ(e.stats().reorders, 1);
+        e.prepare();
+        EXPECT_EQ(e.stats().neighbour_rebuilds, 1);
+        EXPECT_EQ(e.stats().steps, 0);
+      }
+      e.run_steps(200);
+      EXPECT_FALSE(e.failed()) << e.failure();
+      return std::tuple{e.particles(), e.stats().neighbour_rebuilds, e.energy().friction};
+    };
+    const auto [pa, ra, fa] = run(false);
+    const auto [pb, rb, fb] = run(true);
+    SCOPED_TRACE(threads);
+    expect_same_particles(pa, pb);
+    EXPECT_EQ(ra, rb);
+    EXPECT_GT(ra, 1); // rebuilds during the run too
+    EXPECT_EQ(fa, fb);
+  }
+}
 
 TEST(DemThreads, TeamSizeDoesNotChangeResults) {
   auto run = [](int threads, bool vary) {
