@@ -2,11 +2,16 @@
 # machine-probe.sh -- how much two cores of this machine give right now (issue 12).
 #
 # Usage:  bench/machine-probe.sh        prints one line:
-#   machine cpuA=<s> cpuB=<s> together=<s>/<s> ceiling=<x>
+#   machine cpuA=<s> cpuB=<s> together=<s>/<s> ceiling=<x> lockstep=<x>
 # A 1-thread demfem run (bench_dem_race, the 10⁴-disk race bed, 1,000 steps, ≈ 0.2 s) pinned to
 # each of the first two CPUs this process may use, alone, then on both at once. ceiling: the
 # throughput of the two at once over one run alone on the faster CPU — what any program can gain
-# from the second core at this moment. On this project's VMs it moves between ≈ 2 (independent
+# from the second core at this moment. lockstep: 2 × (the faster alone) / (the slower of the two
+# at once) — what a program can gain whose two threads (or ranks) wait for each other every step,
+# each with half the work: it runs at the pace of the slower CPU. A vCPU that the host pauses now
+# and then (30 % slower over the probe) leaves ceiling ≈ 1.7 but lockstep ≈ 1.5; an even share of
+# the work between the two cannot gain back what the pauses cost (bench/RESULTS.md,
+# twenty-seventh session). On this project's VMs it moves between ≈ 2 (independent
 # cores), ≈ 1.6–1.7 (one vCPU 1.3–1.4 times slower than the other: its host sibling busy) and
 # ≈ 1.2 (both vCPUs on one host core) from minute to minute (bench/RESULTS.md, twenty-third
 # session). Prints nothing with fewer than 2 CPUs.
@@ -41,4 +46,4 @@ y=$(cat "$WORK/probe1.$$")
 rm -f "$WORK/probe0.$$" "$WORK/probe1.$$"
 awk -v a="$a" -v b="$b" -v x="$x" -v y="$y" -v c0="${cpus[0]}" -v c1="${cpus[1]}" 'BEGIN {
   f = a < b ? a : b
-  printf "machine cpu%s=%.3f cpu%s=%.3f together=%.3f/%.3f ceiling=%.2f\n", c0, a, c1, b, x, y, (1 / x + 1 / y) * f }'
+  printf "machine cpu%s=%.3f cpu%s=%.3f together=%.3f/%.3f ceiling=%.2f lockstep=%.2f\n", c0, a, c1, b, x, y, (1 / x + 1 / y) * f, 2 * f / (x > y ? x : y) }'
