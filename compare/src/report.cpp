@@ -166,6 +166,37 @@ nlohmann::json part_json(const Part& p) {
 
 } // namespace
 
+ProfileExtremes profile_extremes(const std::vector<double>& x, const std::vector<double>& v) {
+  ProfileExtremes e;
+  for (std::size_t k = 0; k < std::min(x.size(), v.size()); ++k) {
+    if (!std::isfinite(v[k])) continue;
+    if (v[k] > e.down) {
+      e.down = v[k];
+      e.x_down = x[k];
+    }
+    if (v[k] < e.up) {
+      e.up = v[k];
+      e.x_up = x[k];
+    }
+  }
+  return e;
+}
+
+std::string subsidence_summary(double t_rest, double t_end, const ProfileExtremes& dem,
+                               const ProfileExtremes& continuum) {
+  const auto side = [](const ProfileExtremes& e) {
+    const auto part = [](const char* verb, double v, double x) {
+      return std::isfinite(x)
+                 ? fmt::format("{} by at most {:.3g} mm (x = {:.4g} m)", verb, std::abs(v) * 1e3, x)
+                 : fmt::format("nowhere {}", verb);
+    };
+    return part("settles", e.down, e.x_down) + " and " + part("rises", e.up, e.x_up);
+  };
+  return fmt::format("Surface from t = {:.3g} s to t = {:.3g} s: the DEM surface {}; the "
+                     "continuum surface {}.",
+                     t_rest, t_end, side(dem), side(continuum));
+}
+
 ReportResult write_report(const fs::path& run_dir, const ReportOptions& options) {
   ReportResult res;
   res.dem_series = collect(run_dir / "dem").size();
@@ -353,39 +384,56 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
           Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
           nlohmann::json js = nlohmann::json::array();
-          double dmax = 0.0, cmax = 0.0;
           for (std::size_t b = 0; b < nb; ++b) {
             const double x =
                 x0 + (x1 - x0) * (static_cast<double>(b) + 0.5) / static_cast<double>(nb);
             const double d = t.rows[r0][b + 1] - t.rows[r1][b + 1]; // subsidence: rest − end
             const double c = zc0[b] - zc1[b];
             sd.x.push_back(x);
-            sd.y.push_back(d * 100);
+            sd.y.push_back(d); // [m] here, scaled for the plot below
             sc.x.push_back(x);
-            sc.y.push_back(c * 100);
-            if (std::isfinite(d)) dmax = std::max(dmax, d);
-            if (std::isfinite(c)) cmax = std::max(cmax, c);
+            sc.y.push_back(c);
             js.push_back(
                 {{"x_m", x},
                  {"dem_m", std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(nullptr)},
                  {"continuum_m", std::isfinite(c) ? nlohmann::json(c) : nlohmann::json(nullptr)}});
           }
+          // Both ways: a dilating continuum may rise more beside a footing than it settles.
+          const auto de = profile_extremes(sd.x, sd.y), ce = profile_extremes(sc.x, sc.y);
+          const double largest =
+              std::max(std::max(de.down, -de.up), std::max(ce.down, -ce.up)); // [m]
+          const bool mm = largest < 0.01;
+          for (auto* s : {&sd, &sc})
+            for (double& y : s->y) y *= mm ? 1e3 : 1e2;
           PlotSpec spec;
-          spec.title = fmt::format("surface subsidence, t = {:.3g} s − t = {:.3g} s (largest: DEM "
-                                   "{:.3g} m, continuum {:.3g} m)",
-                                   te, tr, dmax, cmax);
+          spec.title =
+              fmt::format("surface subsidence, t = {:.3g} s − t = {:.3g} s (down positive; "
+                          "DEM {:.3g} … {:.3g} mm, continuum {:.3g} … {:.3g} mm)",
+                          te, tr, de.up * 1e3, de.down * 1e3, ce.up * 1e3, ce.down * 1e3);
           spec.xlabel = "x [m]";
-          spec.ylabel = "subsidence [cm] (down positive)";
+          spec.ylabel = mm ? "subsidence [mm] (down positive)" : "subsidence [cm] (down positive)";
           spec.series = {sd, sc};
           spec.height = 450;
           const fs::path png = figdir / "surface_subsidence_profile.png";
           std::string err;
           if (plot(spec, png, &err))
             res.profile_figures.push_back(fs::relative(png, run_dir).string());
+          const std::string note = subsidence_summary(tr, te, de, ce);
+          res.profile_notes.push_back(note);
+          const auto xj = [](double x) {
+            return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+          };
           metrics["surface_subsidence_profile"] = {{"rest_s", tr},
                                                    {"end_s", te},
-                                                   {"largest_dem_m", dmax},
-                                                   {"largest_continuum_m", cmax},
+                                                   {"largest_dem_m", de.down},
+                                                   {"largest_continuum_m", ce.down},
+                                                   {"largest_dem_x_m", xj(de.x_down)},
+                                                   {"largest_continuum_x_m", xj(ce.x_down)},
+                                                   {"largest_rise_dem_m", -de.up},
+                                                   {"largest_rise_continuum_m", -ce.up},
+                                                   {"largest_rise_dem_x_m", xj(de.x_up)},
+                                                   {"largest_rise_continuum_x_m", xj(ce.x_up)},
+                                                   {"summary", note},
                                                    {"bins", js}};
         }
       }
@@ -580,6 +628,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   }
   if (!res.profile_figures.empty()) {
     h += "<h2>Profiles</h2>\n";
+    for (const auto& n : res.profile_notes) h += "<p>" + html_escape(n) + "</p>\n";
     for (const auto& f : res.profile_figures) h += img(run_dir / f, fs::path(f).stem().string());
   }
   if (!res.fields.figures.empty() || !res.fields.notes.empty()) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,7 @@ struct ReportResult {
   std::vector<MetricSeries> zero;           // identically zero in both (fixed by the scene)
   std::vector<Alias> aliases;               // solver columns folded into a compared quantity
   std::vector<std::string> profile_figures; // pressure and surface profiles
+  std::vector<std::string> profile_notes;   // what the profiles show, in words (plain text)
   FieldComparison fields;                   // coarse-grained DEM against continuum
   std::vector<DiffRow> differences;         // what differs between the two models
   std::vector<ParamRow> parameters;         // both models' parameters with provenance
@@ -63,6 +65,21 @@ struct ReportResult {
 // Linear interpolation of (t, y) at time `at`; held constant outside.
 [[nodiscard]] double interpolate(const std::vector<double>& t, const std::vector<double>& y,
                                  double at);
+
+// The largest values of a profile either way: `down` (≥ 0, its x) and `up` (≤ 0, its x) over the
+// finite values; x is NaN where no value has that sign.
+struct ProfileExtremes {
+  double down = 0.0, x_down = std::numeric_limits<double>::quiet_NaN();
+  double up = 0.0, x_up = std::numeric_limits<double>::quiet_NaN();
+};
+[[nodiscard]] ProfileExtremes profile_extremes(const std::vector<double>& x,
+                                               const std::vector<double>& v);
+
+// One sentence on a surface subsidence profile (down positive, metres) between t_rest and t_end:
+// how far each solver's surface settled and rose at most, and where.
+[[nodiscard]] std::string subsidence_summary(double t_rest, double t_end,
+                                             const ProfileExtremes& dem,
+                                             const ProfileExtremes& continuum);
 
 // Reads <run>/dem/*.csv, <run>/continuum/*.csv, <run>/run_<solver>.json, <run>/dem/packing.json,
 // <run>/calibration/ and figures under <run>/*/figures, and writes <run>/report.html (figures
