@@ -258,6 +258,38 @@ std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, dou
   return out;
 }
 
+StrainRange continuum_strain_range(const ContinuumSnapshot& s, double limit) {
+  StrainRange r;
+  const auto* ev = s.get("volumetric_strain");
+  const auto* ep = s.get("plastic_strain");
+  for (const auto& cell : s.cells) {
+    if (cell.size() < 3 || !soil_point(s, cell[0])) continue;
+    double a = 0.0, cx = 0.0, cz = 0.0; // shoelace area and vertex mean
+    for (std::size_t k = 0; k < cell.size(); ++k) {
+      const std::size_t p = cell[k], q = cell[(k + 1) % cell.size()];
+      a += 0.5 * (s.x[p] * s.z[q] - s.x[q] * s.z[p]);
+      cx += s.x[p] / static_cast<double>(cell.size());
+      cz += s.z[p] / static_cast<double>(cell.size());
+    }
+    a = std::abs(a);
+    r.area += a;
+    const double v = ev ? (*ev)[cell[0]] : 0.0, pl = ep ? (*ep)[cell[0]] : 0.0; // cell values
+    if (std::isfinite(v) && std::abs(v) > std::abs(r.max_volumetric)) {
+      r.max_volumetric = v;
+      r.vol_x = cx;
+      r.vol_z = cz;
+    }
+    if (std::isfinite(pl) && pl > r.max_plastic) {
+      r.max_plastic = pl;
+      r.plastic_x = cx;
+      r.plastic_z = cz;
+    }
+    if ((std::isfinite(v) && std::abs(v) > limit) || (std::isfinite(pl) && pl > limit))
+      r.area_beyond += a;
+  }
+  return r;
+}
+
 std::vector<double> sample_continuum(const ContinuumSnapshot& s, const Grid& grid,
                                      const std::string& name) {
   std::vector<double> out(grid.size(), std::nan(""));

@@ -199,3 +199,36 @@ TEST(CoarseGrain, ColumnOnFloorCarriesItsWeightThroughTheBoundaryContact) {
     EXPECT_NEAR(s, -(N - k - 0.5) * w, 5e-3 * N * w) << "section through disk " << k;
   }
 }
+
+// The share of the soil's area beyond the small-strain limit, by cell values (the continuum's cell
+// arrays spread onto the cells' points), structure cells left out.
+TEST(CoarseGrain, StrainRangeTellsTheSoilAreaBeyondSmallStrains) {
+  compare::ContinuumSnapshot s;
+  // three unit squares side by side: soil (ε_v 0.5), soil (ε_v −0.01, ε_p 0.02), structure (ε_v 9)
+  for (int c = 0; c < 3; ++c) {
+    const double x0 = c;
+    const std::size_t b = s.x.size();
+    s.x.insert(s.x.end(), {x0, x0 + 1, x0 + 1, x0});
+    s.z.insert(s.z.end(), {0, 0, 1, 1});
+    s.cells.push_back({b, b + 1, b + 2, b + 3});
+    const double ev[3] = {0.5, -0.01, 9.0}, ep[3] = {0.0, 0.02, 9.0}, mat[3] = {0, 0, 1};
+    for (int k = 0; k < 4; ++k) {
+      s.data["volumetric_strain"].push_back(ev[c]);
+      s.data["plastic_strain"].push_back(ep[c]);
+      s.data["material"].push_back(mat[c]);
+    }
+  }
+  const auto r = compare::continuum_strain_range(s, compare::kSmallStrainLimit);
+  EXPECT_DOUBLE_EQ(r.area, 2.0);
+  EXPECT_DOUBLE_EQ(r.area_beyond, 1.0);
+  EXPECT_DOUBLE_EQ(r.share_beyond(), 0.5);
+  EXPECT_DOUBLE_EQ(r.max_volumetric, 0.5);
+  EXPECT_DOUBLE_EQ(r.vol_x, 0.5);
+  EXPECT_DOUBLE_EQ(r.vol_z, 0.5);
+  EXPECT_DOUBLE_EQ(r.max_plastic, 0.02);
+  EXPECT_DOUBLE_EQ(r.plastic_x, 1.5);
+  // within the limit everywhere: nothing beyond
+  s.data["volumetric_strain"][0] = s.data["volumetric_strain"][1] = 0.05;
+  s.data["volumetric_strain"][2] = s.data["volumetric_strain"][3] = 0.05;
+  EXPECT_DOUBLE_EQ(compare::continuum_strain_range(s, compare::kSmallStrainLimit).area_beyond, 0.0);
+}

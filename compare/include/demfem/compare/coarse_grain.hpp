@@ -99,6 +99,20 @@ struct ContinuumSnapshot {
 [[nodiscard]] std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0,
                                                     double x1, int bins);
 
+// How far a snapshot's soil cells (material 0) are from the small strains the continuum's
+// kinematics assume: the share of the soil's area whose |volumetric_strain| or plastic_strain
+// (cell values) exceeds `limit`, and the largest of each with its cell's centre. Cells without
+// those arrays count as within.
+struct StrainRange {
+  double area = 0.0, area_beyond = 0.0;                  // [m²]
+  double max_volumetric = 0.0, vol_x = 0.0, vol_z = 0.0; // largest |ε_v| (signed value), where
+  double max_plastic = 0.0, plastic_x = 0.0, plastic_z = 0.0;
+  [[nodiscard]] double share_beyond() const { return area > 0.0 ? area_beyond / area : 0.0; }
+};
+[[nodiscard]] StrainRange continuum_strain_range(const ContinuumSnapshot& s, double limit);
+// The strain up to which the report takes the continuum's small-strain kinematics as valid.
+inline constexpr double kSmallStrainLimit = 0.1;
+
 // The continuum's point array `name` at the grid nodes: bilinear inside the soil cell (material 0)
 // that holds the node (the mesh is a tensor-product grid of axis-parallel rectangles); NaN outside
 // the soil.
