@@ -437,8 +437,9 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
   }
   // The continuum's last snapshot against its small-strain kinematics: beyond about 10 % strain
   // the neglected quadratic terms of the strain (ε²/2, 5 % of ε) and the fixed reference geometry
-  // make its displacements no soil's (a shaken cohesionless backfill reached ε_v = 7.9 at its top
-  // corners and a 0.8 m rise of its surface: bench/RESULTS.md, twenty-seventh session).
+  // make its displacements no soil's. A shaken cohesionless backfill reached ε_v = 7.9 at its top
+  // corners and a 0.8 m rise of its surface (cases/README.md, "The continuum beyond small
+  // strains").
   if (want_cont) {
     const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
     if (!snaps.empty()) {
