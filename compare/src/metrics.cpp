@@ -446,6 +446,7 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
       try {
         const auto r =
             continuum_strain_range(read_continuum_vtu(snaps.back().file), kSmallStrainLimit);
+        set.continuum_beyond_small_strain = r.share_beyond();
         if (r.area_beyond > 0.0)
           set.warnings.push_back(fmt::format(
               "The continuum leaves the small strains its kinematics assume: at t = {:.3g} s, "

@@ -226,6 +226,12 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   metrics["rows"] = nlohmann::json::array();
   for (const auto& m : set.series) {
     MetricRow row = compare_metric(m, so, thr);
+    // A displacement's verdict where the continuum is beyond its small strains says so.
+    if (set.continuum_beyond_small_strain > 0.0 && m.def.unit == "m" && row.comparable)
+      row.verdict += fmt::format(
+          " — the continuum is beyond its small strains over {:.1f} % of the soil (note above): "
+          "its displacements are not a soil's",
+          100.0 * set.continuum_beyond_small_strain);
     metrics["metric_table"].push_back({{"key", m.def.key},
                                        {"quantity", m.def.quantity},
                                        {"unit", m.def.unit},

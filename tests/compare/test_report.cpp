@@ -41,6 +41,59 @@ TEST(Report, SubsidenceSummaryGivesTheLargestSettlementAndRiseWithTheirPlaces) {
             "(x = 1.25 m) and rises by at most 0.418 mm (x = 63.75 m).");
 }
 
+// A continuum beyond small strains: the report warns (share of the soil, largest strain, where)
+// and the verdict of a displacement says that its continuum side is not a soil's; a force's does
+// not. One unit-square soil cell with ε_v = 0.5 in an ASCII .vtu.
+TEST(Report, WarnsWhenTheContinuumIsBeyondSmallStrains) {
+  const fs::path run = demfem::test::scratch("report-strain");
+  fs::create_directories(run / "dem");
+  fs::create_directories(run / "continuum");
+  {
+    for (const char* side : {"dem", "continuum"}) {
+      std::ofstream f(run / side / "structures.csv");
+      f << "time [s],foot.settlement [m],foot.force_z [N]\n";
+      for (int k = 0; k <= 20; ++k)
+        f << k * 0.1 << "," << (side[0] == 'd' ? 1e-3 : 2e-3) * k << "," << 100 + k << "\n";
+    }
+    std::ofstream v(run / "continuum" / "c_0.vtu");
+    v << R"(<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="4" NumberOfCells="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 1 1 0 0 1 0</DataArray></Points>
+<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">9</DataArray></Cells>
+<CellData><DataArray type="Float64" Name="volumetric_strain" format="ascii">0.5</DataArray>
+<DataArray type="Float64" Name="plastic_strain" format="ascii">0</DataArray>
+<DataArray type="Float64" Name="material" format="ascii">0</DataArray></CellData>
+</Piece></UnstructuredGrid></VTKFile>
+)";
+    std::ofstream pvd(run / "continuum" / "continuum.pvd");
+    pvd << R"(<?xml version="1.0"?>
+<VTKFile type="Collection" version="0.1"><Collection>
+<DataSet timestep="2" group="" part="0" file="c_0.vtu"/>
+</Collection></VTKFile>
+)";
+  }
+  compare::ReportOptions o;
+  o.title = "test";
+  o.fields = false;
+  const auto r = compare::write_report(run, o);
+  ASSERT_EQ(r.compared.size(), 2u);
+  for (const auto& m : r.compared) {
+    const bool marked =
+        m.verdict.find("beyond its small strains over 100.0 % of the soil") != std::string::npos;
+    EXPECT_EQ(marked, m.def.unit == "m") << m.def.key << ": " << m.verdict;
+  }
+  const auto j = nlohmann::json::parse(std::ifstream(r.metrics_json));
+  ASSERT_EQ(j["warnings"].size(), 1u);
+  EXPECT_NE(j["warnings"][0].get<std::string>().find(
+                "100.0 % of the soil's area has a volumetric or plastic strain above 10 % "
+                "(largest volumetric strain 0.5 at x = 0.5 m, z = 0.5 m"),
+            std::string::npos)
+      << j["warnings"][0];
+}
+
 TEST(Report, ComparesWallThrustAndPressureProfiles) {
   const fs::path run = demfem::test::scratch("report");
   fs::create_directories(run / "dem");

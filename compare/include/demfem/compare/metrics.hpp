@@ -47,6 +47,9 @@ struct MetricSet {
   std::vector<Alias> aliases;        // columns folded into a canonical quantity
   std::vector<MetricSeries> zero;    // identically zero in both solvers (fixed by the scene)
   std::vector<std::string> warnings; // e.g. a structure the DEM's particles never touch
+  // Share of the soil's area where the continuum's last snapshot is beyond small strains
+  // (continuum_strain_range, kSmallStrainLimit); 0: within them, or no snapshot.
+  double continuum_beyond_small_strain = 0.0;
 };
 
 // Reads <run>/dem/*.csv and <run>/continuum/*.csv (+ the continuum's .vtu snapshots for the
