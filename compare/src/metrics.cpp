@@ -262,6 +262,21 @@ MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o, double th
     v += "; oscillation amplitude not compared (sampled too coarsely or not measured)";
   v += fmt::format("; threshold ±{:.0f} %", 100 * threshold);
   if (!std::isfinite(ri)) v += " (DEM mean increment 0: no relative measure)";
+  // Scale: responses that are a sliver of the static value (a footing's rocking against its
+  // weight: ±0.2 % in the main job) diverge on their own scale; the reader should see both.
+  // Forces, moments and pressures only: the static value of a position or an angle is a datum.
+  const double st = std::abs(r.static_part.dem);
+  const bool magnitude = m.def.unit != "m" && m.def.unit != "rad";
+  if (magnitude && std::isfinite(st) && st > 0.0) {
+    double big = 0.0;
+    for (double x :
+         {r.increment.dem, r.increment.continuum, r.amplitude.dem, r.amplitude.continuum})
+      if (std::isfinite(x)) big = std::max(big, std::abs(x));
+    if (big < kSmallResponseShare * st)
+      v += fmt::format("; in both solvers the response is at most {:.2g} % of the static value "
+                       "({:.4g} {})",
+                       100.0 * big / st, r.static_part.dem, m.def.unit);
+  }
   r.verdict = v;
   return r;
 }

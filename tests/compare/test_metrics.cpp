@@ -147,6 +147,45 @@ TEST(Metrics, StaticOffsetIsNotADivergence) {
   EXPECT_NEAR(row2.increment.relative(), -0.5, 0.01);
 }
 
+// A response that is a sliver of the static value (a footing's weight, its rocking's vertical
+// force): the verdict keeps its word and gives the scale.
+TEST(Metrics, VerdictGivesTheScaleOfAResponseSmallAgainstTheStaticValue) {
+  compare::MetricSeries m;
+  m.def.key = "foot.force_z";
+  m.def.unit = "N";
+  for (int k = 0; k <= 400; ++k) {
+    const double t = 0.01 * k;
+    const double inc = t > 1.0 ? 100.0 * std::sin(4 * std::numbers::pi * t) : 0.0;
+    m.dem.t.push_back(t);
+    m.dem.y.push_back(1e6 + inc);
+    m.continuum.t.push_back(t);
+    m.continuum.y.push_back(1e6 + 0.25 * inc);
+  }
+  scene::Scene sc = shaken_scene();
+  const auto o = compare::split_options(&sc, 4.0);
+  const auto row = compare::compare_metric(m, o, 0.2);
+  EXPECT_TRUE(row.diverges) << row.verdict; // amplitude 0.25×
+  EXPECT_NE(row.verdict.find("in both solvers the response is at most 0.0098 % of the static value "
+                             "(1e+06 N)"),
+            std::string::npos)
+      << row.verdict;
+  // A response of 5 % of the static value: no such remark.
+  for (std::size_t k = 0; k < m.dem.y.size(); ++k) {
+    m.dem.y[k] = 1e6 + 500.0 * (m.dem.y[k] - 1e6);
+    m.continuum.y[k] = 1e6 + 500.0 * (m.continuum.y[k] - 1e6);
+  }
+  const auto row2 = compare::compare_metric(m, o, 0.2);
+  EXPECT_EQ(row2.verdict.find("in both solvers the response"), std::string::npos) << row2.verdict;
+  // A position's static value is a datum, not a scale: no remark for a surface elevation.
+  for (std::size_t k = 0; k < m.dem.y.size(); ++k) {
+    m.dem.y[k] = 1e6 + (m.dem.y[k] - 1e6) / 500.0;
+    m.continuum.y[k] = 1e6 + (m.continuum.y[k] - 1e6) / 500.0;
+  }
+  m.def.unit = "m";
+  EXPECT_EQ(compare::compare_metric(m, o, 0.2).verdict.find("in both solvers the response"),
+            std::string::npos);
+}
+
 TEST(Metrics, ReportHasOneRowPerQuantityAndAVerdict) {
   const auto run = wall_run("demfem_test_metrics_report");
   const auto sc = shaken_scene();

@@ -112,7 +112,10 @@ struct MetricRow {
 
 // Compares one series pair: both split with `o`, divergence on the increments with `threshold`
 // (relative to the DEM's largest |increment|); the verdict compares the late mean increments and
-// the oscillation amplitudes with the same relative threshold.
+// the oscillation amplitudes with the same relative threshold. When every mean increment and
+// amplitude of a force, moment or pressure (not a unit of m or rad) is below kSmallResponseShare
+// of the DEM's static value, the verdict says so (the agree/diverge word does not change).
+inline constexpr double kSmallResponseShare = 0.01;
 [[nodiscard]] MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o,
                                        double threshold);
 
