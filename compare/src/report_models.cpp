@@ -363,7 +363,8 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
           "The granular bed's stiffness grows with confinement and falls with strain amplitude, "
           "and it compacts under shaking; the continuum's E {} and does not fall with strain, "
           "and it changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up "
-          "to its dilatancy cut-off) — it cannot densify.",
+          "to its dilatancy cut-off; where it is pulled to the yield surface's apex, zero "
+          "stress for a cohesionless soil, without limit) — it cannot densify.",
           c.stress_dependent_modulus()
               ? "follows the initial confinement as p^" + g3(c.modulus_exponent)
               : "is the same at every depth");
