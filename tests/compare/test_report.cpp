@@ -94,6 +94,44 @@ TEST(Report, WarnsWhenTheContinuumIsBeyondSmallStrains) {
       << j["warnings"][0];
 }
 
+// A settlement far below the grain size: its verdict gives the scale (the mean particle
+// diameter); a force's does not.
+TEST(Report, ADisplacementFarBelowTheGrainSizeIsSaidToBe) {
+  const fs::path run = demfem::test::scratch("report-grain");
+  fs::create_directories(run / "dem");
+  fs::create_directories(run / "continuum");
+  for (const char* side : {"dem", "continuum"}) {
+    std::ofstream f(run / side / "structures.csv");
+    f << "time [s],foot.settlement [m],foot.force_z [N]\n";
+    for (int k = 0; k <= 20; ++k)
+      f << k * 0.1 << "," << (side[0] == 'd' ? 1e-4 : 3e-4) * k << "," << 100 + k << "\n";
+  }
+  scene::Scene sc;
+  sc.soil.dem = scene::DemSoil{};
+  sc.soil.dem->radius.kind = scene::RadiusDistribution::Kind::Equal;
+  sc.soil.dem->radius.min = sc.soil.dem->radius.max = 0.5; // diameter 1 m
+  compare::ReportOptions o;
+  o.title = "test";
+  o.fields = false;
+  o.scene = &sc;
+  const auto r = compare::write_report(run, o);
+  ASSERT_EQ(r.compared.size(), 2u);
+  for (const auto& m : r.compared) {
+    const bool marked = m.verdict.find("of a mean particle diameter (1 m): far below the grain "
+                                       "scale") != std::string::npos;
+    EXPECT_EQ(marked, m.def.unit == "m") << m.def.key << ": " << m.verdict;
+  }
+  // 10 × larger settlements (up to 6 % of a diameter): no remark.
+  for (const char* side : {"dem", "continuum"}) {
+    std::ofstream f(run / side / "structures.csv");
+    f << "time [s],foot.settlement [m],foot.force_z [N]\n";
+    for (int k = 0; k <= 20; ++k)
+      f << k * 0.1 << "," << (side[0] == 'd' ? 1e-3 : 3e-3) * k << "," << 100 + k << "\n";
+  }
+  for (const auto& m : compare::write_report(run, o).compared)
+    EXPECT_EQ(m.verdict.find("grain scale"), std::string::npos) << m.verdict;
+}
+
 TEST(Report, ComparesWallThrustAndPressureProfiles) {
   const fs::path run = demfem::test::scratch("report");
   fs::create_directories(run / "dem");
