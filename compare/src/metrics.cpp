@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -375,6 +376,8 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
           {b + ".applied_moment [N·m]", "(input)",
            "the applied load's moment: the same history in both by construction"});
   }
+  // The continuum's last snapshot, when the surface below has read it (the small-strain check).
+  std::optional<ContinuumSnapshot> last_snapshot;
   // Surface elevation: the DEM's surface-profile probe (highest particle top per x bin) against
   // the continuum's top boundary moved by its displacement (from the .vtu snapshots).
   {
@@ -429,8 +432,9 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
         }
         for (const auto& e : snaps) {
           try {
-            const auto snap = read_continuum_vtu(e.file);
+            auto snap = read_continuum_vtu(e.file);
             const auto z = continuum_surface(snap, x0, x1, static_cast<int>(nb));
+            if (&e == &snaps.back()) last_snapshot = std::move(snap);
             double sum = 0.0;
             int n = 0;
             for (double v : z)
@@ -459,8 +463,8 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
     const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
     if (!snaps.empty()) {
       try {
-        const auto r =
-            continuum_strain_range(read_continuum_vtu(snaps.back().file), kSmallStrainLimit);
+        if (!last_snapshot) last_snapshot = read_continuum_vtu(snaps.back().file);
+        const auto r = continuum_strain_range(*last_snapshot, kSmallStrainLimit);
         set.continuum_beyond_small_strain = r.share_beyond();
         if (r.area_beyond > 0.0)
           set.warnings.push_back(fmt::format(

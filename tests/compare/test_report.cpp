@@ -12,6 +12,20 @@
 namespace fs = std::filesystem;
 using namespace demfem;
 
+namespace {
+// dem/ and continuum/structures.csv of a structure "foot": settlement rate × t / 0.1 s in each
+// solver (dem_rate, cont_rate [m]), vertical force 100 + t / 0.1 s [N], for t = 0 … 2 s.
+void write_foot(const fs::path& run, double dem_rate, double cont_rate) {
+  for (const char* side : {"dem", "continuum"}) {
+    fs::create_directories(run / side);
+    std::ofstream f(run / side / "structures.csv");
+    f << "time [s],foot.settlement [m],foot.force_z [N]\n";
+    for (int k = 0; k <= 20; ++k)
+      f << k * 0.1 << "," << (side[0] == 'd' ? dem_rate : cont_rate) * k << "," << 100 + k << "\n";
+  }
+}
+} // namespace
+
 TEST(Report, InterpolateIsLinearAndHeld) {
   const std::vector<double> t{0, 1, 3}, y{0, 2, 6};
   EXPECT_DOUBLE_EQ(compare::interpolate(t, y, 0.5), 1.0);
@@ -46,15 +60,8 @@ TEST(Report, SubsidenceSummaryGivesTheLargestSettlementAndRiseWithTheirPlaces) {
 // not. One unit-square soil cell with ε_v = 0.5 in an ASCII .vtu.
 TEST(Report, WarnsWhenTheContinuumIsBeyondSmallStrains) {
   const fs::path run = demfem::test::scratch("report-strain");
-  fs::create_directories(run / "dem");
-  fs::create_directories(run / "continuum");
+  write_foot(run, 1e-3, 2e-3);
   {
-    for (const char* side : {"dem", "continuum"}) {
-      std::ofstream f(run / side / "structures.csv");
-      f << "time [s],foot.settlement [m],foot.force_z [N]\n";
-      for (int k = 0; k <= 20; ++k)
-        f << k * 0.1 << "," << (side[0] == 'd' ? 1e-3 : 2e-3) * k << "," << 100 + k << "\n";
-    }
     std::ofstream v(run / "continuum" / "c_0.vtu");
     v << R"(<?xml version="1.0"?>
 <VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
@@ -98,14 +105,7 @@ TEST(Report, WarnsWhenTheContinuumIsBeyondSmallStrains) {
 // diameter); a force's does not.
 TEST(Report, ADisplacementFarBelowTheGrainSizeIsSaidToBe) {
   const fs::path run = demfem::test::scratch("report-grain");
-  fs::create_directories(run / "dem");
-  fs::create_directories(run / "continuum");
-  for (const char* side : {"dem", "continuum"}) {
-    std::ofstream f(run / side / "structures.csv");
-    f << "time [s],foot.settlement [m],foot.force_z [N]\n";
-    for (int k = 0; k <= 20; ++k)
-      f << k * 0.1 << "," << (side[0] == 'd' ? 1e-4 : 3e-4) * k << "," << 100 + k << "\n";
-  }
+  write_foot(run, 1e-4, 3e-4);
   scene::Scene sc;
   sc.soil.dem = scene::DemSoil{};
   sc.soil.dem->radius.kind = scene::RadiusDistribution::Kind::Equal;
@@ -122,12 +122,7 @@ TEST(Report, ADisplacementFarBelowTheGrainSizeIsSaidToBe) {
     EXPECT_EQ(marked, m.def.unit == "m") << m.def.key << ": " << m.verdict;
   }
   // 10 × larger settlements (up to 6 % of a diameter): no remark.
-  for (const char* side : {"dem", "continuum"}) {
-    std::ofstream f(run / side / "structures.csv");
-    f << "time [s],foot.settlement [m],foot.force_z [N]\n";
-    for (int k = 0; k <= 20; ++k)
-      f << k * 0.1 << "," << (side[0] == 'd' ? 1e-3 : 3e-3) * k << "," << 100 + k << "\n";
-  }
+  write_foot(run, 1e-3, 3e-3);
   for (const auto& m : compare::write_report(run, o).compared)
     EXPECT_EQ(m.verdict.find("grain scale"), std::string::npos) << m.verdict;
 }
