@@ -11,7 +11,7 @@
 # each with half the work: it runs at the pace of the slower CPU. A vCPU that the host pauses now
 # and then (30 % slower over the probe) leaves ceiling ≈ 1.7 but lockstep ≈ 1.5; an even share of
 # the work between the two cannot gain back what the pauses cost (bench/RESULTS.md,
-# twenty-seventh session). On this project's VMs it moves between ≈ 2 (independent
+# twenty-seventh session). On this project's VMs the ceiling moves between ≈ 2 (independent
 # cores), ≈ 1.6–1.7 (one vCPU 1.3–1.4 times slower than the other: its host sibling busy) and
 # ≈ 1.2 (both vCPUs on one host core) from minute to minute (bench/RESULTS.md, twenty-third
 # session). Prints nothing with fewer than 2 CPUs.
