@@ -203,6 +203,13 @@ SplitOptions split_options(const scene::Scene* scene, double t_end) {
   return o;
 }
 
+double MetricRow::largest_response() const {
+  double big = 0.0;
+  for (double x : {increment.dem, increment.continuum, amplitude.dem, amplitude.continuum})
+    if (std::isfinite(x)) big = std::max(big, std::abs(x));
+  return big;
+}
+
 MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o, double threshold) {
   MetricRow r;
   r.def = m.def;
@@ -269,10 +276,7 @@ MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o, double th
   const double st = std::abs(r.static_part.dem);
   const bool magnitude = m.def.unit != "m" && m.def.unit != "rad";
   if (magnitude && std::isfinite(st) && st > 0.0) {
-    double big = 0.0;
-    for (double x :
-         {r.increment.dem, r.increment.continuum, r.amplitude.dem, r.amplitude.continuum})
-      if (std::isfinite(x)) big = std::max(big, std::abs(x));
+    const double big = r.largest_response();
     if (big < kSmallResponseShare * st)
       v += fmt::format("; in both solvers the response is at most {:.2g} % of the static value "
                        "({:.4g} {})",

@@ -231,10 +231,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     // A displacement far below the grains' size: both solvers move at the scale of the contacts'
     // deformation (the main job's foundation surface: 0.06 mm against 2.2 m disks).
     if (grain > 0.0 && m.def.unit == "m" && row.comparable) {
-      double big = 0.0;
-      for (double x :
-           {row.increment.dem, row.increment.continuum, row.amplitude.dem, row.amplitude.continuum})
-        if (std::isfinite(x)) big = std::max(big, std::abs(x));
+      const double big = row.largest_response();
       if (big < kSmallResponseShare * grain)
         row.verdict += fmt::format("; in both solvers the response is at most {:.2g} % of a mean "
                                    "particle diameter ({:.3g} m): far below the grain scale",

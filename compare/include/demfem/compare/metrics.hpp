@@ -108,6 +108,8 @@ struct MetricRow {
   bool comparable = true; // false when one solver's series is 0 throughout (nothing measured)
   std::string verdict;    // plain words with the numbers
   Split dem_split, continuum_split;
+  // The largest |mean increment| or amplitude of the two solvers (finite ones; 0 when none).
+  [[nodiscard]] double largest_response() const;
 };
 
 // Compares one series pair: both split with `o`, divergence on the increments with `threshold`
