@@ -17,6 +17,7 @@
 // adaptive=-k: a fixed team of k threads running the `threads` parts.
 // Also prints bytes per particle (engine containers) and the rebuild/force split.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -90,7 +91,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   dem::Engine e(cfg);
+  e.reserve_particles(sc.soil.dem->particles.size());
   for (const auto& q : sc.soil.dem->particles) e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+  // The scene's copy of the particles is not needed any more (48 B a particle: at 10⁷ disks it
+  // was a fifth of the peak memory).
+  std::vector<std::array<double, 6>>().swap(sc.soil.dem->particles);
   for (const auto& w : sc.walls) e.add_wall(w);
   e.set_dt(sc.soil.dem->dt > 0.0 ? sc.soil.dem->dt : e.auto_dt());
   if (adaptive < 0) e.set_team(-adaptive); // a fixed team of −adaptive threads

@@ -98,6 +98,15 @@ void Engine::compute_mass(std::uint32_t i) {
   p_.inv_inertia[i] = 1.0 / (0.5 * m * r * r); // I = ½ m r² (disk)
 }
 
+void Engine::reserve_particles(std::size_t n) {
+  for (auto* v : {&p_.x, &p_.z, &p_.phi, &p_.vx, &p_.vz, &p_.omega, &p_.fx, &p_.fz, &p_.torque,
+                  &p_.radius, &p_.mass, &p_.inv_mass, &p_.inv_inertia})
+    v->reserve(n);
+  p_.id.reserve(n);
+  p_.material.reserve(n);
+  p_.flags.reserve(n);
+}
+
 std::uint32_t Engine::add_particle(double x, double z, double r, double vx, double vz, double omega,
                                    std::uint16_t material) {
   const auto i = static_cast<std::uint32_t>(p_.size());

@@ -219,6 +219,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
                      "(counter-clockwise, about its pivot); its rotation is counted from there",
                      scene.structures[k].name, seat_rot[k]);
     const auto& p = pr.particles;
+    e.reserve_particles(p.size());
     for (std::size_t i = 0; i < p.size(); ++i)
       e.add_particle(p.x[i], p.z[i], p.radius[i], p.vx[i], p.vz[i], p.omega[i]);
     history = pr.contact_history;
@@ -237,6 +238,7 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     if (pr.carved > 0)
       spdlog::info("packing: {} particles carved out where embedded structures stand", pr.carved);
   }
+  packed.reset(); // its particles are the engine's now (114 B a particle)
 #else
   if (!resume_from && scene.soil.dem->particles.empty()) {
     scene::Diagnostic d;
@@ -245,9 +247,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     d.message = "this build has no packing generator; list the particles explicitly";
     throw scene::SceneError({d});
   }
-  if (!resume_from)
+  if (!resume_from) {
+    e.reserve_particles(scene.soil.dem->particles.size());
     for (const auto& q : scene.soil.dem->particles)
       e.add_particle(q[0], q[1], q[2], q[3], q[4], q[5]);
+  }
 #endif
   for (const auto& w : scene.walls) e.add_wall(w);
   for (std::size_t k = 0; k < scene.structures.size(); ++k)

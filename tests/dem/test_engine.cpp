@@ -697,6 +697,26 @@ TEST(DemMass, SphereAndDiskConventions) {
   EXPECT_NEAR(1.0 / sph.particles().inv_inertia[0], 0.4 * ms * 0.05 * 0.05, 1e-12 * ms);
 }
 
+// reserve_particles (issue 12, 10⁷ disks): the arrays take the set at the size asked for, with
+// no growth by doubling (without it, 1,000 push_backs leave a capacity of 1,024), and the
+// particles are the same as without it.
+TEST(DemMemory, ReservedParticleArraysDoNotGrowWhileTheSetIsAdded) {
+  Engine plain(base_config()), reserved(base_config());
+  reserved.reserve_particles(1000);
+  for (int i = 0; i < 1000; ++i) {
+    plain.add_particle(0.1 * i, 0.0, 0.04);
+    reserved.add_particle(0.1 * i, 0.0, 0.04);
+  }
+  EXPECT_GT(plain.particles().x.capacity(), 1000u);
+  for (const auto* v :
+       {&reserved.particles().x, &reserved.particles().vx, &reserved.particles().inv_inertia})
+    EXPECT_EQ(v->capacity(), 1000u);
+  EXPECT_EQ(reserved.particles().id.capacity(), 1000u);
+  EXPECT_EQ(reserved.particles().flags.capacity(), 1000u);
+  EXPECT_EQ(reserved.particles().mass, plain.particles().mass);
+  EXPECT_EQ(reserved.particles().x, plain.particles().x);
+}
+
 // Particle order (issue 12): the reorder puts the particles of a wide bed in columns across x
 // (a tall one in rows across z), so every touching pair lies within about two columns of
 // particles in memory. A 400 × 12 lattice (4,800 disks, reordered at the first rebuild) is added

@@ -210,6 +210,9 @@ public:
   // ---- building ---------------------------------------------------------------------------
   std::uint32_t add_particle(double x, double z, double r, double vx = 0.0, double vz = 0.0,
                              double omega = 0.0, std::uint16_t material = 0);
+  // Room for n particles in all in every particle array, before add_particle: a large set is then
+  // added without the arrays' growth by doubling (which holds the old and the new array at once).
+  void reserve_particles(std::size_t n);
   // Returns the boundary index. Walls are two-sided; friction defaults to the particle's.
   int add_wall(const std::vector<scene::Vec2>& points, const std::string& name = "wall",
                const double* mu_s = nullptr, const double* mu_d = nullptr);
