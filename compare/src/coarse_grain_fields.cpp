@@ -2,10 +2,13 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
+#include <unordered_map>
 
 #include <fmt/format.h>
 
@@ -255,6 +258,42 @@ std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0, dou
     const double w = (x - xs[j]) / (xs[k] - xs[j]);
     out[static_cast<std::size_t>(b)] = zs[j] + w * (zs[k] - zs[j]); // linear interpolation
   }
+  return out;
+}
+
+std::vector<double> dem_surface_settlement(const ParticleSnapshot& rest,
+                                           const ParticleSnapshot& end, double x0, double x1,
+                                           int bins) {
+  const auto nb = static_cast<std::size_t>(std::max(bins, 0));
+  std::vector<double> out(nb, std::nan(""));
+  const std::size_t n = rest.x.size();
+  if (nb == 0 || n == 0 || !(x1 > x0)) return out;
+  auto bin_of = [&](double x) -> std::optional<std::size_t> {
+    const double f = (x - x0) / (x1 - x0) * static_cast<double>(nb);
+    if (!(f >= 0.0) || f >= static_cast<double>(nb)) return std::nullopt;
+    return static_cast<std::size_t>(f);
+  };
+  double dsum = 0.0;
+  for (std::size_t k = 0; k < n; ++k) dsum += 2.0 * rest.radius[k];
+  const double layer = dsum / static_cast<double>(n); // one mean diameter
+  std::vector<double> top(nb, -std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < n; ++k)
+    if (const auto b = bin_of(rest.x[k])) top[*b] = std::max(top[*b], rest.z[k] + rest.radius[k]);
+  std::unordered_map<std::uint32_t, std::size_t> at_end;
+  at_end.reserve(end.id.size());
+  for (std::size_t k = 0; k < end.id.size(); ++k) at_end.emplace(end.id[k], k);
+  std::vector<double> sum(nb, 0.0);
+  std::vector<int> count(nb, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto b = bin_of(rest.x[k]);
+    if (!b || rest.z[k] + rest.radius[k] < top[*b] - layer) continue;
+    const auto it = at_end.find(rest.id[k]);
+    if (it == at_end.end()) continue; // left the scene
+    sum[*b] += rest.z[k] - end.z[it->second];
+    ++count[*b];
+  }
+  for (std::size_t b = 0; b < nb; ++b)
+    if (count[b] > 0) out[b] = sum[b] / count[b];
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -397,6 +398,32 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                                   static_cast<int>(nb));
         } catch (const std::exception&) {
         }
+        // The DEM's surface followed as material, as the continuum's top nodes are: the particles
+        // that formed it at rest, from the particle snapshots nearest both times (within 5 % of
+        // the span). Without them, the top of the bed per bin (surface.csv), which jumps by a
+        // grain when another particle becomes the highest.
+        std::vector<double> zd;
+        {
+          const auto dps = read_pvd_entries(run_dir / "dem" / "particles.pvd");
+          auto dem_snap = [&](double at) -> std::optional<std::size_t> {
+            std::optional<std::size_t> best;
+            for (std::size_t k = 0; k < dps.size(); ++k)
+              if (!best || std::abs(dps[k].time - at) < std::abs(dps[*best].time - at)) best = k;
+            if (best && std::abs(dps[*best].time - at) <= 0.05 * (te - tr)) return best;
+            return std::nullopt;
+          };
+          const auto a = dem_snap(tr), b = dem_snap(te);
+          if (a && b && *a != *b) try {
+              zd = dem_surface_settlement(read_particles_vtp(dps[*a].file),
+                                          read_particles_vtp(dps[*b].file), x0, x1,
+                                          static_cast<int>(nb));
+            } catch (const std::exception&) {
+              zd.clear();
+            }
+          if (std::none_of(zd.begin(), zd.end(), [](double v) { return std::isfinite(v); }))
+            zd.clear();
+        }
+        const bool dem_followed = zd.size() == nb;
         if (zc0.size() == nb && zc1.size() == nb) {
           Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
           Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
@@ -404,7 +431,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           for (std::size_t b = 0; b < nb; ++b) {
             const double x =
                 x0 + (x1 - x0) * (static_cast<double>(b) + 0.5) / static_cast<double>(nb);
-            const double d = t.rows[r0][b + 1] - t.rows[r1][b + 1]; // subsidence: rest − end
+            const double d = dem_followed ? zd[b] // subsidence: rest − end
+                                          : t.rows[r0][b + 1] - t.rows[r1][b + 1];
             const double c = zc0[b] - zc1[b];
             sd.x.push_back(x);
             sd.y.push_back(d); // [m] here, scaled for the plot below
@@ -435,23 +463,31 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           std::string err;
           if (plot(spec, png, &err))
             res.profile_figures.push_back(fs::relative(png, run_dir).string());
-          const std::string note = subsidence_summary(tr, te, de, ce);
+          const std::string note =
+              subsidence_summary(tr, te, de, ce) +
+              (dem_followed
+                   ? " DEM: the mean settlement of the particles that formed the surface at rest "
+                     "(within one mean diameter of the top of their bin), followed to the end, as "
+                     "the continuum's surface nodes are."
+                   : " DEM: the top of the bed in each bin (no particle snapshots at both times).");
           res.profile_notes.push_back(note);
           const auto xj = [](double x) {
             return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
           };
-          metrics["surface_subsidence_profile"] = {{"rest_s", tr},
-                                                   {"end_s", te},
-                                                   {"largest_dem_m", de.down},
-                                                   {"largest_continuum_m", ce.down},
-                                                   {"largest_dem_x_m", xj(de.x_down)},
-                                                   {"largest_continuum_x_m", xj(ce.x_down)},
-                                                   {"largest_rise_dem_m", -de.up},
-                                                   {"largest_rise_continuum_m", -ce.up},
-                                                   {"largest_rise_dem_x_m", xj(de.x_up)},
-                                                   {"largest_rise_continuum_x_m", xj(ce.x_up)},
-                                                   {"summary", note},
-                                                   {"bins", js}};
+          metrics["surface_subsidence_profile"] = {
+              {"rest_s", tr},
+              {"end_s", te},
+              {"largest_dem_m", de.down},
+              {"largest_continuum_m", ce.down},
+              {"largest_dem_x_m", xj(de.x_down)},
+              {"largest_continuum_x_m", xj(ce.x_down)},
+              {"largest_rise_dem_m", -de.up},
+              {"largest_rise_continuum_m", -ce.up},
+              {"largest_rise_dem_x_m", xj(de.x_up)},
+              {"largest_rise_continuum_x_m", xj(ce.x_up)},
+              {"summary", note},
+              {"dem_surface", dem_followed ? "surface particles followed" : "top of the bed"},
+              {"bins", js}};
         }
       }
     }

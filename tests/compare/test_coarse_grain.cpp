@@ -232,3 +232,49 @@ TEST(CoarseGrain, StrainRangeTellsTheSoilAreaBeyondSmallStrains) {
   s.data["volumetric_strain"][2] = s.data["volumetric_strain"][3] = 0.05;
   EXPECT_DOUBLE_EQ(compare::continuum_strain_range(s, compare::kSmallStrainLimit).area_beyond, 0.0);
 }
+
+// The DEM's surface settlement follows the particles that formed the surface at rest (issue 9's
+// matched surfaces: the continuum's top nodes are material too). Two bins of 1 m, particles of
+// radius 0.05 m (one mean diameter 0.1 m): in each bin a top pair and a particle 0.3 m below
+// (not surface). At the end the top particles of bin 0 are 0.01 m lower, those of bin 1 0.03 m,
+// the deep ones 0.5 m (they must not count); the end snapshot lists the particles in another
+// order (found by id), one top particle of bin 1 has left the scene, and one particle beyond x1
+// is ignored. The top of the bed per bin would give 0.01 and 0.03 only by chance: here a deep
+// particle of bin 1 is thrown to the top at the end, and the top of the bed there rises 0.2 m.
+TEST(CoarseGrain, DemSurfaceSettlementFollowsTheSurfaceParticles) {
+  compare::ParticleSnapshot rest, end;
+  auto add = [](compare::ParticleSnapshot& s, std::uint32_t id, double x, double z) {
+    s.id.push_back(id);
+    s.x.push_back(x);
+    s.z.push_back(z);
+    s.radius.push_back(0.05);
+    s.vx.push_back(0.0);
+    s.vz.push_back(0.0);
+  };
+  add(rest, 0, 0.2, 1.00); // bin 0, top
+  add(rest, 1, 0.6, 0.96); // bin 0, top (within one diameter)
+  add(rest, 2, 0.4, 0.70); // bin 0, deep
+  add(rest, 3, 1.2, 1.00); // bin 1, top
+  add(rest, 4, 1.7, 0.95); // bin 1, top, leaves the scene
+  add(rest, 5, 1.5, 0.70); // bin 1, deep
+  add(rest, 6, 2.5, 2.00); // beyond x1
+  add(end, 6, 2.5, 0.0);
+  add(end, 5, 1.5, 1.20); // deep particle thrown to the top
+  add(end, 3, 1.2, 0.97);
+  add(end, 2, 0.4, 0.20);
+  add(end, 1, 0.6, 0.95);
+  add(end, 0, 0.2, 0.99);
+  const auto s = compare::dem_surface_settlement(rest, end, 0.0, 2.0, 2);
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_NEAR(s[0], 0.01, 1e-12);
+  EXPECT_NEAR(s[1], 0.03, 1e-12);
+  // wider bins: particle 6 now counts (bin 2, 2 m down); bin 3 has no particle
+  const auto wide = compare::dem_surface_settlement(rest, end, 0.0, 4.0, 4);
+  ASSERT_EQ(wide.size(), 4u);
+  EXPECT_NEAR(wide[0], 0.01, 1e-12);
+  EXPECT_NEAR(wide[2], 2.0, 1e-12);
+  EXPECT_TRUE(std::isnan(wide[3]));
+  // no particles at rest: every bin NaN
+  for (const double v : compare::dem_surface_settlement({}, end, 0.0, 2.0, 2))
+    EXPECT_TRUE(std::isnan(v));
+}

@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/report.hpp"
+#include "demfem/dem/io.hpp"
+#include "demfem/dem/state.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
@@ -191,4 +193,91 @@ TEST(Report, ComparesWallThrustAndPressureProfiles) {
   const std::string html2((std::istreambuf_iterator<char>(h2)), std::istreambuf_iterator<char>());
   EXPECT_NE(html2.find("one realisation of the bed (packing seed 7)"), std::string::npos);
   EXPECT_NE(html2.find("demfem compare bed.toml --seeds 7,8,9</code>"), std::string::npos) << html2;
+}
+
+// The subsidence profile's DEM line follows the particles that formed the surface at rest, as the
+// continuum's line follows its top nodes; without particle snapshots at both times it falls back
+// to the top of the bed per bin (surface.csv). Two bins over x 0…1 m: the top of the bed says
+// bin 0 rose 0.2 m (a deep particle thrown up) and bin 1 did not move; the surface particles
+// settled 0.01 and 0.02 m. The continuum's top nodes settle 0.004 m.
+TEST(Report, SubsidenceProfileFollowsTheDemSurfaceParticles) {
+  const fs::path run = demfem::test::scratch("report-profile");
+  write_foot(run, 1e-3, 2e-3);
+  {
+    std::ofstream f(run / "dem" / "surface.csv");
+    f << "time [s],surface.bin0 [m],surface.bin1 [m]\n0,1.05,1.05\n1,1.15,1.05\n2,1.25,1.05\n";
+  }
+  for (int k = 0; k < 2; ++k) {
+    std::ofstream v(run / "continuum" / ("c_" + std::to_string(k) + ".vtu"));
+    v << R"(<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="4" NumberOfCells="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 1 1 0 0 1 0</DataArray></Points>
+<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">9</DataArray></Cells>
+<PointData><DataArray type="Float64" Name="displacement_z" format="ascii">)"
+      << (k == 0 ? "0 0 0 0" : "0 0 -0.004 -0.004") << R"(</DataArray></PointData>
+<CellData><DataArray type="Float64" Name="material" format="ascii">0</DataArray></CellData>
+</Piece></UnstructuredGrid></VTKFile>
+)";
+  }
+  {
+    std::ofstream pvd(run / "continuum" / "continuum.pvd");
+    pvd << R"(<?xml version="1.0"?>
+<VTKFile type="Collection" version="0.1"><Collection>
+<DataSet timestep="0" group="" part="0" file="c_0.vtu"/>
+<DataSet timestep="2" group="" part="0" file="c_1.vtu"/>
+</Collection></VTKFile>
+)";
+  }
+  compare::ReportOptions o;
+  o.title = "test";
+  o.fields = false;
+  auto profile = [&] {
+    const auto r = compare::write_report(run, o);
+    return nlohmann::json::parse(std::ifstream(r.metrics_json))["surface_subsidence_profile"];
+  };
+  // no particle snapshots: the top of the bed
+  auto p = profile();
+  ASSERT_EQ(p["bins"].size(), 2u) << p;
+  EXPECT_EQ(p["dem_surface"], "top of the bed");
+  EXPECT_NEAR(p["bins"][0]["dem_m"].get<double>(), -0.2, 1e-12);
+  EXPECT_NEAR(p["bins"][0]["continuum_m"].get<double>(), 0.004, 1e-12);
+  // particle snapshots at t = 0 and 2 s: ids 0 and 1 on top, id 2 deep and thrown up
+  auto snapshot = [](const fs::path& path, const std::vector<double>& z) {
+    dem::Particles q;
+    const std::vector<double> x{0.25, 0.75, 0.25};
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      for (auto* v : {&q.phi, &q.vx, &q.vz, &q.omega, &q.fx, &q.fz, &q.torque}) v->push_back(0.0);
+      q.x.push_back(x[i]);
+      q.z.push_back(z[i]);
+      q.radius.push_back(0.05);
+      q.mass.push_back(1.0);
+      q.inv_mass.push_back(1.0);
+      q.inv_inertia.push_back(1.0);
+      q.id.push_back(i);
+      q.material.push_back(0);
+      q.flags.push_back(0);
+    }
+    dem::io::write_particles_vtp(path, q);
+  };
+  snapshot(run / "dem" / "p_0.vtp", {1.0, 1.0, 0.7});
+  snapshot(run / "dem" / "p_1.vtp", {0.99, 0.98, 1.2});
+  {
+    std::ofstream pvd(run / "dem" / "particles.pvd");
+    pvd << R"(<?xml version="1.0"?>
+<VTKFile type="Collection" version="0.1"><Collection>
+<DataSet timestep="0" group="" part="0" file="p_0.vtp"/>
+<DataSet timestep="2" group="" part="0" file="p_1.vtp"/>
+</Collection></VTKFile>
+)";
+  }
+  p = profile();
+  ASSERT_EQ(p["bins"].size(), 2u) << p;
+  EXPECT_EQ(p["dem_surface"], "surface particles followed");
+  EXPECT_NEAR(p["bins"][0]["dem_m"].get<double>(), 0.01, 1e-12);
+  EXPECT_NEAR(p["bins"][1]["dem_m"].get<double>(), 0.02, 1e-12);
+  EXPECT_NE(p["summary"].get<std::string>().find("the particles that formed the surface at rest"),
+            std::string::npos);
 }

@@ -99,6 +99,16 @@ struct ContinuumSnapshot {
 [[nodiscard]] std::vector<double> continuum_surface(const ContinuumSnapshot& s, double x0,
                                                     double x1, int bins);
 
+// Settlement of the DEM's surface followed as material, as continuum_surface follows the soil's
+// top nodes: per bin of x over [x0, x1] (by the particle's x in `rest`), the mean of
+// z_rest − z_end over the particles of `rest` whose top (z + r) is within one mean particle
+// diameter of the bin's highest top, each found by id in `end`. NaN for a bin with none. The top
+// of the bed per bin (the surface probe) jumps by a grain whenever another particle becomes the
+// highest; the particles themselves move smoothly.
+[[nodiscard]] std::vector<double> dem_surface_settlement(const ParticleSnapshot& rest,
+                                                         const ParticleSnapshot& end, double x0,
+                                                         double x1, int bins);
+
 // How far a snapshot's soil cells (material 0) are from the small strains the continuum's
 // kinematics assume: the share of the soil's area whose |volumetric_strain| or plastic_strain
 // (cell values) exceeds `limit`, and the largest of each with its cell's centre. Cells without
