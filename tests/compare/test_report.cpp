@@ -1,6 +1,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -25,6 +28,34 @@ void write_foot(const fs::path& run, double dem_rate, double cont_rate) {
     for (int k = 0; k <= 20; ++k)
       f << k * 0.1 << "," << (side[0] == 'd' ? dem_rate : cont_rate) * k << "," << 100 + k << "\n";
   }
+}
+
+// One unit-square soil cell (points (0,0) (1,0) (1,1) (0,1)) as an ASCII .vtu, with the given
+// PointData and CellData arrays (VTK XML DataArray elements; the cell's material array is added).
+void write_unit_cell_vtu(const fs::path& path, const std::string& point_data,
+                         const std::string& cell_data) {
+  std::ofstream v(path);
+  v << R"(<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="4" NumberOfCells="1">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 1 1 0 0 1 0</DataArray></Points>
+<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">9</DataArray></Cells>
+)" << (point_data.empty() ? "" : "<PointData>" + point_data + "</PointData>\n")
+    << "<CellData>" << cell_data
+    << R"(<DataArray type="Float64" Name="material" format="ascii">0</DataArray></CellData>
+</Piece></UnstructuredGrid></VTKFile>
+)";
+}
+
+// A ParaView collection of (time, file) entries, the files relative to the collection's folder.
+void write_pvd(const fs::path& path, const std::vector<std::pair<double, std::string>>& entries) {
+  std::ofstream pvd(path);
+  pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\"><Collection>\n";
+  for (const auto& [t, f] : entries)
+    pvd << "<DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
+  pvd << "</Collection></VTKFile>\n";
 }
 } // namespace
 
@@ -63,27 +94,11 @@ TEST(Report, SubsidenceSummaryGivesTheLargestSettlementAndRiseWithTheirPlaces) {
 TEST(Report, WarnsWhenTheContinuumIsBeyondSmallStrains) {
   const fs::path run = demfem::test::scratch("report-strain");
   write_foot(run, 1e-3, 2e-3);
-  {
-    std::ofstream v(run / "continuum" / "c_0.vtu");
-    v << R"(<?xml version="1.0"?>
-<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
-<UnstructuredGrid><Piece NumberOfPoints="4" NumberOfCells="1">
-<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 1 1 0 0 1 0</DataArray></Points>
-<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
-<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
-<DataArray type="UInt8" Name="types" format="ascii">9</DataArray></Cells>
-<CellData><DataArray type="Float64" Name="volumetric_strain" format="ascii">0.5</DataArray>
-<DataArray type="Float64" Name="plastic_strain" format="ascii">0</DataArray>
-<DataArray type="Float64" Name="material" format="ascii">0</DataArray></CellData>
-</Piece></UnstructuredGrid></VTKFile>
-)";
-    std::ofstream pvd(run / "continuum" / "continuum.pvd");
-    pvd << R"(<?xml version="1.0"?>
-<VTKFile type="Collection" version="0.1"><Collection>
-<DataSet timestep="2" group="" part="0" file="c_0.vtu"/>
-</Collection></VTKFile>
-)";
-  }
+  write_unit_cell_vtu(
+      run / "continuum" / "c_0.vtu", "",
+      R"(<DataArray type="Float64" Name="volumetric_strain" format="ascii">0.5</DataArray>
+<DataArray type="Float64" Name="plastic_strain" format="ascii">0</DataArray>)");
+  write_pvd(run / "continuum" / "continuum.pvd", {{2.0, "c_0.vtu"}});
   compare::ReportOptions o;
   o.title = "test";
   o.fields = false;
@@ -207,30 +222,13 @@ TEST(Report, SubsidenceProfileFollowsTheDemSurfaceParticles) {
     std::ofstream f(run / "dem" / "surface.csv");
     f << "time [s],surface.bin0 [m],surface.bin1 [m]\n0,1.05,1.05\n1,1.15,1.05\n2,1.25,1.05\n";
   }
-  for (int k = 0; k < 2; ++k) {
-    std::ofstream v(run / "continuum" / ("c_" + std::to_string(k) + ".vtu"));
-    v << R"(<?xml version="1.0"?>
-<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
-<UnstructuredGrid><Piece NumberOfPoints="4" NumberOfCells="1">
-<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 1 1 0 0 1 0</DataArray></Points>
-<Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
-<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
-<DataArray type="UInt8" Name="types" format="ascii">9</DataArray></Cells>
-<PointData><DataArray type="Float64" Name="displacement_z" format="ascii">)"
-      << (k == 0 ? "0 0 0 0" : "0 0 -0.004 -0.004") << R"(</DataArray></PointData>
-<CellData><DataArray type="Float64" Name="material" format="ascii">0</DataArray></CellData>
-</Piece></UnstructuredGrid></VTKFile>
-)";
-  }
-  {
-    std::ofstream pvd(run / "continuum" / "continuum.pvd");
-    pvd << R"(<?xml version="1.0"?>
-<VTKFile type="Collection" version="0.1"><Collection>
-<DataSet timestep="0" group="" part="0" file="c_0.vtu"/>
-<DataSet timestep="2" group="" part="0" file="c_1.vtu"/>
-</Collection></VTKFile>
-)";
-  }
+  for (int k = 0; k < 2; ++k)
+    write_unit_cell_vtu(
+        run / "continuum" / ("c_" + std::to_string(k) + ".vtu"),
+        std::string(R"(<DataArray type="Float64" Name="displacement_z" format="ascii">)") +
+            (k == 0 ? "0 0 0 0" : "0 0 -0.004 -0.004") + "</DataArray>",
+        "");
+  write_pvd(run / "continuum" / "continuum.pvd", {{0.0, "c_0.vtu"}, {2.0, "c_1.vtu"}});
   compare::ReportOptions o;
   o.title = "test";
   o.fields = false;
@@ -264,15 +262,7 @@ TEST(Report, SubsidenceProfileFollowsTheDemSurfaceParticles) {
   };
   snapshot(run / "dem" / "p_0.vtp", {1.0, 1.0, 0.7});
   snapshot(run / "dem" / "p_1.vtp", {0.99, 0.98, 1.2});
-  {
-    std::ofstream pvd(run / "dem" / "particles.pvd");
-    pvd << R"(<?xml version="1.0"?>
-<VTKFile type="Collection" version="0.1"><Collection>
-<DataSet timestep="0" group="" part="0" file="p_0.vtp"/>
-<DataSet timestep="2" group="" part="0" file="p_1.vtp"/>
-</Collection></VTKFile>
-)";
-  }
+  write_pvd(run / "dem" / "particles.pvd", {{0.0, "p_0.vtp"}, {2.0, "p_1.vtp"}});
   p = profile();
   ASSERT_EQ(p["bins"].size(), 2u) << p;
   EXPECT_EQ(p["dem_surface"], "surface particles followed");
