@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/report.hpp"
+#include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
-#include "demfem/dem/state.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
@@ -244,21 +244,10 @@ TEST(Report, SubsidenceProfileFollowsTheDemSurfaceParticles) {
   EXPECT_NEAR(p["bins"][0]["continuum_m"].get<double>(), 0.004, 1e-12);
   // particle snapshots at t = 0 and 2 s: ids 0 and 1 on top, id 2 deep and thrown up
   auto snapshot = [](const fs::path& path, const std::vector<double>& z) {
-    dem::Particles q;
+    dem::Engine e(dem::EngineConfig{});
     const std::vector<double> x{0.25, 0.75, 0.25};
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      for (auto* v : {&q.phi, &q.vx, &q.vz, &q.omega, &q.fx, &q.fz, &q.torque}) v->push_back(0.0);
-      q.x.push_back(x[i]);
-      q.z.push_back(z[i]);
-      q.radius.push_back(0.05);
-      q.mass.push_back(1.0);
-      q.inv_mass.push_back(1.0);
-      q.inv_inertia.push_back(1.0);
-      q.id.push_back(i);
-      q.material.push_back(0);
-      q.flags.push_back(0);
-    }
-    dem::io::write_particles_vtp(path, q);
+    for (std::size_t i = 0; i < x.size(); ++i) e.add_particle(x[i], z[i], 0.05); // ids 0, 1, 2
+    dem::io::write_particles_vtp(path, e.particles());
   };
   snapshot(run / "dem" / "p_0.vtp", {1.0, 1.0, 0.7});
   snapshot(run / "dem" / "p_1.vtp", {0.99, 0.98, 1.2});
