@@ -368,14 +368,14 @@ std::vector<double> sample_continuum(const ContinuumSnapshot& s, const Grid& gri
   return out;
 }
 
-namespace {
-
-std::size_t nearest(const std::vector<PvdEntry>& e, double t) {
+std::size_t nearest_entry(const std::vector<PvdEntry>& e, double t) {
   std::size_t best = 0;
   for (std::size_t k = 0; k < e.size(); ++k)
     if (std::abs(e[k].time - t) < std::abs(e[best].time - t)) best = k;
   return best;
 }
+
+namespace {
 
 // Three panels (DEM coarse-grained, continuum, continuum − DEM) as gnuplot images.
 bool draw_field_panels(const Grid& g, const std::vector<double>& dem,
@@ -540,11 +540,11 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
     out.notes.push_back("no DEM particle snapshots or no continuum snapshots: no field maps");
     return out;
   }
-  const std::size_t d_rest = nearest(dp, rest_time), d_end = dp.size() - 1;
+  const std::size_t d_rest = nearest_entry(dp, rest_time), d_end = dp.size() - 1;
   const double t_end = std::min(dp.back().time, cp.back().time);
-  const std::size_t d_end2 = nearest(dp, t_end);
+  const std::size_t d_end2 = nearest_entry(dp, t_end);
   (void)d_end;
-  const std::size_t c_rest = nearest(cp, dp[d_rest].time), c_end = nearest(cp, t_end);
+  const std::size_t c_rest = nearest_entry(cp, dp[d_rest].time), c_end = nearest_entry(cp, t_end);
   out.rest_time = dp[d_rest].time;
   out.end_time = dp[d_end2].time;
   ParticleSnapshot rest, end;
@@ -592,7 +592,7 @@ FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double
     return p;
   };
   std::vector<CgContact> chains_rest;
-  if (!dc.empty()) chains_rest = read_force_chains_vtp(dc[nearest(dc, out.rest_time)].file);
+  if (!dc.empty()) chains_rest = read_force_chains_vtp(dc[nearest_entry(dc, out.rest_time)].file);
   CgParticles prest = particles(rest);
   {
     std::map<std::uint32_t, std::size_t> at_end;

@@ -381,20 +381,14 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           if (std::abs(time[r] - at) < std::abs(time[best] - at)) best = r;
         return best;
       };
-      auto snap_at = [&](double at) {
-        std::size_t best = 0;
-        for (std::size_t k = 0; k < snaps.size(); ++k)
-          if (std::abs(snaps[k].time - at) < std::abs(snaps[best].time - at)) best = k;
-        return best;
-      };
       if (nb > 0 && !time.empty()) {
         const double tr = so.load_start, te = std::min(time.back(), snaps.back().time);
         const auto r0 = row_at(tr), r1 = row_at(te);
         std::vector<double> zc0, zc1;
         try {
-          zc0 = continuum_surface(read_continuum_vtu(snaps[snap_at(tr)].file), x0, x1,
+          zc0 = continuum_surface(read_continuum_vtu(snaps[nearest_entry(snaps, tr)].file), x0, x1,
                                   static_cast<int>(nb));
-          zc1 = continuum_surface(read_continuum_vtu(snaps[snap_at(te)].file), x0, x1,
+          zc1 = continuum_surface(read_continuum_vtu(snaps[nearest_entry(snaps, te)].file), x0, x1,
                                   static_cast<int>(nb));
         } catch (const std::exception&) {
         }
@@ -406,10 +400,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
         {
           const auto dps = read_pvd_entries(run_dir / "dem" / "particles.pvd");
           auto dem_snap = [&](double at) -> std::optional<std::size_t> {
-            std::optional<std::size_t> best;
-            for (std::size_t k = 0; k < dps.size(); ++k)
-              if (!best || std::abs(dps[k].time - at) < std::abs(dps[*best].time - at)) best = k;
-            if (best && std::abs(dps[*best].time - at) <= 0.05 * (te - tr)) return best;
+            const std::size_t k = nearest_entry(dps, at);
+            if (k < dps.size() && std::abs(dps[k].time - at) <= 0.05 * (te - tr)) return k;
             return std::nullopt;
           };
           const auto a = dem_snap(tr), b = dem_snap(te);

@@ -65,6 +65,8 @@ struct PvdEntry {
 };
 // Entries of a ParaView .pvd collection, in time order (empty when missing or unreadable).
 [[nodiscard]] std::vector<PvdEntry> read_pvd_entries(const std::filesystem::path& pvd);
+// The index of the entry whose time is nearest to t (0 for an empty collection).
+[[nodiscard]] std::size_t nearest_entry(const std::vector<PvdEntry>& entries, double t);
 
 struct ParticleSnapshot {
   std::vector<std::uint32_t> id;
