@@ -183,6 +183,38 @@ ProfileExtremes profile_extremes(const std::vector<double>& x, const std::vector
   return e;
 }
 
+namespace {
+
+// The DEM's surface settlement per bin followed as material, as the continuum's top nodes are:
+// the particles that formed it at rest, from the particle snapshots nearest t_rest and t_end
+// (each within 5 % of the span). Empty when those snapshots are missing or unreadable; the caller
+// then takes the top of the bed per bin (surface.csv), which jumps by a grain whenever another
+// particle becomes the highest.
+std::vector<double> followed_dem_settlement(const fs::path& run_dir, double t_rest, double t_end,
+                                            double x0, double x1, std::size_t bins) {
+  const auto dps = read_pvd_entries(run_dir / "dem" / "particles.pvd");
+  auto near = [&](double at) -> std::optional<std::size_t> {
+    const std::size_t k = nearest_entry(dps, at);
+    if (k < dps.size() && std::abs(dps[k].time - at) <= 0.05 * (t_end - t_rest)) return k;
+    return std::nullopt;
+  };
+  const auto a = near(t_rest), b = near(t_end);
+  if (!a || !b || *a == *b) return {};
+  std::vector<double> zd;
+  try {
+    zd = dem_surface_settlement(read_particles_vtp(dps[*a].file), read_particles_vtp(dps[*b].file),
+                                x0, x1, static_cast<int>(bins));
+  } catch (const std::exception&) {
+    return {};
+  }
+  if (zd.size() != bins ||
+      std::none_of(zd.begin(), zd.end(), [](double v) { return std::isfinite(v); }))
+    return {};
+  return zd;
+}
+
+} // namespace
+
 std::string subsidence_summary(double t_rest, double t_end, const ProfileExtremes& dem,
                                const ProfileExtremes& continuum) {
   const auto side = [](const ProfileExtremes& e) {
@@ -392,31 +424,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
                                   static_cast<int>(nb));
         } catch (const std::exception&) {
         }
-        // The DEM's surface followed as material, as the continuum's top nodes are: the particles
-        // that formed it at rest, from the particle snapshots nearest both times (within 5 % of
-        // the span). Without them, the top of the bed per bin (surface.csv), which jumps by a
-        // grain when another particle becomes the highest.
-        std::vector<double> zd;
-        {
-          const auto dps = read_pvd_entries(run_dir / "dem" / "particles.pvd");
-          auto dem_snap = [&](double at) -> std::optional<std::size_t> {
-            const std::size_t k = nearest_entry(dps, at);
-            if (k < dps.size() && std::abs(dps[k].time - at) <= 0.05 * (te - tr)) return k;
-            return std::nullopt;
-          };
-          const auto a = dem_snap(tr), b = dem_snap(te);
-          if (a && b && *a != *b) try {
-              zd = dem_surface_settlement(read_particles_vtp(dps[*a].file),
-                                          read_particles_vtp(dps[*b].file), x0, x1,
-                                          static_cast<int>(nb));
-            } catch (const std::exception&) {
-              zd.clear();
-            }
-          if (std::none_of(zd.begin(), zd.end(), [](double v) { return std::isfinite(v); }))
-            zd.clear();
-        }
-        const bool dem_followed = zd.size() == nb;
         if (zc0.size() == nb && zc1.size() == nb) {
+          const std::vector<double> zd = followed_dem_settlement(run_dir, tr, te, x0, x1, nb);
+          const bool dem_followed = !zd.empty();
           Series sd{"DEM", {}, {}, "linespoints", "lw 2 pt 7 lc rgb '#1f78b4'"};
           Series sc{"continuum", {}, {}, "linespoints", "lw 2 pt 5 lc rgb '#e31a1c'"};
           nlohmann::json js = nlohmann::json::array();
