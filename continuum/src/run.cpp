@@ -399,8 +399,153 @@ std::optional<scene::ContinuumStepLimit> stable_step(const scene::Scene& scene_i
   return step_limit(su, scene);
 }
 
+namespace {
+
+// The probes with the DEM's names, signs and units (output/contract.hpp): the root writes them,
+// every rank samples (the source's calls are collective).
+output::ProbeSetOptions probe_options(const scene::Scene& scene, bool root) {
+  output::ProbeSetOptions o;
+  o.base_interval = scene.output.probe_interval;
+  o.csv.flush_every_rows = 50;
+  o.csv.formats = {output::CsvFormat::general(6)}; // time
+  o.csv.keep_errors = true;
+  o.write = root;
+  o.load_histories = true;
+  return o;
+}
+
+// One run's model and hooks (run/hooks.hpp), set up in this order.
+class Driver {
+public:
+  Driver(const scene::Scene& scene, const fem::Problem& pb, const std::filesystem::path& dir,
+         bool root)
+      : m(pb), snapshots(m, scene, dir), scene_(scene), pb_(pb), dir_(dir), root_(root),
+        source_(m, scene), probes_(scene, source_, probe_options(scene, root)) {}
+
+  // log.txt's head, gravity, the K0 state and the seating; the loop's step; the files and the
+  // state at t = 0. Returns "" or why the run cannot go on.
+  std::string start(RunSummary& summary, std::chrono::steady_clock::time_point t_start) {
+    using namespace run_detail;
+    describe(summary, m, pb_);
+    if (root_) {
+      log_.open(dir_ / output::file::log);
+      log_header(log_, scene_, m, pb_);
+    }
+    if (auto why = initialise(m, scene_, pb_, log_, root_, summary, t_start); !why.empty())
+      return why;
+    if (root_ && !probes_.not_recorded().empty())
+      log_ << fmt::format("probes the continuum does not record: {}\n",
+                          fmt::join(probes_.not_recorded(), "; "));
+    dt = loop_step(m, scene_, probes_.finest_interval(), log_, root_, summary, nsteps);
+    probes_.open(dir_);
+    if (root_) steps_.open(dir_);
+    snapshots.write(0.0);
+    sample(0.0, false);
+    t_dyn_ = std::chrono::steady_clock::now();
+    return {};
+  }
+
+  // One step and its record; false (summary says why) when it did not converge.
+  bool advance(long long step, RunSummary& summary) {
+    const auto t_step = std::chrono::steady_clock::now();
+    const fem::StepStats st = m.dynamic_step(dt);
+    steps_.add(step, m.time(), st,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count());
+    totals_.add(st);
+    if (root_ && (st.cuts > 0 || st.newton_iterations > 10))
+      log_ << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step, m.time(),
+                          st.newton_iterations, st.cuts)
+           << std::flush;
+    if (st.converged) return true;
+    summary.message =
+        fmt::format("{} at t = {:.6g} s\n{}",
+                    scene_.continuum.integrator == "explicit" ? "explicit integration diverged"
+                                                              : "Newton did not converge",
+                    m.time(), m.log());
+    summary.steps = step;
+    summary.simulated_time = m.time();
+    return false;
+  }
+
+  // The probes due at t (all at the last step), then the collective check of the writes.
+  void sample(double t, bool all) {
+    if (!all && !probes_.any_due(t, 1e-9 * dt)) return;
+    source_.begin(t);
+    probes_.sample_due(source_, 1e-9 * dt, all);
+    raise();
+  }
+
+  // The small-strain validity limit (continuum.max_displacement): true when the run stops at t,
+  // with every probe and a snapshot at t.
+  bool beyond_validity(double t, RunSummary& summary) {
+    const auto over = run_detail::beyond_small_strain(m, scene_);
+    if (over.empty()) return false;
+    source_.begin(t);
+    probes_.sample_missing(source_);
+    raise();
+    snapshots.write_if_missed(t);
+    summary.note = fmt::format(
+        "stopped at t = {:.4g} s of {:.4g} s: {} > continuum.max_displacement = {:.4g} m "
+        "(beyond the small-strain model's validity)",
+        t, scene_.info.duration, over, scene_.continuum.max_displacement);
+    if (root_) log_ << summary.note << "\n";
+    return true;
+  }
+
+  // The .pvd, surface_profile.csv (the soil's top), the log's last lines; every file closed.
+  void finish(RunSummary& summary, std::span<const fem::Point> top) {
+    snapshots.finish();
+    raise(); // a failed steps.csv row or log line since the last probe row
+    const std::string failure = run_detail::write_surface_profile(m, top, dir_, root_);
+    if (root_ && !failure.empty()) log_ << "run failed: " << failure << "\n" << std::flush;
+    if (fem::MpiScope::any(!failure.empty()))
+      throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
+                                              : failure);
+    run_detail::log_end(log_, m, pb_, root_, summary, totals_, dt,
+                        scene_.continuum.integrator == "explicit", t_dyn_);
+    probes_.close();
+    steps_.close();
+    log_.close();
+    raise();
+    summary.ok = true;
+    summary.simulated_time = m.time();
+    summary.substeps = totals_.substeps;
+    summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
+  }
+
+  fem::Model m;
+  run_detail::Snapshots snapshots;
+  double dt = 0.0;
+  long long nsteps = 0;
+
+private:
+  // Collective: the first failed write of any output ends the run on every rank, naming the
+  // file and the cause (and it goes to log.txt when that is still writable).
+  void raise() {
+    std::string failure = probes_.error();
+    for (const std::string& e : {steps_.error(), log_.error()})
+      if (failure.empty()) failure = e;
+    if (!fem::MpiScope::any(!failure.empty())) return;
+    if (root_) log_ << "run failed: " << failure << "\n" << std::flush;
+    throw scene::WriteError(failure.empty() ? "an output could not be written on the root rank"
+                                            : failure);
+  }
+
+  const scene::Scene& scene_;
+  const fem::Problem& pb_;
+  std::filesystem::path dir_;
+  bool root_;
+  run_detail::CheckedStream log_;
+  run_detail::ContinuumProbeSource source_;
+  output::ProbeSet probes_;
+  run_detail::StepRecord steps_;
+  run_detail::Totals totals_;
+  std::chrono::steady_clock::time_point t_dyn_;
+};
+
+} // namespace
+
 RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
-  using namespace run_detail;
   const scene::Scene scene = seated(scene_in);
   RunSummary summary;
   const auto t_start = std::chrono::steady_clock::now();
@@ -409,11 +554,9 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   fem::ensure_mpi();
   const bool root = fem::MpiScope::rank() == 0;
   summary.root = root;
-  const fem::Problem& pb = su.pb;
-  const bool explicit_dyn = scene.continuum.integrator == "explicit";
   // an explicit step above the stable step: refused at continuum.dt, as `demfem check` does
   // (scene::set_continuum_step_limit), before the K0 procedure
-  if (explicit_dyn && scene.continuum.dt > 0.0)
+  if (scene.continuum.integrator == "explicit" && scene.continuum.dt > 0.0)
     if (const auto lim = step_limit(su, scene); scene.continuum.dt > lim.dt)
       throw scene::SceneError({scene::continuum_step_diagnostic(scene, lim)});
   const std::filesystem::path dir = options.out_dir / output::dir::continuum;
@@ -424,122 +567,27 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                                   ec ? ec.message() : "failed on the root rank");
     return summary;
   }
-
   try {
-    fem::Model m(pb);
-    describe(summary, m, pb);
-    CheckedStream log;
-    if (root) {
-      log.open(dir / output::file::log);
-      log_header(log, scene, m, pb);
-    }
-    if (auto why = initialise(m, scene, pb, log, root, summary, t_start); !why.empty()) {
+    Driver d(scene, su.pb, dir, root);
+    if (auto why = d.start(summary, t_start); !why.empty()) {
       summary.message = why;
       return summary;
     }
-    // The probes with the DEM's names, signs and units (output/contract.hpp); the root writes
-    // them, every rank samples (the source's calls are collective).
-    ContinuumProbeSource source(m, scene);
-    output::ProbeSetOptions po;
-    po.base_interval = scene.output.probe_interval;
-    po.csv.flush_every_rows = 50;
-    po.csv.formats = {output::CsvFormat::general(6)}; // time
-    po.csv.keep_errors = true;
-    po.write = root;
-    po.load_histories = true;
-    output::ProbeSet probes(scene, source, po);
-    if (root && !probes.not_recorded().empty())
-      log << fmt::format("probes the continuum does not record: {}\n",
-                         fmt::join(probes.not_recorded(), "; "));
-    long long nsteps = 0;
-    const double dt = loop_step(m, scene, probes.finest_interval(), log, root, summary, nsteps);
-    probes.open(dir);
-    StepRecord steps(dir, root);
-    // Collective: the first failed write of any output ends the run on every rank, naming the
-    // file and the cause (and it goes to log.txt when that is still writable).
-    auto raise = [&] {
-      std::string failure = probes.error();
-      for (const std::string& e : {steps.error(), log.error()})
-        if (failure.empty()) failure = e;
-      if (!fem::MpiScope::any(!failure.empty())) return;
-      if (root) log << "run failed: " << failure << "\n" << std::flush;
-      throw scene::WriteError(failure.empty() ? "an output could not be written on the root rank"
-                                              : failure);
-    };
-    // the probes due at t (all at the last step), then the collective check of the writes
-    auto sample = [&](double t, bool all) {
-      if (!all && !probes.any_due(t, 1e-9 * dt)) return;
-      source.begin(t);
-      probes.sample_due(source, 1e-9 * dt, all);
-      raise();
-    };
-
-    // ---- time loop
-    Snapshots snapshots(m, scene, dir);
-    snapshots.write(0.0);
-    sample(0.0, false);
-    Totals totals;
-    const auto t_dyn = std::chrono::steady_clock::now();
-    for (long long step = 1; step <= nsteps; ++step) {
-      const auto t_step = std::chrono::steady_clock::now();
-      const fem::StepStats st = m.dynamic_step(dt);
-      steps.add(step, m.time(), st,
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count());
-      totals.add(st);
-      if (root && (st.cuts > 0 || st.newton_iterations > 10))
-        log << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step,
-                           m.time(), st.newton_iterations, st.cuts)
-            << std::flush;
-      if (!st.converged) {
-        summary.message =
-            fmt::format("{} at t = {:.6g} s\n{}",
-                        explicit_dyn ? "explicit integration diverged" : "Newton did not converge",
-                        m.time(), m.log());
-        summary.steps = step;
-        summary.simulated_time = m.time();
-        return summary;
-      }
-      const double t = m.time();
-      sample(t, step == nsteps);
-      snapshots.at(t, dt, step == nsteps);
-      report_progress(options, step, nsteps, t, scene.info.duration, t_start);
+    for (long long step = 1; step <= d.nsteps; ++step) {
+      if (!d.advance(step, summary)) return summary;
+      const double t = d.m.time();
+      d.sample(t, step == d.nsteps);
+      d.snapshots.at(t, d.dt, step == d.nsteps);
+      run_detail::report_progress(options, step, d.nsteps, t, scene.info.duration, t_start);
       summary.steps = step;
-      if (const auto over = beyond_small_strain(m, scene); !over.empty()) {
-        source.begin(t);
-        probes.sample_missing(source);
-        raise();
-        snapshots.write_if_missed(t);
-        summary.note = fmt::format(
-            "stopped at t = {:.4g} s of {:.4g} s: {} > continuum.max_displacement = {:.4g} m "
-            "(beyond the small-strain model's validity)",
-            t, scene.info.duration, over, scene.continuum.max_displacement);
-        if (root) log << summary.note << "\n";
-        break;
-      }
+      if (d.beyond_validity(t, summary)) break;
     }
-    snapshots.finish();
-    raise(); // a failed steps.csv row or log line since the last probe row
-
-    // ---- the records at the end
     std::vector<fem::Point> top; // the soil's top, 101 points across the domain
     for (int i = 0; i < 101; ++i) {
       const double x = su.xmin + (su.xmax - su.xmin) * i / 100;
       top.push_back({x, top_of(su.domain, x, su.zmax) - 1e-9 * (su.zmax - su.zmin)});
     }
-    const std::string failure = write_surface_profile(m, top, dir, root);
-    if (root && !failure.empty()) log << "run failed: " << failure << "\n" << std::flush;
-    if (fem::MpiScope::any(!failure.empty()))
-      throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
-                                              : failure);
-    log_end(log, m, pb, root, summary, totals, dt, explicit_dyn, t_dyn);
-    probes.close();
-    steps.close();
-    log.close();
-    raise();
-    summary.ok = true;
-    summary.simulated_time = m.time();
-    summary.substeps = totals.substeps;
-    summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
+    d.finish(summary, top);
   } catch (const std::exception& e) {
     summary.ok = false;
     summary.message = std::string("continuum solver failed: ") + e.what();

@@ -79,7 +79,7 @@ private:
 // steps.csv: the solver's statistics per step (root only; failures kept for Outputs::raise).
 class StepRecord {
 public:
-  StepRecord(const std::filesystem::path& dir, bool root);
+  void open(const std::filesystem::path& dir); // on the root
   void add(long long step, double t, const fem::StepStats& st, double wall_seconds);
   [[nodiscard]] std::string error() const { return csv_ ? csv_->error() : std::string(); }
   void close();

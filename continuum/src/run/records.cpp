@@ -11,8 +11,7 @@ namespace demfem::continuum::run_detail {
 namespace col = output::col;
 using output::CsvFormat;
 
-StepRecord::StepRecord(const std::filesystem::path& dir, bool root) {
-  if (!root) return;
+void StepRecord::open(const std::filesystem::path& dir) {
   std::vector<std::string> columns;
   for (const auto& c : output::kStepsColumns) columns.push_back(output::heading(c));
   output::CsvOptions o;
