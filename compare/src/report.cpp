@@ -700,9 +700,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     // above, each once.
     std::string files;
     for (const fs::path& f :
-         dem ? std::vector<fs::path>{run_dir / "summary.json", sd / "packing.json",
-                                     sd / "energy_budget.json", run_dir / "run_dem.json"}
-             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / "log.txt"})
+         dem ? std::vector<fs::path>{run_dir / "summary.json", sd / output::file::packing,
+                                     sd / output::file::energy_budget, run_dir / "run_dem.json"}
+             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / output::file::log})
       if (fs::exists(f))
         files += fmt::format("{}<a href=\"{}\">{}</a>", files.empty() ? "" : ", ",
                              html_escape(fs::relative(f, run_dir).generic_string()),
