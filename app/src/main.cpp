@@ -26,22 +26,23 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
-#include "demfem/compare/calibrate.hpp"
-#include "demfem/compare/ensemble.hpp"
-#include "demfem/compare/error_study.hpp"
+#include "demfem/calibrate/calibrate.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/model_differences.hpp"
-#include "demfem/compare/processes.hpp"
 #include "demfem/compare/report.hpp"
-#include "demfem/compare/study.hpp"
 #include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/malloc_tuning.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
+#include "demfem/dem/verification.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
+#include "demfem/studies/ensemble.hpp"
+#include "demfem/studies/error_study.hpp"
+#include "demfem/studies/processes.hpp"
+#include "demfem/studies/study.hpp"
 #include "progress.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "continuum_module.hpp"
@@ -164,7 +165,7 @@ std::shared_ptr<PendingLines>& pending_lines() {
 // directory's log.txt. Before each run's own set-up, so that one run's lines never reach another
 // run's log.
 void log_before_run_dir() {
-  if (compare::study_rank() != 0) return; // other MPI ranks: warnings only (main)
+  if (studies::study_rank() != 0) return; // other MPI ranks: warnings only (main)
   pending_lines() = std::make_shared<PendingLines>();
   auto console = std::make_shared<spdlog::sinks::stdout_color_sink_mt>();
   auto logger =
@@ -180,7 +181,7 @@ void setup_run_log(const fs::path& dir, bool append) {
   if (pending_lines()) earlier = pending_lines()->take();
   pending_lines().reset();
   auto console = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
-  if (compare::study_rank() != 0) {
+  if (studies::study_rank() != 0) {
     // another MPI rank of the same run: the first rank writes log.txt (a second file sink on it
     // truncated and interleaved it) and the console; this one reports warnings and errors only
     console->set_level(spdlog::level::warn);
@@ -454,8 +455,8 @@ int start_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::pa
 // `demfem calibrate` (issue 9): DEM element tests → calibration.json, calibration.toml, figures.
 struct CalibrateArgs {
   int particles = 1000;
-  int specimens = compare::CalibrateOptions{}.specimens;
-  std::vector<double> depths = compare::CalibrateOptions{}.depth_fractions;
+  int specimens = calibrate::CalibrateOptions{}.specimens;
+  std::vector<double> depths = calibrate::CalibrateOptions{}.depth_fractions;
   bool cyclic = true;
   bool force = false;
 };
@@ -471,7 +472,7 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
     out = with_seed_dir(out, a);
-    compare::CalibrateOptions o;
+    calibrate::CalibrateOptions o;
     o.out_dir = out;
     o.particles = ca.particles;
     o.specimens = ca.specimens;
@@ -480,9 +481,9 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
     app::ProgressReporter reporter;
     o.progress = [&](const scene::Progress& p) { reporter(p); };
     try {
-      const auto c = ca.force ? compare::calibrate(*s, o) : compare::load_or_calibrate(*s, o);
+      const auto c = ca.force ? calibrate::calibrate(*s, o) : calibrate::load_or_calibrate(*s, o);
       reporter.finish();
-      const auto files = compare::write_calibration(c, out, true);
+      const auto files = calibrate::write_calibration(c, out, true);
       fmt::print("{}: calibration {} ({}, {:.1f} s when computed)\n", s->label(), c.key,
                  c.from_cache ? "found in the cache" : "computed", c.wall_seconds);
       fmt::print("  bed: porosity {:.4f}, bulk density {:.5g} kg/m³, K0 {:.3f}, surface {:.4g} m "
@@ -503,7 +504,7 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
       for (const auto& p : c.cyclic)
         fmt::print("  cyclic γ = {:.3g}: G {:.3g} MPa, ξ {:.1f} %, ν' {:.3f}\n", p.gamma, p.g / 1e6,
                    100.0 * p.xi, p.nu);
-      fmt::print("{}", compare::continuum_block(c));
+      fmt::print("{}", calibrate::continuum_block(c));
       for (const auto& f : files.written) fmt::print("  wrote {}\n", f.string());
       for (const auto& p : files.problems) fmt::print(stderr, "figure: {}\n", p);
     } catch (const scene::SceneError& e) {
@@ -527,12 +528,12 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
   scene::Scene r = s;
   if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !r.uses(scene::Solver::Continuum))
     return r;
-  compare::CalibrateOptions o;
+  calibrate::CalibrateOptions o;
   o.out_dir = out / "calibration";
   if (!compute) {
     std::error_code ec;
-    const fs::path f = compare::calibration_cache_dir(r, o) /
-                       ("calibration-" + compare::calibration_key(r, o) + ".json");
+    const fs::path f = calibrate::calibration_cache_dir(r, o) /
+                       ("calibration-" + calibrate::calibration_key(r, o) + ".json");
     if (!fs::exists(f, ec)) {
       spdlog::info("{}: the continuum is not calibrated yet (a DEM run does not need it; the first "
                    "continuum run, `demfem compare` or `demfem calibrate` makes it)",
@@ -545,11 +546,11 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
   }
   app::ProgressReporter reporter;
   o.progress = [&](const scene::Progress& p) { reporter(p); };
-  const auto c = compare::load_or_calibrate(s, o);
+  const auto c = calibrate::load_or_calibrate(s, o);
   reporter.finish();
-  const auto files = compare::write_calibration(c, o.out_dir, figures || !c.from_cache);
+  const auto files = calibrate::write_calibration(c, o.out_dir, figures || !c.from_cache);
   for (const auto& p : files.problems) spdlog::warn("calibration figure: {}", p);
-  for (const auto& line : compare::apply_calibration(r, c)) {
+  for (const auto& line : calibrate::apply_calibration(r, c)) {
     spdlog::info("{}: continuum {}", s.label(), line);
     if (notes) notes->push_back("Continuum " + line);
   }
@@ -563,7 +564,7 @@ scene::Scene calibration_of_run(const scene::Scene& s, const fs::path& out) {
   const fs::path f = out / "calibration" / "calibration.json";
   if (!r.soil.continuum || !r.soil.continuum->calibrate_dem || !fs::is_regular_file(f)) return r;
   try {
-    compare::apply_calibration(r, compare::read_calibration(f));
+    calibrate::apply_calibration(r, calibrate::read_calibration(f));
   } catch (const std::exception& e) {
     spdlog::warn("{}: {} unreadable ({}); the report shows the scene's values", s.label(),
                  f.string(), e.what());
@@ -591,13 +592,13 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
 std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene& s) {
   scene::Scene r = s;
   if (r.soil.continuum && r.soil.continuum->calibrate_dem) {
-    const compare::CalibrateOptions o;
-    const fs::path f = compare::calibration_cache_dir(r, o) /
-                       ("calibration-" + compare::calibration_key(r, o) + ".json");
+    const calibrate::CalibrateOptions o;
+    const fs::path f = calibrate::calibration_cache_dir(r, o) /
+                       ("calibration-" + calibrate::calibration_key(r, o) + ".json");
     std::error_code ec;
     if (!fs::exists(f, ec)) return std::nullopt;
     try {
-      compare::apply_calibration(r, compare::load_or_calibrate(r, o));
+      calibrate::apply_calibration(r, calibrate::load_or_calibrate(r, o));
     } catch (const std::exception&) {
       return std::nullopt;
     }
@@ -629,7 +630,7 @@ void remove_outputs(const fs::path& out, const std::vector<std::string>& names) 
   // nothing into the run directory): two ranks clearing at once made the slower one fail with
   // "cannot clear …/continuum: No such file or directory" (exit 1) on a re-run into a used
   // directory with mpirun -np 2.
-  if (compare::study_rank() != 0) return;
+  if (studies::study_rank() != 0) return;
   for (const auto& n : names) {
     std::error_code ec;
     fs::remove_all(out / n, ec);
@@ -723,7 +724,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     return kRunFailed;
   }
   const bool continuum = a.solver == "continuum";
-  std::vector<compare::ProcessTask> prep, runs;
+  std::vector<studies::ProcessTask> prep, runs;
   std::vector<std::string> prep_label, run_label;
   std::vector<double> prep_cost, run_cost;
   std::map<std::string, std::size_t> shared; // packing or calibration key → its index in prep
@@ -759,7 +760,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                        !s->soil.dem->packing.cache.empty();
     std::size_t needs = kNoPrep;
     if (calibrated || packs) {
-      const std::string key = calibrated ? "calibration " + compare::calibration_key(*s, {})
+      const std::string key = calibrated ? "calibration " + calibrate::calibration_key(*s, {})
                                          : "packing " + dem::packing_key(*s);
       const auto [at, inserted] = shared.emplace(key, prep.size());
       needs = at->second;
@@ -794,7 +795,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
   // Largest estimated work first (longest-processing-time order), ties in file order: the short
   // runs fill the end, where one core would otherwise idle while the last long run finishes.
   // Returns the new order (new position → old index).
-  const auto largest_first = [&](std::vector<compare::ProcessTask>& tasks,
+  const auto largest_first = [&](std::vector<studies::ProcessTask>& tasks,
                                  std::vector<std::string>& labels, const std::vector<double>& cost,
                                  const char* what) {
     std::vector<std::size_t> order(tasks.size());
@@ -804,7 +805,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     bool moved = false;
     for (std::size_t k = 0; k < order.size(); ++k) moved = moved || order[k] != k;
     if (!moved) return order;
-    std::vector<compare::ProcessTask> t;
+    std::vector<studies::ProcessTask> t;
     std::vector<std::string> l;
     for (const std::size_t k : order) {
       t.push_back(std::move(tasks[k]));
@@ -826,7 +827,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
   // instead of after all of them.
   std::vector<std::size_t> prep_at(prep.size());
   for (std::size_t k = 0; k < prep_order.size(); ++k) prep_at[prep_order[k]] = k;
-  std::vector<compare::ProcessTask> tasks = std::move(prep);
+  std::vector<studies::ProcessTask> tasks = std::move(prep);
   for (std::size_t k = 0; k < runs.size(); ++k) {
     tasks.push_back(std::move(runs[k]));
     if (const std::size_t d = run_prep[run_order[k]]; d != kNoPrep)
@@ -841,7 +842,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                "soon as its own is made: {} run(s)\n",
                a.jobs, n_prep, n_runs);
   std::size_t done_prep = 0, done_runs = 0;
-  compare::run_processes(tasks, a.jobs, [&](std::size_t i, const compare::ProcessResult& r) {
+  studies::run_processes(tasks, a.jobs, [&](std::size_t i, const studies::ProcessResult& r) {
     const bool is_prep = i < n_prep;
     const std::size_t done = is_prep ? ++done_prep : ++done_runs;
     const std::size_t of = is_prep ? n_prep : n_runs;
@@ -1045,7 +1046,7 @@ int compare_ensemble(const RunArgs& a) {
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
     const fs::path dir = run_dir_for(*s, a, scenes.size());
-    std::vector<compare::EnsembleMember> members;
+    std::vector<studies::EnsembleMember> members;
     for (const long long seed : a.seeds) {
       RunArgs m = a;
       m.seeds.clear();
@@ -1061,12 +1062,12 @@ int compare_ensemble(const RunArgs& a) {
       if (r != kOk) worst = r;
       members.push_back({static_cast<unsigned long long>(seed), m.out});
     }
-    auto e = compare::summarise_ensemble(members);
+    auto e = studies::summarise_ensemble(members);
     // the command that runs the ensemble (--report-only rebuilds it: not the way to reproduce it)
     const std::string command =
         reproduce_command(*s, dir, a) + fmt::format(" --seeds {}", fmt::join(a.seeds, ","));
     try {
-      const auto files = compare::write_ensemble(
+      const auto files = studies::write_ensemble(
           dir, e,
           fmt::format("demfem seed ensemble: {} ({} realisations)", s->label(), e.members.size()),
           command);
@@ -1288,7 +1289,7 @@ struct ErrorStudyArgs {
   std::string kn_packing = "same"; // same | deposit
 };
 int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyArgs& ea) {
-  compare::ErrorStudyOptions o;
+  studies::ErrorStudyOptions o;
   std::error_code ec;
   o.exe = fs::read_symlink("/proc/self/exe", ec);
   if (ec) {
@@ -1321,10 +1322,10 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
     o.out_dir =
         a.out.empty() ? fs::path("runs") / "flamant" / "study-error-vs-time" : fs::path(a.out);
     o.out_dir = fs::absolute(o.out_dir);
-    if (compare::study_rank() == 0) setup_run_log(o.out_dir, false);
-    const auto st = compare::flamant_error_study(o);
-    if (compare::study_rank() == 0) compare::write_error_study(st, o.out_dir);
-    compare::finish_study_ranks(o.out_dir);
+    if (studies::study_rank() == 0) setup_run_log(o.out_dir, false);
+    const auto st = studies::flamant_error_study(o);
+    if (studies::study_rank() == 0) studies::write_error_study(st, o.out_dir);
+    studies::finish_study_ranks(o.out_dir);
     for (const auto& f : st.fits)
       spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
                    f.order, f.points);
@@ -1361,7 +1362,7 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
     }
   for (const scene::Scene* s : scenes) {
     std::string why;
-    const bool closed = compare::head_on_closed_form(*s, &why).has_value();
+    const bool closed = dem::head_on_closed_form(*s, &why).has_value();
     const bool surface = std::any_of(s->probes.begin(), s->probes.end(), [](const scene::Probe& p) {
       return p.kind == scene::ProbeKind::SurfaceProfile;
     });
@@ -1394,13 +1395,13 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
       out /= s->variant.empty() ? "base" : s->variant;
     o.out_dir = fs::absolute(out);
     // under mpirun the runs are spread over the ranks; rank 0 keeps the log and writes the study
-    if (compare::study_rank() == 0) setup_run_log(o.out_dir, false);
-    if (compare::study_ranks() > 1)
-      spdlog::info("study rank {} of {}: runs every {}th setting", compare::study_rank(),
-                   compare::study_ranks(), compare::study_ranks());
-    compare::ErrorStudy st;
+    if (studies::study_rank() == 0) setup_run_log(o.out_dir, false);
+    if (studies::study_ranks() > 1)
+      spdlog::info("study rank {} of {}: runs every {}th setting", studies::study_rank(),
+                   studies::study_ranks(), studies::study_ranks());
+    studies::ErrorStudy st;
     if (closed) {
-      st = compare::dem_error_study(*s, o);
+      st = studies::dem_error_study(*s, o);
     } else {
       // No closed form (issue 11): every solver against its most resolved run. The calibration
       // (calibrate = "dem") is computed or read here once, so that the runs read it from the
@@ -1420,15 +1421,15 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
 #endif
       }
       try {
-        st = compare::scene_error_study(*s, o);
+        st = studies::scene_error_study(*s, o);
       } catch (const scene::SceneError& e) {
         fmt::print(stderr, "{}\n", e.what());
         return kBadInput;
       }
     }
-    if (compare::study_rank() == 0) compare::write_error_study(st, o.out_dir);
-    compare::finish_study_ranks(o.out_dir);
-    if (compare::study_rank() != 0) continue;
+    if (studies::study_rank() == 0) studies::write_error_study(st, o.out_dir);
+    studies::finish_study_ranks(o.out_dir);
+    if (studies::study_rank() != 0) continue;
     for (const auto& f : st.fits)
       spdlog::info("{} {} against {}: order {:.3f} ({} points)", f.knob, f.metric, f.against,
                    f.order, f.points);
@@ -1546,7 +1547,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
     if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
       out /= s->variant.empty() ? "base" : s->variant;
     setup_run_log(out, false);
-    compare::StudyOptions o;
+    studies::StudyOptions o;
     o.out_dir = out;
     o.threads = a.threads;
     o.repack = repack;
@@ -1555,9 +1556,9 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
     if (cont)
       o.continuum_rows = [&out](const scene::Scene& sc0) {
         const auto& cm = app::continuum_module(); // opens the module (throws when it cannot)
-        std::vector<compare::StabilityRow> rows;
+        std::vector<studies::StabilityRow> rows;
         const auto add = [&rows](const continuum::StabilityCase& c) {
-          compare::StabilityRow r;
+          studies::StabilityRow r;
           r.solver = "continuum";
           r.name = c.name;
           r.description = c.description;
@@ -1597,8 +1598,8 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
         return rows;
       };
 #endif
-    const auto rows = compare::stability_study(*s, o);
-    compare::write_stability_study(rows, *s, out);
+    const auto rows = studies::stability_study(*s, o);
+    studies::write_stability_study(rows, *s, out);
     for (const auto& r : rows) spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
     spdlog::info("{}: stability study in {}", s->label(), (out / "study.html").string());
   }
@@ -1864,7 +1865,7 @@ int main(int argc, char** argv) {
   // Under an MPI launcher every rank runs the command: the console and log messages come from
   // the first rank only (each line was printed once per rank; setup_run_log too); warnings and
   // errors from all. `study` spreads its settings over the ranks, and each says what it runs.
-  if (compare::study_rank() != 0 && !*study) spdlog::set_level(spdlog::level::warn);
+  if (studies::study_rank() != 0 && !*study) spdlog::set_level(spdlog::level::warn);
   try {
     if (*run) return cmd_run(ra);
     if (*check) return cmd_check(check_path, quiet, resolved);

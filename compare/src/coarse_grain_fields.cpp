@@ -28,8 +28,8 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "demfem/compare/coarse_grain.hpp"
-#include "gnuplot_run.hpp"
-#include "out_file.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
+#include "demfem/compare/out_file.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,5 +1,5 @@
 #include "demfem/compare/report.hpp"
-#include "html.hpp"
+#include "demfem/compare/html.hpp"
 #include "report_sections.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-#include "demfem/compare/calibrate.hpp"
+#include "demfem/calibrate/calibrate.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +22,7 @@
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
-namespace demfem::compare {
+namespace demfem::calibrate {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -172,7 +172,7 @@ BiaxialCurve evaluate(double depth, const calib::BiaxialResult& r, double max_st
     // axial strain.
     const auto win = static_cast<std::size_t>(
         std::max(1.0, 0.01 / std::max(max_strain, 1e-6) * static_cast<double>(n)));
-    const auto qs = running_mean(q, win), rs = running_mean(ratio, win);
+    const auto qs = compare::running_mean(q, win), rs = compare::running_mean(ratio, win);
     std::size_t ip = 0, iq = 0;
     for (std::size_t i = 0; i < n; ++i) {
       if (rs[i] > rs[ip]) ip = i;
@@ -966,7 +966,7 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
   if (!figures) return out;
   const fs::path fd = dir / "figures";
   fs::create_directories(fd);
-  auto emit = [&](const PlotSpec& p, const std::string& name) {
+  auto emit = [&](const compare::PlotSpec& p, const std::string& name) {
     std::string err;
     if (plot(p, fd / (name + ".png"), &err))
       out.written.push_back(fd / (name + ".png"));
@@ -975,29 +975,30 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
   };
   const std::string by_specimen =
       c.specimens > 1 ? fmt::format(" ({} specimens: solid, dashed, dotted, …)", c.specimens) : "";
-  PlotSpec ss{"Biaxial compression: deviator stress" + by_specimen,
-              "axial strain ε_zz [%]",
-              "σ_zz − σ_xx [kPa]",
-              {},
-              false,
-              1000,
-              600};
-  PlotSpec vs{"Biaxial compression: volumetric strain (compression positive)" + by_specimen,
-              "axial strain ε_zz [%]",
-              "ε_v = ε_zz + ε_xx [%]",
-              {},
-              false,
-              1000,
-              600};
-  PlotSpec env{fmt::format("Failure envelope: φ = {:.1f}°, c = {:.3g} kPa (peaks)", c.phi_fit,
-                           c.cohesion_fit / 1e3),
-               "s = (σ1 + σ3)/2 [kPa]",
-               "t = (σ1 − σ3)/2 [kPa]",
-               {},
-               false,
-               1000,
-               600};
-  Series pk{"peaks", {}, {}, "points", "pt 7 ps 1.5"};
+  compare::PlotSpec ss{"Biaxial compression: deviator stress" + by_specimen,
+                       "axial strain ε_zz [%]",
+                       "σ_zz − σ_xx [kPa]",
+                       {},
+                       false,
+                       1000,
+                       600};
+  compare::PlotSpec vs{"Biaxial compression: volumetric strain (compression positive)" +
+                           by_specimen,
+                       "axial strain ε_zz [%]",
+                       "ε_v = ε_zz + ε_xx [%]",
+                       {},
+                       false,
+                       1000,
+                       600};
+  compare::PlotSpec env{fmt::format("Failure envelope: φ = {:.1f}°, c = {:.3g} kPa (peaks)",
+                                    c.phi_fit, c.cohesion_fit / 1e3),
+                        "s = (σ1 + σ3)/2 [kPa]",
+                        "t = (σ1 − σ3)/2 [kPa]",
+                        {},
+                        false,
+                        1000,
+                        600};
+  compare::Series pk{"peaks", {}, {}, "points", "pt 7 ps 1.5"};
   double smax = 0.0;
   const auto sig = confinements(c);
   for (const auto& t : c.tests) {
@@ -1007,12 +1008,13 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
         std::find_if(sig.begin(), sig.end(),
                      [&](double v) { return std::abs(v - t.sigma_c) <= 1e-9 * v; }) -
         sig.begin());
-    Series a{t.specimen == 0 ? fmt::format("σ_c = {:.4g} kPa", t.sigma_c / 1e3) : std::string(),
-             {},
-             {},
-             "lines",
-             fmt::format("lc {} dt {}", q + 1, t.specimen + 1)};
-    Series b = a;
+    compare::Series a{t.specimen == 0 ? fmt::format("σ_c = {:.4g} kPa", t.sigma_c / 1e3)
+                                      : std::string(),
+                      {},
+                      {},
+                      "lines",
+                      fmt::format("lc {} dt {}", q + 1, t.specimen + 1)};
+    compare::Series b = a;
     for (std::size_t i = 0; i < t.ea.size(); ++i) {
       a.x.push_back(100.0 * t.ea[i]);
       a.y.push_back((t.sa[i] - t.sl[i]) / 1e3);
@@ -1026,11 +1028,11 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
     smax = std::max(smax, t.s_peak / 1e3);
   }
   const double sp = std::sin(c.phi_fit * kPi / 180.0), cp = std::cos(c.phi_fit * kPi / 180.0);
-  Series fit{"fit t = s sin φ + c cos φ",
-             {0.0, 1.1 * smax},
-             {c.cohesion_fit * cp / 1e3, (1.1 * smax * sp + c.cohesion_fit * cp / 1e3)},
-             "lines",
-             "dt 2"};
+  compare::Series fit{"fit t = s sin φ + c cos φ",
+                      {0.0, 1.1 * smax},
+                      {c.cohesion_fit * cp / 1e3, (1.1 * smax * sp + c.cohesion_fit * cp / 1e3)},
+                      "lines",
+                      "dt 2"};
   env.series = {pk, fit};
   for (std::size_t k = 0; k < c.specimen_fits.size(); ++k) { // the realisation spread
     const double sk = std::sin(c.specimen_fits[k].first * kPi / 180.0);
@@ -1045,22 +1047,22 @@ CalibrationFiles write_calibration(const Calibration& c, const fs::path& dir, bo
   emit(vs, "volumetric_strain");
   emit(env, "failure_envelope");
   if (!c.cyclic.empty() && c.cyclic.front().g > 0.0) {
-    PlotSpec gg{fmt::format("Cyclic biaxial at σ_c = {:.4g} kPa: G/G0 (G0 = {:.3g} MPa)",
-                            c.cyclic_sigma / 1e3, c.cyclic.front().g / 1e6),
-                "log10 shear strain amplitude γ",
-                "G/G0",
-                {},
-                false,
-                1000,
-                600};
-    PlotSpec xi{"Cyclic biaxial: damping ratio",
-                "log10 shear strain amplitude γ",
-                "ξ [%]",
-                {},
-                false,
-                1000,
-                600};
-    Series a{"DEM", {}, {}, "linespoints", "pt 7"}, b = a;
+    compare::PlotSpec gg{fmt::format("Cyclic biaxial at σ_c = {:.4g} kPa: G/G0 (G0 = {:.3g} MPa)",
+                                     c.cyclic_sigma / 1e3, c.cyclic.front().g / 1e6),
+                         "log10 shear strain amplitude γ",
+                         "G/G0",
+                         {},
+                         false,
+                         1000,
+                         600};
+    compare::PlotSpec xi{"Cyclic biaxial: damping ratio",
+                         "log10 shear strain amplitude γ",
+                         "ξ [%]",
+                         {},
+                         false,
+                         1000,
+                         600};
+    compare::Series a{"DEM", {}, {}, "linespoints", "pt 7"}, b = a;
     for (const auto& p : c.cyclic) {
       if (!(p.gamma > 0.0)) continue;
       a.x.push_back(std::log10(p.gamma));
@@ -1213,4 +1215,4 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   return lines;
 }
 
-} // namespace demfem::compare
+} // namespace demfem::calibrate

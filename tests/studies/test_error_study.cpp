@@ -4,8 +4,9 @@
 
 #include <gtest/gtest.h>
 
-#include "demfem/compare/error_study.hpp"
+#include "demfem/dem/verification.hpp"
 #include "demfem/scene/load.hpp"
+#include "demfem/studies/error_study.hpp"
 
 using namespace demfem;
 
@@ -15,15 +16,15 @@ TEST(ErrorStudy, LogLogSlopeOfAPowerLaw) {
     x.push_back(h);
     y.push_back(3.0 * std::pow(h, 1.5));
   }
-  EXPECT_NEAR(compare::loglog_slope(x, y), 1.5, 1e-12);
+  EXPECT_NEAR(studies::loglog_slope(x, y), 1.5, 1e-12);
   // zero errors (round-off) are left out; fewer than two usable points give NaN
-  EXPECT_TRUE(std::isnan(compare::loglog_slope({1.0, 2.0}, {0.0, 1.0})));
-  EXPECT_TRUE(std::isnan(compare::loglog_slope({1.0, 1.0}, {1.0, 2.0})));
+  EXPECT_TRUE(std::isnan(studies::loglog_slope({1.0, 2.0}, {0.0, 1.0})));
+  EXPECT_TRUE(std::isnan(studies::loglog_slope({1.0, 1.0}, {1.0, 2.0})));
 }
 
 TEST(ErrorStudy, ParetoFrontKeepsUndominatedPoints) {
   // cost, error: (1, 10) (2, 5) (3, 7) dominated by (2, 5), (4, 1), (5, 1) dominated by (4, 1)
-  const auto f = compare::pareto_front({1, 2, 3, 4, 5}, {10, 5, 7, 1, 1});
+  const auto f = studies::pareto_front({1, 2, 3, 4, 5}, {10, 5, 7, 1, 1});
   EXPECT_EQ(f, (std::vector<std::size_t>{0, 1, 3}));
 }
 
@@ -32,19 +33,19 @@ TEST(ErrorStudy, ParetoFrontKeepsUndominatedPoints) {
 TEST(ErrorStudy, HeadOnClosedForm) {
   const auto file =
       scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml");
-  const auto c = compare::head_on_closed_form(file.select("fast"));
+  const auto c = dem::head_on_closed_form(file.select("fast"));
   ASSERT_TRUE(c);
   EXPECT_NEAR(c->dissipated, 13.19, 0.01);
   EXPECT_NEAR(c->separation, 0.16, 1e-12);
   EXPECT_NEAR(c->contact_time, 10.13e-3, 0.01e-3);
   EXPECT_NEAR(c->touch_time, 0.02 / 1.6, 1e-12);
-  const auto b = compare::head_on_closed_form(file.base); // 0.8 m/s < V_0: elastic
+  const auto b = dem::head_on_closed_form(file.base); // 0.8 m/s < V_0: elastic
   ASSERT_TRUE(b);
   EXPECT_EQ(b->dissipated, 0.0);
   EXPECT_NEAR(b->separation, 0.8, 1e-12);
   std::string why;
   const auto col =
       scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/two_disk_column.toml");
-  EXPECT_FALSE(compare::head_on_closed_form(col.base, &why));
+  EXPECT_FALSE(dem::head_on_closed_form(col.base, &why));
   EXPECT_FALSE(why.empty());
 }

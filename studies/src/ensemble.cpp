@@ -1,6 +1,6 @@
 // Seed ensembles of comparisons (issue 9): summary over the members' metrics.json, ensemble.json
 // and ensemble.html. Report-side code.
-#include "demfem/compare/ensemble.hpp"
+#include "demfem/studies/ensemble.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -12,11 +12,15 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/compare/html.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/scene/write_file.hpp"
-#include "html.hpp"
 
-namespace demfem::compare {
+namespace demfem::studies {
+
+using compare::html_escape;
+using compare::PlotSpec;
+using compare::Series;
 
 namespace fs = std::filesystem;
 
@@ -337,4 +341,4 @@ EnsembleFiles write_ensemble(const fs::path& dir, Ensemble& e, const std::string
   return files;
 }
 
-} // namespace demfem::compare
+} // namespace demfem::studies

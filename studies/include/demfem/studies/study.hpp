@@ -15,7 +15,7 @@
 
 #include "demfem/scene/scene.hpp"
 
-namespace demfem::compare {
+namespace demfem::studies {
 
 struct StabilityRow;
 
@@ -28,7 +28,7 @@ struct StudyOptions {
   // skipped, with the cost it would take (a paper scene's deposition takes minutes to hours at
   // K_n × 1000).
   bool repack = false;
-  // The continuum rows of a scene with [soil.continuum] (compare/ does not link the continuum:
+  // The continuum rows of a scene with [soil.continuum] (studies/ does not link the continuum:
   // the application supplies them, continuum/stability.hpp); unset: none.
   std::function<std::vector<StabilityRow>(const scene::Scene&)> continuum_rows;
 };
@@ -63,4 +63,4 @@ struct StabilityRow {
 void write_stability_study(const std::vector<StabilityRow>& rows, const scene::Scene& scene,
                            const std::filesystem::path& dir);
 
-} // namespace demfem::compare
+} // namespace demfem::studies

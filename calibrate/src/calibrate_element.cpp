@@ -8,7 +8,7 @@
 
 #include <fmt/format.h>
 
-namespace demfem::compare::calib {
+namespace demfem::calibrate::calib {
 
 namespace {
 
@@ -426,4 +426,4 @@ BedStress bed_stress(const dem::Engine& e, const StressWindow& w, double thickne
   return out;
 }
 
-} // namespace demfem::compare::calib
+} // namespace demfem::calibrate::calib

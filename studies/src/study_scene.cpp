@@ -1,7 +1,7 @@
 // `demfem study error-vs-time` on scenes without a closed form (issue 11 item 1): each solver
 // swept over its resolution knobs, every run measured with the comparison layer's metric table
 // against the most resolved run of the same solver.
-#include "demfem/compare/error_study.hpp"
+#include "demfem/studies/error_study.hpp"
 #include "study_runs.hpp"
 
 #include <algorithm>
@@ -22,7 +22,14 @@
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
-namespace demfem::compare {
+namespace demfem::studies {
+
+using compare::collect_solver_metrics;
+using compare::MetricSet;
+using compare::Split;
+using compare::split_options;
+using compare::split_series;
+using compare::TimeSeries;
 
 namespace fs = std::filesystem;
 using namespace study_detail;
@@ -630,4 +637,4 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
   return st;
 }
 
-} // namespace demfem::compare
+} // namespace demfem::studies

@@ -1,6 +1,6 @@
 // `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
-#include "demfem/compare/study.hpp"
-#include "html.hpp"
+#include "demfem/studies/study.hpp"
+#include "demfem/compare/html.hpp"
 #include "study_runs.hpp"
 
 #include <algorithm>
@@ -18,7 +18,9 @@
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
-namespace demfem::compare {
+namespace demfem::studies {
+
+using compare::html_escape;
 
 namespace {
 
@@ -339,4 +341,4 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
   scene::write_file_atomic(dir / "study.html", html);
 }
 
-} // namespace demfem::compare
+} // namespace demfem::studies

@@ -13,7 +13,7 @@
 #include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
 
-namespace demfem::compare {
+namespace demfem::studies {
 
 struct ErrorStudyOptions {
   std::filesystem::path out_dir; // runs go to out_dir/runs/<point>/rep-<k>
@@ -132,25 +132,6 @@ struct ErrorStudy {
 [[nodiscard]] std::vector<std::size_t> pareto_front(const std::vector<double>& cost,
                                                     const std::vector<double>& error);
 
-// Two listed disks meeting head-on (cases/verification/head_on_collision.toml): the closed form
-// of the collision. Empty, with `why`, for any other scene.
-struct HeadOnClosedForm {
-  double m_star = 0;       // reduced mass [kg]
-  double approach = 0;     // relative normal approach speed [m/s]
-  double separation = 0;   // relative speed after the collision [m/s]
-  double dissipated = 0;   // ½ m* v² (1 − K²) above V_0, else 0 [J]
-  double touch_time = 0;   // first touch [s]
-  double contact_time = 0; // π √(m*/K_n) [s]
-  double radius_sum = 0;   // r1 + r2 [m]
-  double kinetic_cm = 0;   // kinetic energy of the centre of mass [J]
-  // centre distance at time t after the pair separated [m]
-  [[nodiscard]] double distance(double t) const {
-    return radius_sum + separation * (t - touch_time - contact_time);
-  }
-};
-[[nodiscard]] std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& scene,
-                                                                  std::string* why = nullptr);
-
 // DEM sweep of a scene with a closed form (head-on collision). Throws std::runtime_error when
 // the scene has none.
 [[nodiscard]] ErrorStudy dem_error_study(const scene::Scene& scene, const ErrorStudyOptions& o);
@@ -179,4 +160,4 @@ void write_error_study(const ErrorStudy& study, const std::filesystem::path& dir
 [[nodiscard]] int study_ranks();
 void finish_study_ranks(const std::filesystem::path& out_dir);
 
-} // namespace demfem::compare
+} // namespace demfem::studies

@@ -1,4 +1,4 @@
-// compare::summarise_ensemble (issue 9, `demfem compare --seeds`): per part, which solver's
+// studies::summarise_ensemble (issue 9, `demfem compare --seeds`): per part, which solver's
 // magnitude is larger in how many realisations, with magnitudes within 0.1 % counted as equal, and
 // what that decides; the statistics over the members; a member without metrics.json is left out
 // with the reason.
@@ -10,11 +10,11 @@
 #include <nlohmann/json.hpp>
 
 #include "../scratch.hpp"
-#include "demfem/compare/ensemble.hpp"
+#include "demfem/studies/ensemble.hpp"
 
 namespace fs = std::filesystem;
-using demfem::compare::EnsembleMember;
-using demfem::compare::summarise_ensemble;
+using demfem::studies::EnsembleMember;
+using demfem::studies::summarise_ensemble;
 
 namespace {
 // A member directory with one metric row "b.rotation": amplitude (dem, continuum), static both v.

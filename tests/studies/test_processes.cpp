@@ -1,4 +1,4 @@
-// compare::run_processes (demfem/compare/processes.hpp): child processes side by side, a task
+// studies::run_processes (demfem/studies/processes.hpp): child processes side by side, a task
 // started once the tasks it waits for have succeeded (`run --jobs`: a run as soon as its own
 // packing is made), and a task whose prerequisite failed not started at all.
 #include <gtest/gtest.h>
@@ -7,12 +7,12 @@
 #include <vector>
 
 #include "../scratch.hpp"
-#include "demfem/compare/processes.hpp"
+#include "demfem/studies/processes.hpp"
 
 using namespace demfem;
 
 namespace {
-compare::ProcessTask sh(const std::string& script, const std::filesystem::path& log,
+studies::ProcessTask sh(const std::string& script, const std::filesystem::path& log,
                         std::vector<std::size_t> after = {}) {
   return {{"/bin/sh", "-c", script}, log, 0.0, std::move(after)};
 }
@@ -22,7 +22,7 @@ TEST(Processes, ATaskStartsWhenItsPrerequisitesSucceededAndNotAfterAFailure) {
   const auto dir = test::scratch("tasks");
   std::filesystem::create_directories(dir);
   const std::string a = (dir / "a_done").string();
-  std::vector<compare::ProcessTask> tasks;
+  std::vector<studies::ProcessTask> tasks;
   tasks.push_back(sh("sleep 0.5; touch '" + a + "'", dir / "0.log")); // 0: a slow preparation
   tasks.push_back(sh("exit 3", dir / "1.log"));                       // 1: a failing one
   tasks.push_back(sh("exit 0", dir / "2.log", {1}));                  // 2: waits for 1
@@ -32,8 +32,8 @@ TEST(Processes, ATaskStartsWhenItsPrerequisitesSucceededAndNotAfterAFailure) {
   tasks.push_back(sh("test ! -f '" + a + "'", dir / "4.log"));
   tasks.push_back(sh("exit 0", dir / "5.log", {2})); // 5: waits for 2, which never starts
   std::vector<std::size_t> order;
-  const auto res = compare::run_processes(
-      tasks, 2, [&](std::size_t i, const compare::ProcessResult&) { order.push_back(i); });
+  const auto res = studies::run_processes(
+      tasks, 2, [&](std::size_t i, const studies::ProcessResult&) { order.push_back(i); });
   ASSERT_EQ(res.size(), tasks.size());
   EXPECT_EQ(res[0].exit_code, 0);
   EXPECT_EQ(res[1].exit_code, 3);
@@ -46,10 +46,10 @@ TEST(Processes, ATaskStartsWhenItsPrerequisitesSucceededAndNotAfterAFailure) {
   EXPECT_TRUE(res[5].not_started);
   EXPECT_EQ(order.size(), tasks.size()); // on_done once per task, started or not
   // a task that waits for a later one (not a list the callers build) is given up, not hung on
-  std::vector<compare::ProcessTask> bad;
+  std::vector<studies::ProcessTask> bad;
   bad.push_back(sh("exit 0", dir / "b0.log", {1}));
   bad.push_back(sh("exit 0", dir / "b1.log", {0}));
-  const auto r2 = compare::run_processes(bad, 2);
+  const auto r2 = studies::run_processes(bad, 2);
   EXPECT_TRUE(r2[0].not_started);
   EXPECT_TRUE(r2[1].not_started);
 }

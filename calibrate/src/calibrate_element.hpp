@@ -15,7 +15,7 @@
 #include "demfem/dem/state.hpp"
 #include "demfem/scene/scene.hpp"
 
-namespace demfem::compare::calib {
+namespace demfem::calibrate::calib {
 
 // One sample of a biaxial or cyclic test (compression and contraction positive).
 struct Sample {
@@ -80,4 +80,4 @@ struct BedStress {
 BedStress bed_stress(const dem::Engine& e, const StressWindow& w, double thickness,
                      const std::vector<StressWindow>& exclude = {});
 
-} // namespace demfem::compare::calib
+} // namespace demfem::calibrate::calib

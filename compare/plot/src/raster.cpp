@@ -1,4 +1,4 @@
-#include "raster.hpp"
+#include "demfem/compare/raster.hpp"
 
 #include <algorithm>
 #include <cmath>

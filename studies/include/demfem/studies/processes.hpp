@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace demfem::compare {
+namespace demfem::studies {
 
 struct ProcessTask {
   std::vector<std::string> argv; // argv[0]: the executable's path
@@ -37,4 +37,4 @@ std::vector<ProcessResult>
 run_processes(const std::vector<ProcessTask>& tasks, int jobs,
               const std::function<void(std::size_t, const ProcessResult&)>& on_done = {});
 
-} // namespace demfem::compare
+} // namespace demfem::studies

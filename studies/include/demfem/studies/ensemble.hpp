@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace demfem::compare {
+namespace demfem::studies {
 
 struct EnsembleMember {
   unsigned long long seed = 0;
@@ -58,4 +58,4 @@ struct EnsembleFiles {
 EnsembleFiles write_ensemble(const std::filesystem::path& dir, Ensemble& ensemble,
                              const std::string& title, const std::string& command);
 
-} // namespace demfem::compare
+} // namespace demfem::studies

@@ -1,4 +1,4 @@
-// `demfem calibrate` (issue 9): DEM element tests on a tiny specimen of a tiny bed.
+// `demfem calibrate`: DEM element tests on a tiny specimen of a tiny bed.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../../compare/src/report_sections.hpp"
-#include "demfem/compare/calibrate.hpp"
+#include "demfem/calibrate/calibrate.hpp"
 #include "demfem/compare/model_differences.hpp"
 #include "demfem/scene/load.hpp"
 #include <fmt/format.h>
@@ -66,8 +66,8 @@ gravity = 9.81
 )";
 }
 
-compare::CalibrateOptions tiny_options(const fs::path& dir) {
-  compare::CalibrateOptions o;
+calibrate::CalibrateOptions tiny_options(const fs::path& dir) {
+  calibrate::CalibrateOptions o;
   o.out_dir = dir;
   o.cache_dir = dir / "cache";
   o.particles = 200;
@@ -98,7 +98,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   const auto& s = file.base;
   const auto o = tiny_options(dir);
 
-  const auto c = compare::load_or_calibrate(s, o);
+  const auto c = calibrate::load_or_calibrate(s, o);
   EXPECT_FALSE(c.from_cache);
   ASSERT_EQ(c.tests.size(), 2u);
   for (const auto& t : c.tests) {
@@ -159,7 +159,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_DOUBLE_EQ(c.modulus_reference_stress, c.cyclic_sigma);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const auto d = compare::load_or_calibrate(s, o);
+  const auto d = calibrate::load_or_calibrate(s, o);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_TRUE(d.from_cache);
@@ -178,7 +178,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_DOUBLE_EQ(d.cyclic_shallow[0].g, c.cyclic_shallow[0].g);
 
   // Outputs: JSON, the TOML block (parses as a scene fragment), figures off here.
-  const auto files = compare::write_calibration(c, dir / "out", false);
+  const auto files = calibrate::write_calibration(c, dir / "out", false);
   EXPECT_TRUE(fs::exists(dir / "out" / "calibration.json"));
   std::ifstream tin(dir / "out" / "calibration.toml");
   const std::string block((std::istreambuf_iterator<char>(tin)), std::istreambuf_iterator<char>());
@@ -192,7 +192,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
       scene::parse_scene(tiny_scene(dir / "cache", "young = 5.0e6\nk0 = 0.5\n"), "tiny2.toml");
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
-  const auto lines = compare::apply_calibration(r, d);
+  const auto lines = calibrate::apply_calibration(r, d);
   EXPECT_EQ(lines.size(), 12u); // 11 parameters and the damping
   EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
   EXPECT_DOUBLE_EQ(r.soil.continuum->modulus_exponent, d.modulus_exponent);
@@ -236,13 +236,13 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     // (none here: f1), no β (it would cut the stable step)
     scene::Scene ex = stated.base;
     ex.continuum.integrator = "explicit";
-    (void)compare::apply_calibration(ex, d);
+    (void)calibrate::apply_calibration(ex, d);
     EXPECT_EQ(ex.continuum.rayleigh_beta, 0.0);
     EXPECT_NEAR(ex.continuum.rayleigh_alpha / (2.0 * w1), xi0, 1e-9 * xi0);
     // stated Rayleigh coefficients win
     scene::Scene kept = stated.base;
     kept.continuum.rayleigh_stated = true;
-    (void)compare::apply_calibration(kept, d);
+    (void)calibrate::apply_calibration(kept, d);
     EXPECT_EQ(kept.continuum.rayleigh_alpha, 0.0);
     EXPECT_EQ(kept.continuum.rayleigh_beta, 0.0);
   }
@@ -269,8 +269,8 @@ TEST(Calibrate, IsDeterministic) {
   o.depth_fractions = {1.0};
   o.max_axial_strain = 0.05;
   const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
-  const auto a = compare::calibrate(file.base, o);
-  const auto b = compare::calibrate(file.base, o);
+  const auto a = calibrate::calibrate(file.base, o);
+  const auto b = calibrate::calibrate(file.base, o);
   EXPECT_EQ(a.key, b.key);
   EXPECT_EQ(a.tests[0].sa, b.tests[0].sa);
   EXPECT_EQ(a.tests[0].el, b.tests[0].el);
@@ -289,9 +289,9 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
   o.cyclic = false;
   o.max_axial_strain = 0.05;
   const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
-  const auto one = compare::calibrate(file.base, o);
+  const auto one = calibrate::calibrate(file.base, o);
   o.specimens = 2;
-  const auto two = compare::calibrate(file.base, o);
+  const auto two = calibrate::calibrate(file.base, o);
   EXPECT_NE(one.key, two.key);
   ASSERT_EQ(one.tests.size(), 2u);
   ASSERT_EQ(two.tests.size(), 4u); // by confinement, then by specimen
@@ -332,14 +332,14 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
   EXPECT_NEAR(two.poisson, std::min(0.49, nup / (1.0 + nup)), 1e-12);
   EXPECT_NEAR(two.young, e50 * (1.0 - two.poisson * two.poisson), 1e-9 * e50);
   // the spread is written where a user reads it: the TOML block and the JSON
-  const std::string block = compare::continuum_block(two);
+  const std::string block = calibrate::continuum_block(two);
   EXPECT_NE(block.find("each specimen's peaks alone"), std::string::npos) << block;
-  const auto files = compare::write_calibration(two, dir / "out", false);
+  const auto files = calibrate::write_calibration(two, dir / "out", false);
   std::ifstream jin(dir / "out" / "calibration.json");
   const auto j = nlohmann::json::parse(jin);
   EXPECT_EQ(j.at("specimen").at("count"), 2);
   EXPECT_EQ(j.at("envelope").at("per_specimen").size(), 2u);
-  const auto back = compare::read_calibration(dir / "out" / "calibration.json");
+  const auto back = calibrate::read_calibration(dir / "out" / "calibration.json");
   EXPECT_EQ(back.specimen_fits, two.specimen_fits);
   EXPECT_EQ(back.tests[3].specimen, 1);
   // and the comparison report of a run directory holding it says so
@@ -368,9 +368,9 @@ TEST(Calibrate, PoolsTheCyclicTestsOfTheSpecimens) {
   o.depth_fractions = {0.5};
   o.cyclic_amplitudes = {3e-4};
   const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
-  const auto one = compare::calibrate(file.base, o);
+  const auto one = calibrate::calibrate(file.base, o);
   o.specimens = 2;
-  const auto two = compare::calibrate(file.base, o);
+  const auto two = calibrate::calibrate(file.base, o);
   ASSERT_EQ(one.cyclic_per_specimen.size(), 1u);
   ASSERT_EQ(two.cyclic_per_specimen.size(), 2u);
   ASSERT_EQ(two.cyclic.size(), 1u);
@@ -385,11 +385,11 @@ TEST(Calibrate, PoolsTheCyclicTestsOfTheSpecimens) {
   EXPECT_DOUBLE_EQ(two.poisson, two.cyclic[0].nu / (1.0 + two.cyclic[0].nu));
   EXPECT_DOUBLE_EQ(two.young, 2.0 * two.cyclic[0].g * (1.0 + two.poisson));
   EXPECT_NE(two.young_source.find("mean of 2 specimen(s)"), std::string::npos) << two.young_source;
-  EXPECT_NE(compare::continuum_block(two).find("each specimen's smallest cycle"),
+  EXPECT_NE(calibrate::continuum_block(two).find("each specimen's smallest cycle"),
             std::string::npos);
   // the JSON keeps each specimen's cycles
-  (void)compare::write_calibration(two, dir / "out", false);
-  const auto back = compare::read_calibration(dir / "out" / "calibration.json");
+  (void)calibrate::write_calibration(two, dir / "out", false);
+  const auto back = calibrate::read_calibration(dir / "out" / "calibration.json");
   ASSERT_EQ(back.cyclic_per_specimen.size(), 2u);
   EXPECT_DOUBLE_EQ(back.cyclic_per_specimen[1][0].g, b.g);
   EXPECT_DOUBLE_EQ(back.cyclic_per_specimen[1][0].nu, b.nu);

@@ -43,7 +43,7 @@
 #include "demfem/scene/progress.hpp"
 #include "demfem/scene/scene.hpp"
 
-namespace demfem::compare {
+namespace demfem::calibrate {
 
 struct CalibrateOptions {
   std::filesystem::path out_dir;   // calibration.json, calibration.toml, figures/ ("" = none)
@@ -170,4 +170,4 @@ CalibrationFiles write_calibration(const Calibration& c, const std::filesystem::
 // the provenance of each; returns one line per key.
 std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibration& c);
 
-} // namespace demfem::compare
+} // namespace demfem::calibrate

@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "demfem/compare/error_study.hpp"
-#include "demfem/compare/processes.hpp"
+#include "demfem/studies/error_study.hpp"
+#include "demfem/studies/processes.hpp"
 
-namespace demfem::compare::study_detail {
+namespace demfem::studies::study_detail {
 
-using TaskResult = ProcessResult; // demfem/compare/processes.hpp
+using TaskResult = ProcessResult; // demfem/studies/processes.hpp
 
 // A study under a launcher (`mpirun -np N`, srun): rank r of N runs the tasks t with t mod N = r,
 // writes their results into spread_directory(out) and reads the others' back, so every rank goes
@@ -52,4 +52,4 @@ std::string frac_label(double f);
 void use_packing(const std::filesystem::path& from, scene::Scene& s,
                  const std::filesystem::path& cache_dir);
 
-} // namespace demfem::compare::study_detail
+} // namespace demfem::studies::study_detail

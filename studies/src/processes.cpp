@@ -1,5 +1,5 @@
-// Child processes side by side (demfem/compare/processes.hpp).
-#include "demfem/compare/processes.hpp"
+// Child processes side by side (demfem/studies/processes.hpp).
+#include "demfem/studies/processes.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -12,7 +12,7 @@
 #include <thread>
 #include <unistd.h>
 
-namespace demfem::compare {
+namespace demfem::studies {
 
 namespace {
 
@@ -156,4 +156,4 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
   return res;
 }
 
-} // namespace demfem::compare
+} // namespace demfem::studies
