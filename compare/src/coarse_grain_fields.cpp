@@ -28,9 +28,9 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "demfem/compare/coarse_grain.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
+#include "demfem/compare/out_file.hpp"
 #include "demfem/output/contract.hpp"
-#include "gnuplot_run.hpp"
-#include "out_file.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,6 +1,6 @@
 #include "demfem/compare/report.hpp"
+#include "demfem/compare/html.hpp"
 #include "demfem/output/contract.hpp"
-#include "html.hpp"
 #include "report_sections.hpp"
 
 #include <algorithm>

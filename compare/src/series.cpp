@@ -1,7 +1,7 @@
 #include "demfem/compare/series.hpp"
-#include "gnuplot_run.hpp"
-#include "out_file.hpp"
-#include "raster.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
+#include "demfem/compare/out_file.hpp"
+#include "demfem/compare/raster.hpp"
 
 #include <algorithm>
 #include <cmath>
