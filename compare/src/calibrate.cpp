@@ -319,9 +319,9 @@ json to_json(const Calibration& c) {
   j["continuum"] = {
       {"young", c.young},
       {"poisson", c.poisson},
-      {"friction_angle_deg", c.friction_angle},
+      {"friction_angle_deg", c.friction_angle_deg},
       {"cohesion", c.cohesion},
-      {"dilation_angle_deg", c.dilation_angle},
+      {"dilation_angle_deg", c.dilation_angle_deg},
       {"dilation_cutoff",
        std::isfinite(c.dilation_cutoff) ? json(c.dilation_cutoff) : json(nullptr)},
       {"density", c.bulk_density},
@@ -416,9 +416,9 @@ Calibration from_json(const json& j) {
   const auto& k = j.at("continuum");
   c.young = k.at("young");
   c.poisson = k.at("poisson");
-  c.friction_angle = k.at("friction_angle_deg");
+  c.friction_angle_deg = k.at("friction_angle_deg");
   c.cohesion = k.at("cohesion");
-  c.dilation_angle = k.at("dilation_angle_deg");
+  c.dilation_angle_deg = k.at("dilation_angle_deg");
   if (k.contains("dilation_cutoff") && k.at("dilation_cutoff").is_number())
     c.dilation_cutoff = k.at("dilation_cutoff");
   c.young_source = k.at("young_source");
@@ -742,9 +742,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
                                      "tests at σ_c = {:.4g} kPa, mean of {} specimen(s)",
                                      c.tests[best].sigma_c / 1e3, n);
     }
-    c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
+    c.friction_angle_deg = std::clamp(c.phi_fit, 1.0, 60.0);
     c.cohesion = std::max(0.0, c.cohesion_fit);
-    c.dilation_angle = std::clamp(c.psi, 0.0, c.friction_angle);
+    c.dilation_angle_deg = std::clamp(c.psi, 0.0, c.friction_angle_deg);
     double dil = 0.0;
     int nd = 0;
     for (const auto& t : c.tests)
@@ -923,7 +923,7 @@ std::string continuum_block(const Calibration& c) {
     sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", v / 1e3);
   s += fmt::format("friction_angle = {:.2f}   # [deg] Mohr–Coulomb fit of the biaxial peaks at "
                    "σ_c = {} kPa, {} specimen(s) (φ_cv = {:.1f}°)\n",
-                   c.friction_angle, sig, c.specimens, c.phi_cv);
+                   c.friction_angle_deg, sig, c.specimens, c.phi_cv);
   s += fmt::format("cohesion = {:.4g}   # [Pa] the fit's intercept c = {:.4g} Pa, ≥ 0\n",
                    c.cohesion, c.cohesion_fit);
   if (c.specimen_fits.size() > 1)
@@ -931,7 +931,7 @@ std::string continuum_block(const Calibration& c) {
                      specimen_fits_text(c.specimen_fits));
   s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
                    "(clamped to [0, φ])\n",
-                   c.dilation_angle);
+                   c.dilation_angle_deg);
   if (std::isfinite(c.dilation_cutoff))
     s += fmt::format("dilation_cutoff = {:.4f}   # plastic dilation after which ψ = 0: the "
                      "biaxial tests' volumetric strain\n#   from their densest point to the end "
@@ -1115,12 +1115,12 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   };
   set("young", s.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
   set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
-  set("friction_angle", s.friction_angle, c.friction_angle * kPi / 180.0,
-      fmt::format("{:.2f}°", c.friction_angle), "Mohr–Coulomb fit of the biaxial peaks");
+  set("friction_angle", s.friction_angle, c.friction_angle_deg * kPi / 180.0,
+      fmt::format("{:.2f}°", c.friction_angle_deg), "Mohr–Coulomb fit of the biaxial peaks");
   set("cohesion", s.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
       "intercept of the fit, ≥ 0");
-  set("dilation_angle", s.dilation_angle, c.dilation_angle * kPi / 180.0,
-      fmt::format("{:.2f}°", c.dilation_angle), "mean dilatancy angle at the peaks");
+  set("dilation_angle", s.dilation_angle, c.dilation_angle_deg * kPi / 180.0,
+      fmt::format("{:.2f}°", c.dilation_angle_deg), "mean dilatancy angle at the peaks");
   set("density", s.density, c.bulk_density, fmt::format("{:.5g} kg/m³", c.bulk_density),
       fmt::format("ρ_s (1 − n) of the deposited bed, n = {:.4f}", c.porosity));
   set("k0", s.k0, c.k0, fmt::format("{:.3f}", c.k0), "σ_xx/σ_zz of the deposited bed");

@@ -111,10 +111,10 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_GT(c.young, 0.0);
   EXPECT_GT(c.poisson, 0.0);
   EXPECT_LT(c.poisson, 0.5);
-  EXPECT_GT(c.friction_angle, 12.0);
-  EXPECT_LT(c.friction_angle, 32.0);
-  EXPECT_GE(c.dilation_angle, 0.0);
-  EXPECT_LE(c.dilation_angle, c.friction_angle);
+  EXPECT_GT(c.friction_angle_deg, 12.0);
+  EXPECT_LT(c.friction_angle_deg, 32.0);
+  EXPECT_GE(c.dilation_angle_deg, 0.0);
+  EXPECT_LE(c.dilation_angle_deg, c.friction_angle_deg);
   EXPECT_GT(c.k0, 0.3);
   EXPECT_LT(c.k0, 1.5);
   EXPECT_GT(c.bulk_density, 0.7 * 2650);
@@ -166,7 +166,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   (void)seconds; // no timed assertion (COMMON rules); from_cache is what makes it fast
   EXPECT_EQ(d.key, c.key);
   EXPECT_DOUBLE_EQ(d.young, c.young);
-  EXPECT_DOUBLE_EQ(d.friction_angle, c.friction_angle);
+  EXPECT_DOUBLE_EQ(d.friction_angle_deg, c.friction_angle_deg);
   EXPECT_DOUBLE_EQ(d.k0, c.k0);
   EXPECT_DOUBLE_EQ(d.surface, c.surface);
   EXPECT_EQ(d.tests[0].ea, c.tests[0].ea);
