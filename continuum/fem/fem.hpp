@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "constitutive.hpp"
+#include "registry.hpp"
 #include "demfem/scene/time_function.hpp"
 #include "mohr_coulomb.hpp"
 

@@ -1,5 +1,5 @@
 // Implicit procedures: Newton, static load stepping, Newmark-β, the K0 procedure.
-#include "fem_impl.hpp"
+#include "impl.hpp"
 
 namespace demfem::continuum::fem {
 

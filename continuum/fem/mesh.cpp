@@ -1,5 +1,5 @@
 // Mesh, degrees of freedom and constraints of the plane-strain model (see fem_impl.hpp).
-#include "fem_impl.hpp"
+#include "impl.hpp"
 
 namespace demfem::continuum::fem {
 

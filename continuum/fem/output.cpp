@@ -1,5 +1,5 @@
 // Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output.
-#include "fem_impl.hpp"
+#include "impl.hpp"
 
 #include <sstream>
 

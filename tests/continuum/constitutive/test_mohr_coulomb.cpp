@@ -7,7 +7,7 @@
 #include <random>
 #include <set>
 
-#include "constitutive.hpp"
+#include "registry.hpp"
 #include "mohr_coulomb.hpp"
 
 using namespace demfem::continuum::mc;

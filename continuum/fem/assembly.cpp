@@ -1,5 +1,5 @@
 // Assembly: B-bar strain rows, mass and stiffness matrices, residual and tangent.
-#include "fem_impl.hpp"
+#include "impl.hpp"
 
 namespace demfem::continuum::fem {
 

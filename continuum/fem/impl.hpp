@@ -10,7 +10,7 @@
 
 #include <limits>
 
-#include "constitutive.hpp"
+#include "registry.hpp"
 #include "fem.hpp"
 
 #include <deal.II/base/index_set.h>

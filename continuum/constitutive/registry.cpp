@@ -1,4 +1,4 @@
-#include "constitutive.hpp"
+#include "registry.hpp"
 
 #include <stdexcept>
 

@@ -6,7 +6,7 @@
 // "MPI"): each rank updates the stresses and sums the internal force of its locally owned cells,
 // one MPI_Allreduce per step adds the ranks' parts, and the O(ndof) nodal update, contact and
 // rigid bodies run replicated, so every rank holds the same state.
-#include "fem_impl.hpp"
+#include "impl.hpp"
 
 namespace demfem::continuum::fem {
 
