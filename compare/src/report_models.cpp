@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "constitutive/k0.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
@@ -435,7 +436,7 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
 
   // 3. initial stress
   {
-    const double k0 = c.k0 >= 0.0 ? c.k0 : 1.0 - std::sin(c.friction_angle); // Jaky (1944)
+    const double k0 = continuum::constitutive::k0_at_rest(c.k0, c.friction_angle);
     const std::string src = calibrated(c, "k0") ? "calibrated: the DEM bed's"
                             : given(c, "k0")    ? "stated in the scene"
                             : c.k0 >= 0.0       ? "set"
@@ -915,9 +916,9 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
       if (c.dilation_cutoff) add("dilation_cutoff", g3(*c.dilation_cutoff));
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
-    add("k0", c.k0 >= 0.0
-                  ? fmt::format("{:.3f}", c.k0)
-                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", 1.0 - std::sin(c.friction_angle)));
+    add("k0", c.k0 >= 0.0 ? fmt::format("{:.3f}", c.k0)
+                          : fmt::format("{:.3f} (Jaky 1 − sin φ)",
+                                        continuum::constitutive::jaky_k0(c.friction_angle)));
     add("surface", c.surface ? g4(*c.surface) + " m" : std::string("(none: the domain's top)"));
     for (const auto& [name, dz] : c.structure_offsets) {
       const std::string key = "structure." + name + ".base";

@@ -1,142 +1,131 @@
-// Constitutive seam: one point-wise interface used by both integrators (implicit Newton and
-// explicit central differences). A material integrates a strain increment at a quadrature point
-// from its committed state and gives the tangent only when asked. The models are alternatives of
-// a std::variant (no virtual call per point); a new model (e.g. a densifying sand) is one more
-// alternative plus its `update`, and nothing else changes.
+// The continuum's constitutive models, chosen by keyword (soil.continuum.model). A model is its
+// file in this folder (seam.hpp says what it provides: parameter block, per-point variables,
+// stress update with its tangent) and one entry in `Registry` below; nothing else changes.
 //
-// Pure C++ without deal.II; C++17-compatible (the deal.II translation units include it).
-// Sign convention and Voigt order as in mohr_coulomb.hpp: tension positive, (xx, zz, γxz).
+// `Material` is one registered model with its parameters; both integrators call it per
+// quadrature point (no virtual call: a std::variant). Pure C++ without deal.II;
+// C++17-compatible (the deal.II translation units include it).
 #pragma once
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
 #include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
 #include <variant>
 
+#include "elastic.hpp"
 #include "mohr_coulomb.hpp"
+#include "seam.hpp"
 
 namespace demfem::continuum::constitutive {
 
-// Committed or trial state of a point.
-struct State {
-  mc::ElasticStrain ee;           // elastic strain
-  mc::Vec3 stress{{0, 0, 0}};     // σxx, σzz, σxz
-  double syy = 0.0;               // out-of-plane stress
-  double eps_p[4] = {0, 0, 0, 0}; // plastic strain xx, zz, γxz, yy
-  bool plastic = false;           // the last update returned to the yield surface
-  // Multiplier of the material's Young's modulus at this point (a stress-dependent modulus,
-  // E = E_ref (p/p_ref)^n, fixed from the point's initial stress: StressDependentModulus); 1: E.
-  double stiffness = 1.0;
-};
+// The registered models.
+using Registry = ModelList<Elastic, MohrCoulomb>;
 
-// E = E_ref (p/p_ref)^n for a point of in-plane mean stress p = −(σxx + σzz)/2 (compression
-// positive, the 2D DEM's confinement σ_c), with p below `min_stress` taken as min_stress and
-// the factor capped at `max_factor` (Janbu 1963; Hardin & Richart 1963: G0 ∝ p^n). exponent 0:
-// a uniform modulus.
-struct StressDependentModulus {
-  double exponent = 0.0;
-  double reference_stress = 0.0; // p_ref [Pa]: where E_ref (the material's young) holds
-  double min_stress = 0.0;       // [Pa]
-  double max_factor = std::numeric_limits<double>::infinity();
-  [[nodiscard]] bool active() const { return exponent != 0.0 && reference_stress > 0.0; }
-  // The factor E/E_ref at in-plane mean stress p (compression positive) [Pa].
-  [[nodiscard]] double factor(double p) const {
-    if (!active()) return 1.0;
-    const double f = std::pow(std::max(p, min_stress) / reference_stress, exponent);
-    return std::min(f, max_factor);
-  }
-};
+using Parameters = Registry::Parameters; // one registered model's parameter block
 
-// The parameters with Young's modulus × f.
-inline mc::Parameters with_stiffness(const mc::Parameters& p, double f) {
-  mc::Parameters q = p;
-  q.young *= f;
-  return q;
-}
-
-// Linear isotropic elasticity (Hooke).
-struct Elastic {
-  mc::Parameters p;
+// A point's state: what every model keeps (PointStress) and its model's own variables.
+struct State : PointStress {
+  Registry::Internal internal;
 };
-// Perfectly plastic Mohr–Coulomb with non-associated flow and tension cut-off (mc::integrate),
-// and the dilatancy cut-off of p.dilation_cutoff: `p_cut` is p with ψ = 0, used at points whose
-// plastic volumetric strain has reached the cut-off.
-struct MohrCoulomb {
-  mc::Parameters p;
-  mc::Parameters p_cut;
-};
-
-// Plastic volumetric strain of a point, dilation positive (tension-positive strains; plane
-// strain: the out-of-plane plastic strain counts).
-inline double plastic_volumetric_strain(const State& s) {
-  return s.eps_p[0] + s.eps_p[1] + s.eps_p[3];
-}
 
 class Material {
 public:
-  Material() = default;
-  // The model the parameters describe: Mohr–Coulomb when p.plastic, else elastic.
-  static Material from(const mc::Parameters& p) {
-    Material m;
-    if (p.plastic) {
-      mc::Parameters cut = p;
-      cut.dilation = 0.0;
-      m.model_ = MohrCoulomb{p, cut};
-    } else
-      m.model_ = Elastic{p};
-    return m;
-  }
-  // By name ("elastic", "mohr-coulomb"); throws std::invalid_argument on an unknown name.
-  static Material by_name(const std::string& name, mc::Parameters p);
+  Material() : model_(Elastic(Elastic::Parameters{})) {} // elastic, E = 30 MPa, ν = 0.3
+  explicit Material(const Parameters& block) : model_(Registry::make(block)) {}
+  template <class M, class = std::enable_if_t<Registry::contains<M>>>
+  explicit Material(M model) : model_(std::move(model)) {}
 
-  [[nodiscard]] const mc::Parameters& parameters() const {
-    return std::visit([](const auto& m) -> const mc::Parameters& { return m.p; }, model_);
-  }
-  [[nodiscard]] bool elastic() const { return std::holds_alternative<Elastic>(model_); }
+  // The parameter block of the model named `keyword`, with its defaults; throws
+  // std::invalid_argument naming the registered keywords.
+  [[nodiscard]] static Parameters parameters(std::string_view keyword);
+  // "elastic, mohr-coulomb"
+  [[nodiscard]] static std::string keywords();
 
-  // Integrate the strain increment `deps` (Δεxx, Δεzz, Δγxz; Δεyy = 0, plane strain) from the
-  // committed state `c0` into `s`. When `tangent` is given it receives dσ/dε (the consistent
-  // tangent; with `predictor`, a point that was yielding keeps the elastoplastic tangent of the
-  // plane it sits on, see mc::integrate). Returns the return-map region.
-  mc::Return update(const State& c0, const mc::Vec3& deps, State& s, mc::Mat3* tangent,
-                    bool predictor = false) const {
-    s.stiffness = c0.stiffness;
-    const bool scaled = c0.stiffness != 1.0;
-    if (const auto* e = std::get_if<Elastic>(&model_)) {
-      mc::Parameters own;
-      const mc::Parameters& p = scaled ? (own = with_stiffness(e->p, c0.stiffness)) : e->p;
-      s.ee = c0.ee;
-      for (int k = 0; k < 3; ++k) s.ee.in_plane[k] += deps[k];
-      mc::elastic_stress(p, s.ee, s.stress, s.syy);
-      for (int k = 0; k < 4; ++k) s.eps_p[k] = c0.eps_p[k];
-      s.plastic = false;
-      if (tangent) *tangent = mc::elastic_tangent(p);
-      return mc::Return::Elastic;
-    }
-    const auto& m = std::get<MohrCoulomb>(model_);
-    mc::ElasticStrain trial = c0.ee;
-    for (int k = 0; k < 3; ++k) trial.in_plane[k] += deps[k];
-    // Dilatancy cut-off (mohr_coulomb.hpp): decided on the committed state, so that a step's
-    // Newton iterations see one flow rule.
-    const bool cut = plastic_volumetric_strain(c0) >= m.p.dilation_cutoff;
-    const mc::Parameters& pm = cut ? m.p_cut : m.p;
-    const mc::Result r = mc::integrate(scaled ? with_stiffness(pm, c0.stiffness) : pm, trial,
-                                       predictor && c0.plastic);
-    s.ee = r.elastic;
-    s.stress = r.stress;
-    s.syy = r.stress_yy;
-    s.plastic = r.region != mc::Return::Elastic;
-    // plastic strain increment = total − elastic (additive split)
-    for (int k = 0; k < 3; ++k)
-      s.eps_p[k] = c0.eps_p[k] + deps[k] - (r.elastic.in_plane[k] - c0.ee.in_plane[k]);
-    s.eps_p[3] = c0.eps_p[3] - (r.elastic.out_of_plane - c0.ee.out_of_plane);
-    if (tangent) *tangent = r.tangent;
-    return r.region;
+  [[nodiscard]] const char* keyword() const {
+    return std::visit([](const auto& m) { return std::decay_t<decltype(m)>::keyword; }, model_);
+  }
+  template <class M> [[nodiscard]] const M* get_if() const { return std::get_if<M>(&model_); }
+
+  // The model's reference elasticity (elastic tangent, wave speeds, stable step) and its tangent.
+  [[nodiscard]] const Elasticity& elasticity() const {
+    return std::visit([](const auto& m) -> const Elasticity& { return m.elasticity(); }, model_);
+  }
+  [[nodiscard]] VoigtMatrix elastic_tangent() const { return elasticity().tangent(); }
+  // Whether every tangent the model returns is symmetric (the linear solver's choice).
+  [[nodiscard]] bool symmetric_tangent() const {
+    return std::visit([](const auto& m) { return m.symmetric_tangent(); }, model_);
+  }
+
+  // A point's modulus follows its stress (a stress-dependent modulus, set_stiffness_from_stress),
+  // and the largest factor it can take (the explicit step is bounded with it before the points'
+  // stresses are known; infinite: no bound).
+  [[nodiscard]] bool stiffness_from_stress() const { return elasticity().modulus.active(); }
+  [[nodiscard]] double stiffness_cap() const { return elasticity().modulus.max_factor; }
+  // Caps the stress-dependent modulus at its value at in-plane mean stress p_max [Pa] (the
+  // deepest geostatic stress of a scene); no-op without one.
+  void cap_stiffness_at(double p_max);
+
+  // A stress-free point at rest.
+  [[nodiscard]] State initial_state() const {
+    return std::visit(
+        [](const auto& m) {
+          State s;
+          s.internal.template emplace<Registry::index<std::decay_t<decltype(m)>>()>();
+          return s;
+        },
+        model_);
+  }
+  // The point put at the stress it holds (s.stress, s.syy, at its stiffness): the initial-stress
+  // procedure (K0 state).
+  void set_stress(State& s) const {
+    std::visit(
+        [&](const auto& m) {
+          constexpr std::size_t I = Registry::index<std::decay_t<decltype(m)>>();
+          m.set_stress(s, std::get<I>(s.internal));
+        },
+        model_);
+  }
+  // The point's modulus from its in-plane mean stress (stress-dependent modulus; no-op without
+  // one), its stress kept.
+  void set_stiffness_from_stress(State& s) const {
+    const StressDependentModulus& law = elasticity().modulus;
+    if (!law.active()) return;
+    s.stiffness = law.factor(-0.5 * (s.stress[0] + s.stress[1]));
+    set_stress(s);
+  }
+  // Integrates the strain increment `deps` (Δεxx, Δεzz, Δγxz; Δεyy = 0, plane strain) from the
+  // committed state `c0` into `s` (c0 and s distinct). When `tangent` is given it receives dσ/dε
+  // (with `predictor`, the first Newton iteration of a step: a point that was yielding keeps the
+  // tangent of the surface it sits on). Returns where the update ended.
+  Return update(const State& c0, const Voigt& deps, State& s, VoigtMatrix* tangent,
+                bool predictor = false) const {
+    return std::visit(
+        [&](const auto& m) {
+          constexpr std::size_t I = Registry::index<std::decay_t<decltype(m)>>();
+          auto* i = std::get_if<I>(&s.internal);
+          if (!i) i = &s.internal.template emplace<I>();
+          return m.update(c0, std::get<I>(c0.internal), deps, s, *i, tangent, predictor);
+        },
+        model_);
+  }
+  // √(2/3 εp:εp) of a point (0 for a model without plastic strain), for output.
+  [[nodiscard]] double equivalent_plastic_strain(const State& s) const {
+    return std::visit(
+        [&](const auto& m) {
+          constexpr std::size_t I = Registry::index<std::decay_t<decltype(m)>>();
+          return m.equivalent_plastic_strain(std::get<I>(s.internal));
+        },
+        model_);
   }
 
 private:
-  std::variant<Elastic, MohrCoulomb> model_;
+  Registry::Model model_;
 };
+
+// The frictional interface layer along structures (fem::Problem::interface_friction): Mohr–Coulomb
+// with the soil's elasticity (its stress-dependent modulus included), friction angle `friction`
+// [rad], `cohesion` [Pa] and ψ = 0, and the soil's tension cut-off when it has one.
+[[nodiscard]] Material interface_layer(const Material& soil, double friction, double cohesion);
 
 } // namespace demfem::continuum::constitutive

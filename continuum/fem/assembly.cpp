@@ -61,8 +61,8 @@ void Model::Impl::cell_b(const FEValues<2>& fv, CellB& b) const {
 }
 
 void Model::Impl::cell_strain(const CellB& b, const dealii::Vector<double>& local,
-                              std::vector<mc::Vec3>& eps) {
-  eps.assign(b.nq, mc::Vec3{{0.0, 0.0, 0.0}});
+                              std::vector<constitutive::Voigt>& eps) {
+  eps.assign(b.nq, constitutive::Voigt{{0.0, 0.0, 0.0}});
   for (unsigned q = 0; q < b.nq; ++q)
     for (unsigned i = 0; i < b.n; ++i)
       for (int k = 0; k < 3; ++k) eps[q][k] += local[i] * b(i, q)[k];
@@ -82,7 +82,7 @@ void Model::Impl::assemble_mass_and_elastic() {
     fv.reinit(cell);
     cm = 0;
     ck = 0;
-    const auto C = mc::elastic_tangent(mat[cell->material_id()]);
+    const auto C = models[cell->material_id()].elastic_tangent();
     const double r = rho[cell->material_id()];
     cell_b(fv, cb);
     for (unsigned q = 0; q < nq(); ++q) {
@@ -125,10 +125,9 @@ void Model::Impl::assemble_mass_and_elastic() {
       if (bid > 3 || !pb.absorbing_sides[bid]) continue;
       any = true;
       ffv.reinit(cell, f);
-      const mc::Parameters& P = mat[cell->material_id()];
+      const constitutive::Hooke& P = models[cell->material_id()].elasticity().hooke;
       const double r = rho[cell->material_id()];
-      const double G = P.young / (2 * (1 + P.poisson));
-      const double lam = P.young * P.poisson / ((1 + P.poisson) * (1 - 2 * P.poisson));
+      const double G = P.shear_modulus(), lam = P.lame();
       const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
       for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
         const auto nrm = ffv.normal_vector(q);
@@ -161,11 +160,10 @@ void Model::Impl::region_force(std::size_t r, double x, double z, double& bx, do
 }
 
 std::string Model::Impl::return_counts() const {
-  static const char* names[9] = {"el", "main",   "edgeL",  "edgeR", "apex",
-                                 "t",  "t+main", "t+edge", "t+apex"};
   std::string s;
   for (std::size_t k = 0; k < returns.size(); ++k)
-    if (returns[k] > 0) s += std::string(" ") + names[k] + "=" + std::to_string(returns[k]);
+    if (returns[k] > 0)
+      s += std::string(" ") + constitutive::kReturnNames[k] + "=" + std::to_string(returns[k]);
   return s;
 }
 
@@ -180,7 +178,7 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
   FullMatrix<double> ck(n, n);
   dealii::Vector<double> cr(n), cf(n), crhs(n);
   std::vector<types::global_dof_index> ld(n);
-  std::vector<mc::Vec3> eps(nq());
+  std::vector<constitutive::Voigt> eps(nq());
   dealii::Vector<double> local(n);
   CellB cb;
   returns.fill(0);
@@ -205,21 +203,13 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
     for (unsigned q = 0; q < nq(); ++q) {
       const QpState& c0 = committed[base + q];
       QpState& s = trial[base + q];
-      const mc::Vec3& e = eps[q];
-      const mc::Vec3 de{{e[0] - c0.eps[0], e[1] - c0.eps[1], e[2] - c0.eps[2]}};
-      mc::Mat3 tangent{};
-      const mc::Return region =
+      const constitutive::Voigt& e = eps[q];
+      const constitutive::Voigt de{{e[0] - c0.eps[0], e[1] - c0.eps[1], e[2] - c0.eps[2]}};
+      constitutive::VoigtMatrix tangent{};
+      const constitutive::Return region =
           model.update(c0, de, s, matrix ? &tangent : nullptr, predictor_tangent);
       s.eps = e;
       ++returns[static_cast<std::size_t>(region)];
-      if (matrix && (region == mc::Return::Apex || region == mc::Return::TensionApex)) {
-        // the consistent apex tangent is zero (perfect plasticity); a whole element at the apex
-        // would make K singular, so 1e-4 of the elastic tangent is kept there (affects the
-        // Newton rate only, never the converged stresses)
-        const mc::Mat3 De = mc::elastic_tangent(model.parameters());
-        for (int a = 0; a < 3; ++a)
-          for (int bb = 0; bb < 3; ++bb) tangent[a][bb] = 1e-4 * De[a][bb];
-      }
       // body force: gravity along −z, base shaking ρ·a(t) (soil), structure loads
       const auto xq = fv.quadrature_point(q);
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;

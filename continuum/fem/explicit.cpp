@@ -139,7 +139,7 @@ void Model::Impl::explicit_setup() {
       const auto bid = cell->face(f)->boundary_id();
       if (!pb.absorbing || bid > 3 || !pb.absorbing_sides[bid]) continue;
       ffv.reinit(cell, f);
-      const mc::Parameters& P = mat[id];
+      const constitutive::Hooke& P = models[id].elasticity().hooke;
       const double G = P.shear_modulus(), lam = P.lame();
       const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
       for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
@@ -158,7 +158,7 @@ void Model::Impl::explicit_setup() {
     cell_b(fv, cb);
     e.cell_base.push_back(cell->active_cell_index() * nq());
     e.cell_model.push_back(&model_of(cell->active_cell_index(), id));
-    e.cell_De.push_back(mc::elastic_tangent(mat[id]));
+    e.cell_De.push_back(models[id].elastic_tangent());
     for (unsigned i = 0; i < n; ++i) e.cell_dofs.push_back(ld[i]);
     for (unsigned q = 0; q < nq(); ++q) {
       e.cell_w.push_back(fv.JxW(q));
@@ -616,16 +616,17 @@ double Model::Impl::explicit_stable_step() {
   CellB cb;
   std::map<std::array<long long, 3>, double> cache;
   double lmax = 0.0;
-  // A stress-dependent soil modulus (pb.soil_modulus): the eigenvalue scales with E, so the soil
-  // cells are bounded with the largest factor of the soil's points (before they are set: the
-  // law's cap, which run.cpp sets at the deepest geostatic stress)
+  // A stress-dependent soil modulus: the eigenvalue scales with E, so the soil cells are bounded
+  // with the largest factor of the soil's points (before they are set: the model's cap, which
+  // run.cpp sets at the deepest geostatic stress)
   double fsoil = 1.0;
-  if (pb.soil_modulus.active() && stiffness_set) {
+  const constitutive::Material& soil = models[0];
+  if (soil.stiffness_from_stress() && stiffness_set) {
     double f = 0.0;
     for (const auto& s : committed) f = std::max(f, s.stiffness);
     fsoil = Utilities::MPI::max(f, comm);
-  } else if (pb.soil_modulus.active() && std::isfinite(pb.soil_modulus.max_factor)) {
-    fsoil = pb.soil_modulus.max_factor;
+  } else if (soil.stiffness_from_stress() && std::isfinite(soil.stiffness_cap())) {
+    fsoil = soil.stiffness_cap();
   }
   for (const auto& cell : dof.active_cell_iterators()) {
     const auto id = cell->material_id();
@@ -641,7 +642,7 @@ double Model::Impl::explicit_stable_step() {
     }
     fv.reinit(cell);
     cell_b(fv, cb);
-    const mc::Mat3 C = mc::elastic_tangent(mat[id]);
+    const constitutive::VoigtMatrix C = models[id].elastic_tangent();
     FullMatrix<double> Ke(n, n);
     std::vector<double> m(n, 0.0);
     for (unsigned q = 0; q < nq(); ++q) {
@@ -726,7 +727,7 @@ void Model::Impl::explicit_accel(double dt) {
       for (unsigned i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k) eps[k] += ul[i] * B[3 * i + k];
       QpState& s = committed[e.cell_base[c] + q];
-      const mc::Vec3 de{{eps[0] - s.eps[0], eps[1] - s.eps[1], eps[2] - s.eps[2]}};
+      const constitutive::Voigt de{{eps[0] - s.eps[0], eps[1] - s.eps[1], eps[2] - s.eps[2]}};
       model.update(s, de, ns, nullptr);
       static_cast<constitutive::State&>(s) = ns;
       s.eps = {{eps[0], eps[1], eps[2]}};
@@ -734,7 +735,7 @@ void Model::Impl::explicit_accel(double dt) {
       if (beta > 0) { // stiffness-proportional Rayleigh damping stress β De ε̇
         for (unsigned i = 0; i < n; ++i)
           for (int k = 0; k < 3; ++k) rate[k] += vl[i] * B[3 * i + k];
-        const mc::Mat3& De = e.cell_De[c];
+        const constitutive::VoigtMatrix& De = e.cell_De[c];
         const double bf = beta * s.stiffness; // the point's modulus (stress-dependent)
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) sig[a] += bf * De[a][b] * rate[b];

@@ -12,9 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "registry.hpp"
+#include "constitutive/registry.hpp"
 #include "demfem/scene/time_function.hpp"
-#include "mohr_coulomb.hpp"
 
 namespace demfem::continuum::fem {
 
@@ -47,8 +46,8 @@ void ensure_mpi();
 // A region of the mesh with its own material (structures as very stiff elastic bodies).
 struct Region {
   std::string name;
-  std::vector<Point> outline; // cells whose centre lies inside get this material
-  mc::Parameters material;    // elastic
+  std::vector<Point> outline;   // cells whose centre lies inside get this material
+  constitutive::Hooke material; // elastic constants
   double density = 2400.0;
   // external loads on the region (body-force distribution with the given resultant and moment)
   scene::TimeFunction force_x, force_z, moment;
@@ -153,11 +152,10 @@ struct Problem {
   // B-bar (Hughes 1980): volumetric strain projected onto P(degree − 1) per cell, so that
   // isochoric plastic flow (φ = ψ = 0) and near-incompressible soil do not lock
   bool bbar = true;
-  mc::Parameters soil;
-  // Stress-dependent modulus of the soil (constitutive.hpp): each soil point's E is
-  // soil.young × factor(p) of its in-plane mean stress after the initial-stress procedure
-  // (initialise_gravity: the K0 stresses, and again after seating); exponent 0: uniform E.
-  constitutive::StressDependentModulus soil_modulus;
+  // The soil's constitutive model (constitutive/registry.hpp). With a stress-dependent modulus
+  // each soil point's E is fixed from its in-plane mean stress after the initial-stress procedure
+  // (initialise_gravity: the K0 stresses, and again after seating).
+  constitutive::Material soil;
   double density = 1700.0;
   std::vector<Region> regions; // material id k+1
   // Soil–structure interface. < 0: tied (the soil next to a structure is ordinary soil). ≥ 0:

@@ -10,7 +10,7 @@
 
 #include <limits>
 
-#include "registry.hpp"
+#include "constitutive/registry.hpp"
 #include "fem.hpp"
 
 #include <deal.II/base/index_set.h>
@@ -83,7 +83,7 @@ inline bool on_segment(const Point& a, const Point& b, double x, double z, doubl
 // A quadrature point: its constitutive state plus the total strain the state belongs to (the
 // strain increment of the next update is measured from it).
 struct QpState : constitutive::State {
-  mc::Vec3 eps{{0, 0, 0}}; // total strain (εxx, εzz, γxz)
+  constitutive::Voigt eps{{0, 0, 0}}; // total strain (εxx, εzz, γxz)
 };
 
 } // namespace detail
@@ -129,10 +129,8 @@ struct Model::Impl {
   Vec u, rhs, res, f_internal, du, v, acc, u_n, v_n, a_n;
   Vec u_ghost;
   std::vector<QpState> committed, trial;
-  std::vector<mc::Parameters> mat; // by material id
-  std::vector<char> iface_cell;    // by active cell index: soil cell of the interface layer
-  mc::Parameters iface_mat;
-  // constitutive models (the seam, constitutive.hpp) by material id, and the interface layer's
+  std::vector<char> iface_cell; // by active cell index: soil cell of the interface layer
+  // constitutive models (constitutive/registry.hpp) by material id, and the interface layer's
   std::vector<constitutive::Material> models;
   constitutive::Material iface_model;
   [[nodiscard]] const constitutive::Material& model_of(unsigned cell_index,
@@ -184,7 +182,7 @@ struct Model::Impl {
   void cell_b(const FEValues<2>& fv, CellB& b) const;
   // ε̄ at every quadrature point of the cell from the nodal values `local` (Σ_i u_i B̄_i(q)).
   static void cell_strain(const CellB& b, const dealii::Vector<double>& local,
-                          std::vector<mc::Vec3>& eps);
+                          std::vector<constitutive::Voigt>& eps);
 
   void build_mesh();
 
@@ -236,7 +234,8 @@ struct Model::Impl {
   void region_force(std::size_t r, double x, double z, double& bx, double& bz) const;
 
   bool predictor_tangent = false; // first Newton iteration: yielding points keep a plastic tangent
-  std::array<long, 9> returns{};  // quadrature points per mc::Return region in the last assembly
+  // quadrature points per constitutive::Return region in the last assembly
+  std::array<long, constitutive::kReturnNames.size()> returns{};
   [[nodiscard]] std::string return_counts() const;
 
   // Residual (f_internal − fext, raw) and, if `matrix`, the tangent; the linear system (K, rhs =
@@ -298,7 +297,8 @@ struct Model::Impl {
     std::vector<double> cell_w;                     // [c·nq + q]
     std::vector<std::size_t> cell_base;             // state index of the cell's first point
     std::vector<const constitutive::Material*> cell_model;
-    std::vector<mc::Mat3> cell_De; // elastic tangent (stiffness-proportional damping)
+    std::vector<constitutive::VoigtMatrix>
+        cell_De; // elastic tangent (stiffness-proportional damping)
     // dof classes: 0 free, 1 fixed (zero), 2 prescribed (patch target), 3 follows a master
     // (periodic), 4 rigid body
     std::vector<char> kind;
@@ -352,8 +352,8 @@ struct Model::Impl {
   bool is_explicit() const { return pb.integrator == "explicit"; }
   void explicit_setup();
   double explicit_stable_step();
-  // Each soil point's modulus factor from its current stress (pb.soil_modulus; no-op when
-  // inactive), its elastic strain re-derived so that the stress is unchanged.
+  // Each soil point's modulus factor from its current stress (a stress-dependent modulus of the
+  // soil's model; no-op without one), its stress unchanged.
   void set_stiffness_from_stress();
   bool stiffness_set = false;     // set_stiffness_from_stress has run
   void explicit_accel(double dt); // a from u, v at time t (dt: the step, for prescribed motion)

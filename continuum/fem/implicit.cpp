@@ -94,7 +94,7 @@ void Model::Impl::add_dynamic(bool matrix) {
   const unsigned n = fe.n_dofs_per_cell();
   std::vector<types::global_dof_index> ld(n);
   dealii::Vector<double> xe(n), ve(n), fe_(n), crhs(n);
-  std::vector<mc::Vec3> epsv;
+  std::vector<constitutive::Voigt> epsv;
   CellB cb;
   for (const auto& cell : dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
@@ -116,7 +116,7 @@ void Model::Impl::add_dynamic(bool matrix) {
       cell->get_dof_values(vg, ve);
       cell_b(fv, cb);
       cell_strain(cb, ve, epsv);
-      const auto D = mc::elastic_tangent(mat[id]);
+      const auto D = models[id].elastic_tangent();
       for (unsigned q = 0; q < nq(); ++q) {
         double sig[3] = {0, 0, 0};
         for (int a = 0; a < 3; ++a)
@@ -179,14 +179,10 @@ int Model::Impl::solve_linear(bool symmetric) {
 }
 
 bool Model::Impl::symmetric_tangent() const {
-  // non-associated flow (ψ ≠ φ) makes the consistent tangent non-symmetric: in the soil, and in
-  // the frictional interface layer (ψ = 0, φ_l > 0) when there is one
-  // (a dilatancy cut-off turns ψ to 0 at some points: symmetric only when ψ = φ = 0 there too)
-  const bool cutoff = std::isfinite(pb.soil.dilation_cutoff) && pb.soil.friction > 1e-12;
-  const bool soil_sym =
-      !pb.soil.plastic || (std::abs(pb.soil.friction - pb.soil.dilation) < 1e-12 && !cutoff);
-  const bool iface_sym = pb.interface_friction < 1e-12; // < 0: tied, no layer
-  return soil_sym && iface_sym;
+  // the soil's and, when there is one, the frictional interface layer's (interface_friction < 0:
+  // tied, no layer)
+  return models[0].symmetric_tangent() &&
+         (pb.interface_friction < 0.0 || iface_model.symmetric_tangent());
 }
 
 double Model::Impl::free_norm(const Vec& r) const {
@@ -410,9 +406,9 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
         const double szz =
             rigid_cell ? 0.0 : -m.pb.density * m.pb.gravity * std::max(0.0, m.top_at(x[0]) - x[1]);
         QpState& s = m.committed[cell->active_cell_index() * m.nq() + q];
-        s.stress = mc::Vec3{{k0 * szz, szz, 0.0}};
+        s.stress = constitutive::Voigt{{k0 * szz, szz, 0.0}};
         s.syy = k0 * szz;
-        s.ee = mc::elastic_strain_from_stress(m.mat[id], s.stress, s.syy);
+        m.model_of(cell->active_cell_index(), id).set_stress(s);
       }
     }
     m.set_stiffness_from_stress(); // the stress-dependent modulus at the K0 stresses
@@ -507,7 +503,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   }
   // displacements restart from zero; stresses stay
   m.u = 0;
-  for (auto& s : m.committed) s.eps = mc::Vec3{{0, 0, 0}};
+  for (auto& s : m.committed) s.eps = constitutive::Voigt{{0, 0, 0}};
   // the stress-dependent modulus at the stresses the dynamics start from (a seated structure's
   // weight included)
   m.set_stiffness_from_stress();
@@ -516,21 +512,13 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
 }
 
 void Model::Impl::set_stiffness_from_stress() {
-  const auto& law = pb.soil_modulus;
-  if (!law.active()) return;
+  if (!models[0].stiffness_from_stress()) return;
   stiffness_set = true;
   for (const auto& cell : dof.active_cell_iterators()) {
     if (!cell->is_locally_owned() || cell->material_id() != 0) continue; // the soil only
     const std::size_t base = cell->active_cell_index() * nq();
-    const mc::Parameters& P = iface_cell[cell->active_cell_index()] ? iface_mat : mat[0];
-    for (unsigned q = 0; q < nq(); ++q) {
-      QpState& s = committed[base + q];
-      // E = E_ref (p/p_ref)^n at the in-plane mean stress (compression positive); the elastic
-      // strain is re-derived so that the stress stays as it is (inverse Hooke with the new E)
-      s.stiffness = law.factor(-0.5 * (s.stress[0] + s.stress[1]));
-      s.ee = mc::elastic_strain_from_stress(constitutive::with_stiffness(P, s.stiffness), s.stress,
-                                            s.syy);
-    }
+    const constitutive::Material& model = model_of(cell->active_cell_index(), 0);
+    for (unsigned q = 0; q < nq(); ++q) model.set_stiffness_from_stress(committed[base + q]);
   }
 }
 

@@ -98,12 +98,8 @@ void Model::Impl::setup_dofs_and_materials() {
   // Mohr–Coulomb layer of the interface's strength (one cell thick at the current refinement)
   iface_cell.assign(tria.n_active_cells(), 0);
   if (pb.interface_friction >= 0.0) {
-    iface_mat = pb.soil;
-    iface_mat.plastic = true;
-    iface_mat.friction = pb.interface_friction;
-    iface_mat.cohesion = pb.interface_cohesion;
-    iface_mat.dilation = 0.0;
-    iface_mat.tension_cutoff = pb.soil.plastic ? pb.soil.tension_cutoff : -1.0;
+    iface_model =
+        constitutive::interface_layer(pb.soil, pb.interface_friction, pb.interface_cohesion);
     for (const auto& cell : tria.active_cell_iterators()) {
       if (cell->material_id() != 0) continue;
       for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
@@ -113,17 +109,13 @@ void Model::Impl::setup_dofs_and_materials() {
       }
     }
   }
-  // materials
-  mat.assign(pb.regions.size() + 1, pb.soil);
+  // materials: the soil's model, the regions elastic
+  models.assign(1, pb.soil);
   rho.assign(pb.regions.size() + 1, pb.density);
   for (std::size_t r = 0; r < pb.regions.size(); ++r) {
-    mat[r + 1] = pb.regions[r].material;
-    mat[r + 1].plastic = false;
+    models.emplace_back(constitutive::Elastic(pb.regions[r].material));
     rho[r + 1] = pb.regions[r].density;
   }
-  models.clear();
-  for (const auto& p : mat) models.push_back(constitutive::Material::from(p));
-  iface_model = constitutive::Material::from(iface_mat);
 }
 
 void Model::Impl::setup() {
@@ -184,7 +176,14 @@ void Model::Impl::setup() {
   }
 
   build_constraints();
+  // every point stress-free, in its cell's model
   committed.assign(tria.n_active_cells() * nq(), QpState{});
+  for (const auto& cell : tria.active_cell_iterators()) {
+    QpState s;
+    static_cast<constitutive::State&>(s) =
+        model_of(cell->active_cell_index(), cell->material_id()).initial_state();
+    std::fill_n(committed.begin() + std::ptrdiff_t(cell->active_cell_index() * nq()), nq(), s);
+  }
   trial = committed;
   assemble_mass_and_elastic();
 }

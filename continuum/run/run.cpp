@@ -30,6 +30,8 @@
 #include <optional>
 #include <set>
 
+#include "constitutive/k0.hpp"
+#include "constitutive/registry.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
@@ -200,6 +202,23 @@ bool add_contact_planes(const scene::Scene& scene, const std::string& kind, cons
   return true;
 }
 
+// A model's parameter block filled from the scene's [soil.continuum] keys.
+void read_block(constitutive::Elastic::Parameters& b, const scene::ContinuumSoil& s) {
+  b.young = s.young;
+  b.poisson = s.poisson;
+  b.modulus_exponent = s.modulus_exponent;
+  b.modulus_reference_stress = s.modulus_reference_stress;
+  b.modulus_min_stress = s.modulus_min_stress;
+}
+void read_block(constitutive::MohrCoulomb::Parameters& b, const scene::ContinuumSoil& s) {
+  read_block(static_cast<constitutive::Elastic::Parameters&>(b), s);
+  b.friction_angle = s.friction_angle;
+  b.cohesion = s.cohesion;
+  b.dilation_angle = s.dilation_angle;
+  b.tension_cutoff = s.tension_cutoff;
+  b.dilation_cutoff = s.dilation_cutoff;
+}
+
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
 // procedures. Returns false with `message` when the scene cannot be meshed.
 struct Setup {
@@ -274,23 +293,16 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   pb.bbar = co.bbar;
 
   // ---- materials
-  pb.soil.young = soil.young;
-  pb.soil.poisson = soil.poisson;
-  pb.soil.plastic = soil.model == scene::ContinuumModel::MohrCoulomb;
-  pb.soil.friction = soil.friction_angle;
-  pb.soil.cohesion = soil.cohesion;
-  pb.soil.dilation = soil.dilation_angle;
-  if (soil.dilation_cutoff) pb.soil.dilation_cutoff = *soil.dilation_cutoff;
-  pb.soil.tension_cutoff = soil.tension_cutoff > 0.0 ? soil.tension_cutoff : -1.0;
+  // the soil's model, chosen by its keyword (constitutive/registry.hpp)
+  constitutive::Parameters block =
+      constitutive::Material::parameters(scene::keyword(scene::kContinuumModelNames, soil.model));
+  std::visit([&](auto& b) { read_block(b, soil); }, block);
+  pb.soil = constitutive::Material(block);
   pb.density = soil.density;
-  if (soil.stress_dependent_modulus()) {
-    // E = young (p/p_ref)^n (scene.hpp, constitutive.hpp), capped at the deepest geostatic
-    // in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with that factor)
-    auto& law = pb.soil_modulus;
-    law.exponent = soil.modulus_exponent;
-    law.reference_stress = *soil.modulus_reference_stress;
-    law.min_stress = soil.modulus_min_stress.value_or(0.01 * law.reference_stress);
-    const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky
+  if (pb.soil.stiffness_from_stress()) {
+    // E = young (p/p_ref)^n (scene.hpp, constitutive/elastic.hpp), capped at the deepest
+    // geostatic in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with it)
+    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
     double zlo = 1e300, zhi = -1e300;
     for (const auto& p : domain) {
       zlo = std::min(zlo, p.z);
@@ -298,15 +310,14 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
     }
     const double p_max = soil.density * scene.load.gravity * std::max(zhi - zlo, 0.0) * 0.5 *
                          (1.0 + std::max(k0, 1.0));
-    law.max_factor = std::pow(std::max(p_max, law.min_stress) / law.reference_stress, law.exponent);
+    pb.soil.cap_stiffness_at(p_max);
   }
   for (const auto& s : scene.structures) {
     fem::Region r;
     r.name = s.name;
     for (const auto& p : s.outline) r.outline.push_back({p.x, p.z});
-    r.material.young = 1000.0 * soil.young; // "very stiff" elastic body
+    r.material.young = 1000.0 * pb.soil.elasticity().hooke.young; // "very stiff" elastic body
     r.material.poisson = 0.2;
-    r.material.plastic = false;
     const double area = std::abs(scene::signed_area(s.outline));
     r.density = s.mass > 0.0 && area > 0.0 ? s.mass / area : s.density;
     r.force_x = s.force_x;
@@ -425,7 +436,8 @@ scene::ContinuumStepLimit step_limit(const Setup& su, const scene::Scene& scene)
   lim.formula = fmt::format(
       "explicit_safety {} × 2/ω_max, ω_max bounded by the largest element eigenvalue (Irons "
       "1970) of the refinement-{} Q{} mesh, E = {:.4g} Pa, ν = {:.3g}, ρ = {:.4g} kg/m³{}",
-      pb.explicit_safety, pb.mesh.refinement, pb.degree, pb.soil.young, pb.soil.poisson, pb.density,
+      pb.explicit_safety, pb.mesh.refinement, pb.degree, pb.soil.elasticity().hooke.young,
+      pb.soil.elasticity().hooke.poisson, pb.density,
       scene.soil.continuum && scene.soil.continuum->calibrate_dem ? " (calibrated)" : "");
   return lim;
 }
@@ -508,7 +520,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
         log << "absorbing: Lysmer dashpots on the left, right and bottom boundaries (components "
                "not constrained there: the vertical on the roller sides, none on the fixed base)\n";
     }
-    const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky (1944)
+    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
     const fem::StepStats g = m.initialise_gravity(true, k0, co.load_steps);
     if (!g.converged) {
       summary.message = "gravity initialisation did not converge\n" + m.log();

@@ -42,9 +42,7 @@ fem::Problem rocking_problem(double nu, bool bbar, int degree) {
   pb.mesh.dz.assign(half.rbegin(), half.rend());
   pb.degree = degree;
   pb.bbar = bbar;
-  pb.soil.young = kE;
-  pb.soil.poisson = nu;
-  pb.soil.plastic = false;
+  pb.soil = constitutive::Material(constitutive::Elastic(constitutive::Hooke{kE, nu}));
   pb.gravity = 0.0;
   pb.linear_solver = "direct";
   fem::Patch footing;
@@ -121,7 +119,6 @@ StabilityCase stiff_structure_case(double ratio, int degree) {
     block.outline = {{-0.5 * kB, -kBlock}, {0.5 * kB, -kBlock}, {0.5 * kB, 0.0}, {-0.5 * kB, 0.0}};
     block.material.young = r * kE;
     block.material.poisson = 0.3;
-    block.material.plastic = false;
     block.density = 2400.0;
     pb.regions.push_back(block);
     return pb;
@@ -165,12 +162,13 @@ StabilityCase bearing_capacity_case(double factor, int degree) {
   pb.mesh.dx = graded(1.0 * Bf, 0.125 * Bf, 5.0 * Bf, 1.3);
   pb.mesh.dz = graded(1.0 * Bf, 0.125 * Bf, 5.0 * Bf, 1.3);
   std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
-  pb.soil.young = 1.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = 0.0;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = cu;
+  constitutive::MohrCoulomb::Parameters clay; // undrained: φ = ψ = 0, c = c_u
+  clay.young = 1.0e7;
+  clay.poisson = 0.3;
+  clay.friction_angle = 0.0;
+  clay.dilation_angle = 0.0;
+  clay.cohesion = cu;
+  pb.soil = constitutive::Material(clay);
   pb.gravity = 0.0;
   pb.linear_solver = "direct";
   pb.newton_max_iterations = 15;

@@ -32,9 +32,7 @@ constexpr double kMuS = 0.5, kMuD = 0.2;   // the block's face
 // contact: the block is unmeshed and in Coulomb contact through its base; otherwise tied
 Problem layer_with_block(bool contact, bool gravity = true) {
   Problem pb;
-  pb.soil.young = 2.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(2.0e7, 0.3);
   pb.density = 2000.0;
   pb.gravity = gravity ? kG : 0.0;
   pb.linear_solver = "direct";
