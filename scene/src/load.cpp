@@ -220,7 +220,7 @@ RadiusDistribution read_radius(Reader& parent) {
   return d;
 }
 
-DemSoil read_dem_soil(Reader& r) {
+DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   DemSoil s;
   s.count = r.integer("count", 0, 1, 100'000'000);
   if (!r.has("count") && !r.has("particles_file"))
@@ -229,6 +229,8 @@ DemSoil read_dem_soil(Reader& r) {
   s.density = r.positive("density", s.density);
   s.thickness = r.positive("thickness", s.thickness);
   s.law = read_enum(r, "contact", kContactLawNames, s.law);
+  std::vector<std::string> slot_keys; // the models' keys (params.hpp), for finish()
+  for (const auto& slot : vocabulary.dem) s.models.push_back(read_model(r, slot, slot_keys));
   s.kn = r.positive("kn", s.kn);
   s.ks = r.positive("ks", s.ks);
   s.mu_static = r.non_negative("mu_static", s.mu_static);
@@ -342,36 +344,38 @@ DemSoil read_dem_soil(Reader& r) {
       r.error("particle_mass",
               fmt::format("unknown mass convention '{}'; valid: disk, sphere", *pm));
   }
-  r.finish({"count",
-            "radius",
-            "density",
-            "thickness",
-            "contact",
-            "kn",
-            "ks",
-            "mu_static",
-            "mu_dynamic",
-            "rebound",
-            "rebound_speed",
-            "tension",
-            "tensile_strength",
-            "eta_n",
-            "eta_s",
-            "restitution",
-            "young",
-            "poisson",
-            "damping_c",
-            "damping_d",
-            "dt",
-            "dt_safety",
-            "max_overlap",
-            "energy_warning",
-            "energy_limit",
-            "fill",
-            "packing",
-            "particles",
-            "particles_file",
-            "particle_mass"});
+  std::vector<std::string> valid{"count",
+                                 "radius",
+                                 "density",
+                                 "thickness",
+                                 "contact",
+                                 "kn",
+                                 "ks",
+                                 "mu_static",
+                                 "mu_dynamic",
+                                 "rebound",
+                                 "rebound_speed",
+                                 "tension",
+                                 "tensile_strength",
+                                 "eta_n",
+                                 "eta_s",
+                                 "restitution",
+                                 "young",
+                                 "poisson",
+                                 "damping_c",
+                                 "damping_d",
+                                 "dt",
+                                 "dt_safety",
+                                 "max_overlap",
+                                 "energy_warning",
+                                 "energy_limit",
+                                 "fill",
+                                 "packing",
+                                 "particles",
+                                 "particles_file",
+                                 "particle_mass"};
+  valid.insert(valid.end(), slot_keys.begin(), slot_keys.end());
+  r.finish(valid);
   return s;
 }
 
@@ -655,7 +659,8 @@ Probe read_probe(Reader& r) {
   return p;
 }
 
-Scene resolve(const toml::table& root, const std::string& file, std::vector<Diagnostic>& diags) {
+Scene resolve(const toml::table& root, const std::string& file, const Vocabulary& vocabulary,
+              std::vector<Diagnostic>& diags) {
   const std::size_t diags_before = diags.size();
   Scene sc;
   sc.source_file = file;
@@ -703,7 +708,7 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     Reader r(*t, "soil", file, diags, t->source());
     if (const auto* d = r.table("dem")) {
       Reader rd(*d, "soil.dem", file, diags, d->source());
-      sc.soil.dem = read_dem_soil(rd);
+      sc.soil.dem = read_dem_soil(rd, vocabulary);
     }
     if (const auto* c = r.table("continuum")) {
       Reader rc(*c, "soil.continuum", file, diags, c->source());
@@ -832,7 +837,7 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
               "probe", "load", "output", "variant"});
   // Semantic checks (issue 13) on a scene that read cleanly: what it asks must be possible.
-  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, diags);
+  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, vocabulary, diags);
   return sc;
 }
 
@@ -969,13 +974,14 @@ const Group* Scene::group(const std::string& n) const {
   return nullptr;
 }
 
-SceneFile parse_scene(std::string_view text, const std::string& source_name) {
+SceneFile parse_scene(std::string_view text, const std::string& source_name,
+                      const Vocabulary& vocabulary) {
   const toml::table root = parse_toml(text, source_name);
 
   std::vector<Diagnostic> diags;
   SceneFile out;
   out.path = source_name;
-  out.base = resolve(root, source_name, diags);
+  out.base = resolve(root, source_name, vocabulary, diags);
 
   if (const toml::node* vn = root.get("variant")) {
     const auto* arr = vn->as_array();
@@ -1039,7 +1045,7 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
           apply(*set, "");
         }
         copy.erase("variant");
-        Scene s = resolve(copy, source_name, diags);
+        Scene s = resolve(copy, source_name, vocabulary, diags);
         s.variant = *name;
         s.variant_description = vt["description"].value_or(std::string());
         out.variants.push_back(std::move(s));
@@ -1051,14 +1057,14 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
   return out;
 }
 
-SceneFile load_scene_file(const std::filesystem::path& path) {
+SceneFile load_scene_file(const std::filesystem::path& path, const Vocabulary& vocabulary) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw SceneError(
         {Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_scene(ss.str(), path.string());
+  return parse_scene(ss.str(), path.string(), vocabulary);
 }
 
 } // namespace demfem::scene

@@ -98,7 +98,37 @@ private:
   double f_;
 };
 
+class KeySetter final : public ParamVisitor {
+public:
+  KeySetter(std::string_view key, double value) : key_(key), value_(value) {}
+  bool found = false;
+  void number(const Field& f, double& v, Rule /*rule*/) override {
+    if (f.key == key_) set(v, value_);
+  }
+  void integer(const Field& f, int& v, int /*lo*/, int /*hi*/) override {
+    if (f.key == key_) set(v, static_cast<int>(value_));
+  }
+  void flag(const Field& f, bool& v) override {
+    if (f.key == key_) set(v, value_ != 0.0);
+  }
+  void text(const Field&, std::string&) override {}
+
+private:
+  template <class T> void set(T& to, T v) {
+    to = v;
+    found = true;
+  }
+  std::string_view key_;
+  double value_;
+};
+
 } // namespace
+
+bool set(ModelChoice& choice, std::string_view key, double value) {
+  KeySetter s(key, value);
+  for (auto& b : choice.blocks) b.visit(s);
+  return s.found;
+}
 
 ModelChoice default_choice(const ModelSlot& slot) {
   ModelChoice c;

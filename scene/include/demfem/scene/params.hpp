@@ -260,6 +260,10 @@ struct ParamSchema {
 // Every key of a slot (each block once), after a row for the slot's own key.
 [[nodiscard]] std::vector<ParamSchema> schema(const ModelSlot& slot);
 
+// Sets a key of the choice's blocks (a number, an integer, or a flag: value ≠ 0) without the
+// rules' checks (code and tests that build a model); false when no block has the key.
+bool set(ModelChoice& choice, std::string_view key, double value);
+
 // Multiplies every number whose Field::scale is stiffness, in every block of the choice, by f.
 void scale_stiffness(ModelChoice& choice, double f);
 
