@@ -250,7 +250,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   }
   EXPECT_DOUBLE_EQ(r.soil.continuum->k0, 0.5);
   EXPECT_DOUBLE_EQ(r.soil.continuum->poisson, d.poisson);
-  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle * M_PI / 180.0, 1e-12);
+  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle_deg * M_PI / 180.0, 1e-12);
   EXPECT_DOUBLE_EQ(r.soil.continuum->density, d.bulk_density);
   ASSERT_TRUE(r.soil.continuum->surface.has_value());
   EXPECT_DOUBLE_EQ(*r.soil.continuum->surface, d.surface);
