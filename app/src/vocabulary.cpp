@@ -1,5 +1,6 @@
 #include "demfem/app/vocabulary.hpp"
 
+#include "constitutive/registry.hpp"
 #include "demfem/dem/vocabulary.hpp"
 
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -45,6 +46,9 @@ std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene
 
 scene::Vocabulary build() {
   scene::Vocabulary v = dem::vocabulary();
+  // [soil.continuum]: the constitutive models (continuum/constitutive/, no deal.II: built with
+  // or without the continuum solver)
+  v.continuum.push_back(continuum::constitutive::model_slot());
 #ifdef DEMFEM_WITH_CONTINUUM
   v.continuum_step_limit = &continuum_step_limit;
 #endif

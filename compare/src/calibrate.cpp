@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "calibrate_element.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/key_hash.hpp"
@@ -1099,6 +1100,8 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   std::vector<std::string> lines;
   if (!scene.soil.continuum) return lines;
   auto& s = *scene.soil.continuum;
+  auto& el = continuum::constitutive::elastic_block(s);  // young, poisson, modulus_*
+  auto& mc = continuum::constitutive::strength_block(s); // friction_angle, cohesion, …
   const std::string src = fmt::format("dem calibration {}", c.key);
   auto set = [&](const char* key, double& slot, double value, const std::string& shown,
                  const std::string& how) {
@@ -1113,13 +1116,13 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     s.provenance.emplace_back(key, note);
     lines.push_back(fmt::format("{} = {}: {}", key, given ? "(scene)" : shown, note));
   };
-  set("young", s.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
-  set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
-  set("friction_angle", s.friction_angle, c.friction_angle_deg * kPi / 180.0,
+  set("young", el.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
+  set("poisson", el.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
+  set("friction_angle", mc.friction_angle, c.friction_angle_deg * kPi / 180.0,
       fmt::format("{:.2f}°", c.friction_angle_deg), "Mohr–Coulomb fit of the biaxial peaks");
-  set("cohesion", s.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
+  set("cohesion", mc.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
       "intercept of the fit, ≥ 0");
-  set("dilation_angle", s.dilation_angle, c.dilation_angle_deg * kPi / 180.0,
+  set("dilation_angle", mc.dilation_angle, c.dilation_angle_deg * kPi / 180.0,
       fmt::format("{:.2f}°", c.dilation_angle_deg), "mean dilatancy angle at the peaks");
   set("density", s.density, c.bulk_density, fmt::format("{:.5g} kg/m³", c.bulk_density),
       fmt::format("ρ_s (1 − n) of the deposited bed, n = {:.4f}", c.porosity));
@@ -1132,25 +1135,21 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
                         c.continuum_mass / c.soil_mass)
           : std::string("height holding the DEM bed's soil mass at that density"));
   s.surface = surf;
-  if (std::isfinite(c.dilation_cutoff)) {
-    double cut = s.dilation_cutoff.value_or(0.0);
-    set("dilation_cutoff", cut, c.dilation_cutoff, fmt::format("{:.4f}", c.dilation_cutoff),
+  if (std::isfinite(c.dilation_cutoff))
+    set("dilation_cutoff", mc.dilation_cutoff, c.dilation_cutoff,
+        fmt::format("{:.4f}", c.dilation_cutoff),
         "dilatancy cut-off: mean dilation of the biaxial tests, densest point to the end "
         "(ψ → 0 beyond it)");
-    s.dilation_cutoff = cut;
-  }
   if (c.modulus_exponent > 0.0 && c.modulus_reference_stress > 0.0) {
-    set("modulus_exponent", s.modulus_exponent, c.modulus_exponent,
+    set("modulus_exponent", el.modulus_exponent, c.modulus_exponent,
         fmt::format("{:.3f}", c.modulus_exponent),
         fmt::format("E ∝ p^n through G0 of the cyclic tests at σ_c = {:.4g} and {:.4g} kPa",
                     c.cyclic_shallow_sigma / 1e3, c.modulus_reference_stress / 1e3));
-    double pref = s.modulus_reference_stress.value_or(0.0);
-    set("modulus_reference_stress", pref, c.modulus_reference_stress,
+    set("modulus_reference_stress", el.modulus_reference_stress, c.modulus_reference_stress,
         fmt::format("{:.4g} Pa", c.modulus_reference_stress),
         "the confinement of the cyclic test E0 comes from");
-    s.modulus_reference_stress = pref;
   }
-  if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
+  if (mc.dilation_angle > mc.friction_angle) mc.dilation_angle = mc.friction_angle;
   // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
   // smallest amplitude; larger strains dissipate by plasticity in the continuum) at the layer's
   // first shear mode and at the excitation frequency (implicit), or mass-proportional at the
@@ -1162,7 +1161,7 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     double zmin = s.surface.value_or(0.0);
     for (const auto& q : scene.domain) zmin = std::min(zmin, q.z);
     const double h = s.surface.value_or(0.0) - zmin;
-    const double gmod = s.young / (2.0 * (1.0 + s.poisson)); // G = E / 2(1 + ν)
+    const double gmod = el.young / (2.0 * (1.0 + el.poisson)); // G = E / 2(1 + ν)
     // f1 = V_s / 4H: first shear mode of a uniform layer on a rigid base (Kramer 1996, eq. 7.41)
     const double f1 = h > 0.0 && s.density > 0.0 ? std::sqrt(gmod / s.density) / (4.0 * h) : 0.0;
     double fe = excitation_frequency(scene);

@@ -30,8 +30,8 @@
 #include <optional>
 #include <set>
 
-#include "constitutive/k0.hpp"
 #include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
@@ -202,23 +202,6 @@ bool add_contact_planes(const scene::Scene& scene, const std::string& kind, cons
   return true;
 }
 
-// A model's parameter block filled from the scene's [soil.continuum] keys.
-void read_block(constitutive::Elastic::Parameters& b, const scene::ContinuumSoil& s) {
-  b.young = s.young;
-  b.poisson = s.poisson;
-  b.modulus_exponent = s.modulus_exponent;
-  b.modulus_reference_stress = s.modulus_reference_stress;
-  b.modulus_min_stress = s.modulus_min_stress;
-}
-void read_block(constitutive::MohrCoulomb::Parameters& b, const scene::ContinuumSoil& s) {
-  read_block(static_cast<constitutive::Elastic::Parameters&>(b), s);
-  b.friction_angle = s.friction_angle;
-  b.cohesion = s.cohesion;
-  b.dilation_angle = s.dilation_angle;
-  b.tension_cutoff = s.tension_cutoff;
-  b.dilation_cutoff = s.dilation_cutoff;
-}
-
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
 // procedures. Returns false with `message` when the scene cannot be meshed.
 struct Setup {
@@ -293,16 +276,13 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   pb.bbar = co.bbar;
 
   // ---- materials
-  // the soil's model, chosen by its keyword (constitutive/registry.hpp)
-  constitutive::Parameters block =
-      constitutive::Material::parameters(scene::keyword(scene::kContinuumModelNames, soil.model));
-  std::visit([&](auto& b) { read_block(b, soil); }, block);
-  pb.soil = constitutive::Material(block);
+  // the soil's model, chosen by its keyword with its parameter blocks (constitutive/registry.hpp)
+  pb.soil = constitutive::Material::from(constitutive::soil_model(soil));
   pb.density = soil.density;
   if (pb.soil.stiffness_from_stress()) {
     // E = young (p/p_ref)^n (scene.hpp, constitutive/elastic.hpp), capped at the deepest
     // geostatic in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with it)
-    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
+    const double k0 = constitutive::soil_k0(soil);
     double zlo = 1e300, zhi = -1e300;
     for (const auto& p : domain) {
       zlo = std::min(zlo, p.z);
@@ -520,7 +500,7 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
         log << "absorbing: Lysmer dashpots on the left, right and bottom boundaries (components "
                "not constrained there: the vertical on the roller sides, none on the fixed base)\n";
     }
-    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
+    const double k0 = constitutive::soil_k0(soil);
     const fem::StepStats g = m.initialise_gravity(true, k0, co.load_steps);
     if (!g.converged) {
       summary.message = "gravity initialisation did not converge\n" + m.log();

@@ -181,25 +181,10 @@ std::string to_toml(const Scene& s) {
     }
   }
   if (const auto& c = s.soil.continuum) {
-    soil.insert("continuum", toml::table{{"model", keyword(kContinuumModelNames, c->model)},
-                                         {"young", c->young},
-                                         {"poisson", c->poisson},
-                                         {"friction_angle", deg(c->friction_angle)},
-                                         {"cohesion", c->cohesion},
-                                         {"dilation_angle", deg(c->dilation_angle)},
-                                         {"tension_cutoff", c->tension_cutoff},
-                                         {"density", c->density},
-                                         {"k0", c->k0}});
+    soil.insert("continuum", toml::table{{"density", c->density}, {"k0", c->k0}});
+    // the constitutive model and its keys, through its parameter blocks
+    for (const auto& m : c->models) write_model(m, *soil.get_as<toml::table>("continuum"));
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
-    if (c->dilation_cutoff)
-      soil.get_as<toml::table>("continuum")->insert("dilation_cutoff", *c->dilation_cutoff);
-    if (c->modulus_exponent != 0.0)
-      soil.get_as<toml::table>("continuum")->insert("modulus_exponent", c->modulus_exponent);
-    if (c->modulus_reference_stress)
-      soil.get_as<toml::table>("continuum")
-          ->insert("modulus_reference_stress", *c->modulus_reference_stress);
-    if (c->modulus_min_stress)
-      soil.get_as<toml::table>("continuum")->insert("modulus_min_stress", *c->modulus_min_stress);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
     if (!c->provenance.empty()) { // where each value came from (issue 9)
       toml::table prov;

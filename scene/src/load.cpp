@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <set>
@@ -379,22 +380,30 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   return s;
 }
 
-ContinuumSoil read_continuum_soil(Reader& r) {
+// The value of a number key of a choice's blocks; NaN when no block has it or it is unset.
+double number_of(const ModelChoice& choice, std::string_view key) {
+  class Get final : public ParamVisitor {
+  public:
+    explicit Get(std::string_view k) : wanted(k) {}
+    std::string_view wanted;
+    double value = std::numeric_limits<double>::quiet_NaN();
+    void number(const Field& f, double& v, Rule) override {
+      if (f.key == wanted) value = v;
+    }
+    void integer(const Field&, int&, int, int) override {}
+    void flag(const Field&, bool&) override {}
+    void text(const Field&, std::string&) override {}
+  } get(key);
+  for (const auto& b : choice.blocks) b.visit(get);
+  return get.value;
+}
+
+ContinuumSoil read_continuum_soil(Reader& r, const Vocabulary& vocabulary) {
   ContinuumSoil s;
-  s.model = read_enum(r, "model", kContinuumModelNames, s.model);
-  s.young = r.positive("young", s.young);
-  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
-  s.friction_angle = r.in_range("friction_angle", 30.0, 0.0, 89.0) * kDeg;
-  s.cohesion = r.non_negative("cohesion", s.cohesion);
-  s.dilation_angle = r.in_range("dilation_angle", 0.0, 0.0, 89.0) * kDeg;
-  if (s.dilation_angle > s.friction_angle)
-    r.error("dilation_angle", "dilation angle must not exceed the friction angle");
-  s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
-  if (r.has("dilation_cutoff")) s.dilation_cutoff = r.in_range("dilation_cutoff", 0.0, 0.0, 1.0);
-  s.modulus_exponent = r.in_range("modulus_exponent", s.modulus_exponent, 0.0, 1.0);
-  if (r.has("modulus_reference_stress"))
-    s.modulus_reference_stress = r.positive("modulus_reference_stress", 1.0);
-  if (r.has("modulus_min_stress")) s.modulus_min_stress = r.non_negative("modulus_min_stress", 0.0);
+  // the constitutive model and its keys (young, poisson, friction_angle, …), which its parameter
+  // blocks own (continuum/constitutive/)
+  std::vector<std::string> valid;
+  for (const ModelSlot& slot : vocabulary.continuum) s.models.push_back(read_model(r, slot, valid));
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
@@ -407,21 +416,25 @@ ContinuumSoil read_continuum_soil(Reader& r) {
                                        *cal));
   }
   // E = young (p/p_ref)^n needs p_ref; a calibrated soil gets both from the calibration
-  if (s.modulus_exponent != 0.0 && !s.modulus_reference_stress && !s.calibrate_dem)
-    r.error("modulus_exponent",
-            "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
-            "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
-  for (const char* k :
-       {"young", "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
-        "modulus_exponent", "modulus_reference_stress", "density", "k0", "surface"})
+  for (const auto& m : s.models) {
+    const double n = number_of(m, "modulus_exponent");
+    if (!std::isnan(n) && n != 0.0 && std::isnan(number_of(m, "modulus_reference_stress")) &&
+        !s.calibrate_dem)
+      r.error("modulus_exponent",
+              "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
+              "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
+  }
+  for (const std::string& k : valid)
+    if (r.has(k)) s.given.push_back(k);
+  for (const char* k : {"density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
   // Written by the resolved dump (where each calibrated value came from); informational.
   if (const auto* pv = r.table("provenance"))
     for (auto&& [k, v] : *pv)
       s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
-  r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "dilation_cutoff", "modulus_exponent", "modulus_reference_stress", "modulus_min_stress",
-            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
+  for (const char* k : {"density", "k0", "surface", "calibrate", "provenance"})
+    valid.emplace_back(k);
+  r.finish(valid);
   return s;
 }
 
@@ -712,7 +725,7 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
     }
     if (const auto* c = r.table("continuum")) {
       Reader rc(*c, "soil.continuum", file, diags, c->source());
-      sc.soil.continuum = read_continuum_soil(rc);
+      sc.soil.continuum = read_continuum_soil(rc, vocabulary);
     }
     r.finish({"dem", "continuum"});
   }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../../compare/src/report_sections.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/model_differences.hpp"
@@ -18,6 +19,7 @@
 #include <fmt/format.h>
 
 namespace fs = std::filesystem;
+namespace cst = demfem::continuum::constitutive;
 using namespace demfem;
 
 namespace {
@@ -196,10 +198,10 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = compare::apply_calibration(r, d);
   EXPECT_EQ(lines.size(), 12u); // 11 parameters and the damping
-  EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
-  EXPECT_DOUBLE_EQ(r.soil.continuum->modulus_exponent, d.modulus_exponent);
-  ASSERT_TRUE(r.soil.continuum->modulus_reference_stress.has_value());
-  EXPECT_DOUBLE_EQ(*r.soil.continuum->modulus_reference_stress, d.modulus_reference_stress);
+  const auto& el = cst::elastic_block(*r.soil.continuum);
+  EXPECT_DOUBLE_EQ(el.young, 5.0e6);
+  EXPECT_DOUBLE_EQ(el.modulus_exponent, d.modulus_exponent);
+  EXPECT_DOUBLE_EQ(el.modulus_reference_stress, d.modulus_reference_stress);
   // Dilatancy cut-off: the mean of the tests' dilation (densest point to the end), which a
   // dilating specimen has (ψ > 0 above), cached and passed to the continuum.
   {
@@ -214,8 +216,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     }
     EXPECT_NEAR(c.dilation_cutoff, mean, 1e-12);
     EXPECT_DOUBLE_EQ(d.dilation_cutoff, c.dilation_cutoff);
-    ASSERT_TRUE(r.soil.continuum->dilation_cutoff.has_value());
-    EXPECT_DOUBLE_EQ(*r.soil.continuum->dilation_cutoff, c.dilation_cutoff);
+    EXPECT_DOUBLE_EQ(cst::strength_block(*r.soil.continuum).dilation_cutoff, c.dilation_cutoff);
     EXPECT_NE(block.find("dilation_cutoff = "), std::string::npos);
   }
   // Damping: Rayleigh α, β giving the smallest-amplitude cyclic ξ0 at the layer's first shear
@@ -225,7 +226,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     const auto& sc = *r.soil.continuum;
     double zmin = *sc.surface;
     for (const auto& q : r.domain) zmin = std::min(zmin, q.z);
-    const double vs = std::sqrt(sc.young / (2.0 * (1.0 + sc.poisson)) / sc.density);
+    const double vs = std::sqrt(el.young / (2.0 * (1.0 + el.poisson)) / sc.density);
     const double w1 = 2.0 * M_PI * vs / (4.0 * (*sc.surface - zmin));
     double xi0 = d.cyclic.front().xi, g0 = d.cyclic.front().gamma;
     for (const auto& p : d.cyclic)
@@ -249,8 +250,9 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     EXPECT_EQ(kept.continuum.rayleigh_beta, 0.0);
   }
   EXPECT_DOUBLE_EQ(r.soil.continuum->k0, 0.5);
-  EXPECT_DOUBLE_EQ(r.soil.continuum->poisson, d.poisson);
-  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle_deg * M_PI / 180.0, 1e-12);
+  EXPECT_DOUBLE_EQ(cst::elastic_block(*r.soil.continuum).poisson, d.poisson);
+  EXPECT_NEAR(cst::strength_block(*r.soil.continuum).friction_angle,
+              d.friction_angle_deg * M_PI / 180.0, 1e-12);
   EXPECT_DOUBLE_EQ(r.soil.continuum->density, d.bulk_density);
   ASSERT_TRUE(r.soil.continuum->surface.has_value());
   EXPECT_DOUBLE_EQ(*r.soil.continuum->surface, d.surface);
@@ -260,7 +262,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_NE(dumped.find("provenance"), std::string::npos);
   EXPECT_NE(dumped.find("stated in the scene"), std::string::npos);
   const auto back = scene::parse_scene(dumped, "dumped.toml", demfem::app::vocabulary());
-  EXPECT_DOUBLE_EQ(back.base.soil.continuum->poisson, d.poisson);
+  EXPECT_DOUBLE_EQ(cst::elastic_block(*back.base.soil.continuum).poisson, d.poisson);
 }
 
 // Deterministic: the same inputs computed twice (no cache) give bit-identical results.

@@ -238,7 +238,7 @@ TEST(ContinuumStatic, ColumnWithStressDependentModulusSettlesAsTheIntegralOfItsC
     soil.modulus_exponent = n;
     soil.modulus_reference_stress = 5.0e4;
     soil.modulus_min_stress = 2.0e3;
-    pb.soil = constitutive::Material(soil);
+    pb.soil = constitutive::Material(constitutive::Elastic(soil));
     pb.density = rho;
     pb.gravity = g;
     pb.tractions.push_back({{0.0, H}, {1.0, H}, q});

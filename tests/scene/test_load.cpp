@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include "constitutive/soil.hpp"
 #include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 
 using namespace demfem::scene;
+namespace cst = demfem::continuum::constitutive;
 
 namespace {
 
@@ -103,7 +105,8 @@ TEST(SceneLoad, ValidSceneResolves) {
   EXPECT_DOUBLE_EQ(s.soil.dem->rebound, 0.1); // default K (paper §2.1.2)
   EXPECT_EQ(s.soil.dem->fill.size(), 4u);     // defaults to the domain
   ASSERT_TRUE(s.soil.continuum);
-  EXPECT_NEAR(s.soil.continuum->friction_angle, 30.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(cst::strength_block(*s.soil.continuum).friction_angle,
+              30.0 * std::numbers::pi / 180.0, 1e-12);
   ASSERT_EQ(s.structures.size(), 1u);
   EXPECT_EQ(s.structures[0].kind, StructureKind::Wall);
   EXPECT_GT(signed_area(s.structures[0].outline), 0.0);
@@ -138,7 +141,7 @@ TEST(SceneLoad, VariantMayStateACalibratedKeyOnlyWithCalibrateDem) {
   text.replace(text.find(base_keys), base_keys.size(), "calibrate = \"dem\"");
   const auto g = parse_scene(text, "test.toml", demfem::app::vocabulary());
   const auto& c = *g.select("case-2").soil.continuum;
-  EXPECT_NEAR(c.dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(cst::strength_block(c).dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
   EXPECT_NE(std::find(c.given.begin(), c.given.end(), "dilation_angle"), c.given.end());
   // Without calibrate = "dem" it is a missing key, as any other.
   expect_error(mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
@@ -265,15 +268,16 @@ TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
 }
 TEST(SceneLoad, DilationCutoff) {
   // absent: none; given: kept through the resolved-scene round trip; out of [0, 1]: located error
-  EXPECT_FALSE(parse_scene(kValid, "a.toml", demfem::app::vocabulary())
-                   .base.soil.continuum->dilation_cutoff.has_value());
+  EXPECT_TRUE(
+      std::isnan(cst::strength_block(
+                     *parse_scene(kValid, "a.toml", demfem::app::vocabulary()).base.soil.continuum)
+                     .dilation_cutoff));
   const SceneFile f =
       parse_scene(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = 0.02"),
                   "cut.toml", demfem::app::vocabulary());
-  ASSERT_TRUE(f.base.soil.continuum->dilation_cutoff.has_value());
-  EXPECT_DOUBLE_EQ(*f.base.soil.continuum->dilation_cutoff, 0.02);
+  EXPECT_DOUBLE_EQ(cst::strength_block(*f.base.soil.continuum).dilation_cutoff, 0.02);
   const SceneFile again = parse_scene(to_toml(f.base), "again.toml", demfem::app::vocabulary());
-  EXPECT_DOUBLE_EQ(*again.base.soil.continuum->dilation_cutoff, 0.02);
+  EXPECT_DOUBLE_EQ(cst::strength_block(*again.base.soil.continuum).dilation_cutoff, 0.02);
   expect_error(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = -0.1"), 22,
                "must be in [0, 1], got -0.1", "soil.continuum.dilation_cutoff");
 }
