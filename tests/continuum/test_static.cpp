@@ -63,7 +63,7 @@ TEST(ContinuumStatic, GravityColumn) {
 
 // Flamant strip load on an elastic half-plane (Poulos & Davis 1974, strip of half-width b):
 // settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E. The problem and its closed
-// form live in continuum/src/verification.cpp (shared with `demfem study error-vs-time flamant`).
+// form live in continuum/run/verification.cpp (shared with `demfem study error-vs-time flamant`).
 TEST(ContinuumStatic, FlamantStripLoad) {
   double prev_err = 0.0;
   for (int r = 0; r <= 2; ++r) {
