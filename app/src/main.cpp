@@ -29,7 +29,6 @@ int main(int argc, char** argv) {
                        dem::engine_fingerprint());
   });
   cli.require_subcommand(1);
-  app::prepare_scene_loading();
 
   struct Entry {
     CLI::App* sub;

@@ -31,10 +31,6 @@ struct RunArgs {
   bool target_not_met_ok = false; // pack: exit 0 when a porosity target is not met
 };
 
-// Loading a scene checks its time steps against the solvers' stable limits, so that `check` and
-// `run` refuse the same step at the key's file:line:col. Called once, before any scene is loaded.
-void prepare_scene_loading();
-
 // The scene file, or an empty one with rc = kBadInput after printing its problems.
 scene::SceneFile load_or_report(const std::string& path, int& rc);
 // load_or_report with --seed applied to the base scene and every variant.

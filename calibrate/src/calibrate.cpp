@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "calibrate_element.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/key_hash.hpp"
@@ -319,9 +320,9 @@ json to_json(const Calibration& c) {
   j["continuum"] = {
       {"young", c.young},
       {"poisson", c.poisson},
-      {"friction_angle_deg", c.friction_angle},
+      {"friction_angle_deg", c.friction_angle_deg},
       {"cohesion", c.cohesion},
-      {"dilation_angle_deg", c.dilation_angle},
+      {"dilation_angle_deg", c.dilation_angle_deg},
       {"dilation_cutoff",
        std::isfinite(c.dilation_cutoff) ? json(c.dilation_cutoff) : json(nullptr)},
       {"density", c.bulk_density},
@@ -416,9 +417,9 @@ Calibration from_json(const json& j) {
   const auto& k = j.at("continuum");
   c.young = k.at("young");
   c.poisson = k.at("poisson");
-  c.friction_angle = k.at("friction_angle_deg");
+  c.friction_angle_deg = k.at("friction_angle_deg");
   c.cohesion = k.at("cohesion");
-  c.dilation_angle = k.at("dilation_angle_deg");
+  c.dilation_angle_deg = k.at("dilation_angle_deg");
   if (k.contains("dilation_cutoff") && k.at("dilation_cutoff").is_number())
     c.dilation_cutoff = k.at("dilation_cutoff");
   c.young_source = k.at("young_source");
@@ -742,9 +743,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
                                      "tests at σ_c = {:.4g} kPa, mean of {} specimen(s)",
                                      c.tests[best].sigma_c / 1e3, n);
     }
-    c.friction_angle = std::clamp(c.phi_fit, 1.0, 60.0);
+    c.friction_angle_deg = std::clamp(c.phi_fit, 1.0, 60.0);
     c.cohesion = std::max(0.0, c.cohesion_fit);
-    c.dilation_angle = std::clamp(c.psi, 0.0, c.friction_angle);
+    c.dilation_angle_deg = std::clamp(c.psi, 0.0, c.friction_angle_deg);
     double dil = 0.0;
     int nd = 0;
     for (const auto& t : c.tests)
@@ -923,7 +924,7 @@ std::string continuum_block(const Calibration& c) {
     sig += fmt::format("{}{:.4g}", sig.empty() ? "" : ", ", v / 1e3);
   s += fmt::format("friction_angle = {:.2f}   # [deg] Mohr–Coulomb fit of the biaxial peaks at "
                    "σ_c = {} kPa, {} specimen(s) (φ_cv = {:.1f}°)\n",
-                   c.friction_angle, sig, c.specimens, c.phi_cv);
+                   c.friction_angle_deg, sig, c.specimens, c.phi_cv);
   s += fmt::format("cohesion = {:.4g}   # [Pa] the fit's intercept c = {:.4g} Pa, ≥ 0\n",
                    c.cohesion, c.cohesion_fit);
   if (c.specimen_fits.size() > 1)
@@ -931,7 +932,7 @@ std::string continuum_block(const Calibration& c) {
                      specimen_fits_text(c.specimen_fits));
   s += fmt::format("dilation_angle = {:.2f}   # [deg] mean ψ at the peaks, sin ψ = −ε̇_v/γ̇ "
                    "(clamped to [0, φ])\n",
-                   c.dilation_angle);
+                   c.dilation_angle_deg);
   if (std::isfinite(c.dilation_cutoff))
     s += fmt::format("dilation_cutoff = {:.4f}   # plastic dilation after which ψ = 0: the "
                      "biaxial tests' volumetric strain\n#   from their densest point to the end "
@@ -1101,6 +1102,8 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   std::vector<std::string> lines;
   if (!scene.soil.continuum) return lines;
   auto& s = *scene.soil.continuum;
+  auto& el = continuum::constitutive::elastic_block(s);  // young, poisson, modulus_*
+  auto& mc = continuum::constitutive::strength_block(s); // friction_angle, cohesion, …
   const std::string src = fmt::format("dem calibration {}", c.key);
   auto set = [&](const char* key, double& slot, double value, const std::string& shown,
                  const std::string& how) {
@@ -1115,14 +1118,14 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     s.provenance.emplace_back(key, note);
     lines.push_back(fmt::format("{} = {}: {}", key, given ? "(scene)" : shown, note));
   };
-  set("young", s.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
-  set("poisson", s.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
-  set("friction_angle", s.friction_angle, c.friction_angle * kPi / 180.0,
-      fmt::format("{:.2f}°", c.friction_angle), "Mohr–Coulomb fit of the biaxial peaks");
-  set("cohesion", s.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
+  set("young", el.young, c.young, fmt::format("{:.4g} Pa", c.young), c.young_source);
+  set("poisson", el.poisson, c.poisson, fmt::format("{:.3f}", c.poisson), c.poisson_source);
+  set("friction_angle", mc.friction_angle, c.friction_angle_deg * kPi / 180.0,
+      fmt::format("{:.2f}°", c.friction_angle_deg), "Mohr–Coulomb fit of the biaxial peaks");
+  set("cohesion", mc.cohesion, c.cohesion, fmt::format("{:.4g} Pa", c.cohesion),
       "intercept of the fit, ≥ 0");
-  set("dilation_angle", s.dilation_angle, c.dilation_angle * kPi / 180.0,
-      fmt::format("{:.2f}°", c.dilation_angle), "mean dilatancy angle at the peaks");
+  set("dilation_angle", mc.dilation_angle, c.dilation_angle_deg * kPi / 180.0,
+      fmt::format("{:.2f}°", c.dilation_angle_deg), "mean dilatancy angle at the peaks");
   set("density", s.density, c.bulk_density, fmt::format("{:.5g} kg/m³", c.bulk_density),
       fmt::format("ρ_s (1 − n) of the deposited bed, n = {:.4f}", c.porosity));
   set("k0", s.k0, c.k0, fmt::format("{:.3f}", c.k0), "σ_xx/σ_zz of the deposited bed");
@@ -1134,25 +1137,21 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
                         c.continuum_mass / c.soil_mass)
           : std::string("height holding the DEM bed's soil mass at that density"));
   s.surface = surf;
-  if (std::isfinite(c.dilation_cutoff)) {
-    double cut = s.dilation_cutoff.value_or(0.0);
-    set("dilation_cutoff", cut, c.dilation_cutoff, fmt::format("{:.4f}", c.dilation_cutoff),
+  if (std::isfinite(c.dilation_cutoff))
+    set("dilation_cutoff", mc.dilation_cutoff, c.dilation_cutoff,
+        fmt::format("{:.4f}", c.dilation_cutoff),
         "dilatancy cut-off: mean dilation of the biaxial tests, densest point to the end "
         "(ψ → 0 beyond it)");
-    s.dilation_cutoff = cut;
-  }
   if (c.modulus_exponent > 0.0 && c.modulus_reference_stress > 0.0) {
-    set("modulus_exponent", s.modulus_exponent, c.modulus_exponent,
+    set("modulus_exponent", el.modulus_exponent, c.modulus_exponent,
         fmt::format("{:.3f}", c.modulus_exponent),
         fmt::format("E ∝ p^n through G0 of the cyclic tests at σ_c = {:.4g} and {:.4g} kPa",
                     c.cyclic_shallow_sigma / 1e3, c.modulus_reference_stress / 1e3));
-    double pref = s.modulus_reference_stress.value_or(0.0);
-    set("modulus_reference_stress", pref, c.modulus_reference_stress,
+    set("modulus_reference_stress", el.modulus_reference_stress, c.modulus_reference_stress,
         fmt::format("{:.4g} Pa", c.modulus_reference_stress),
         "the confinement of the cyclic test E0 comes from");
-    s.modulus_reference_stress = pref;
   }
-  if (s.dilation_angle > s.friction_angle) s.dilation_angle = s.friction_angle;
+  if (mc.dilation_angle > mc.friction_angle) mc.dilation_angle = mc.friction_angle;
   // Damping: Rayleigh damping giving the DEM's small-strain damping ratio ξ0 (the cyclic test's
   // smallest amplitude; larger strains dissipate by plasticity in the continuum) at the layer's
   // first shear mode and at the excitation frequency (implicit), or mass-proportional at the
@@ -1164,7 +1163,7 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
     double zmin = s.surface.value_or(0.0);
     for (const auto& q : scene.domain) zmin = std::min(zmin, q.z);
     const double h = s.surface.value_or(0.0) - zmin;
-    const double gmod = s.young / (2.0 * (1.0 + s.poisson)); // G = E / 2(1 + ν)
+    const double gmod = el.young / (2.0 * (1.0 + el.poisson)); // G = E / 2(1 + ν)
     // f1 = V_s / 4H: first shear mode of a uniform layer on a rigid base (Kramer 1996, eq. 7.41)
     const double f1 = h > 0.0 && s.density > 0.0 ? std::sqrt(gmod / s.density) / (4.0 * h) : 0.0;
     double fe = excitation_frequency(scene);

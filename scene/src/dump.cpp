@@ -10,6 +10,7 @@
 
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/probe_spec.hpp"
+#include "demfem/scene/reader.hpp"
 
 namespace demfem::scene {
 
@@ -170,6 +171,7 @@ std::string to_toml(const Scene& s) {
       soil.get_as<toml::table>("dem")->get_as<toml::table>("packing")->insert("target", "none");
     }
     if (d->sphere_mass) soil.get_as<toml::table>("dem")->insert("particle_mass", "sphere");
+    for (const auto& m : d->models) write_model(m, *soil.get_as<toml::table>("dem"));
     if (!d->particles_file.empty()) {
       soil.get_as<toml::table>("dem")->insert("particles_file", d->particles_file);
     } else if (!d->particles.empty()) {
@@ -180,25 +182,10 @@ std::string to_toml(const Scene& s) {
     }
   }
   if (const auto& c = s.soil.continuum) {
-    soil.insert("continuum", toml::table{{"model", keyword(kContinuumModelNames, c->model)},
-                                         {"young", c->young},
-                                         {"poisson", c->poisson},
-                                         {"friction_angle", deg(c->friction_angle)},
-                                         {"cohesion", c->cohesion},
-                                         {"dilation_angle", deg(c->dilation_angle)},
-                                         {"tension_cutoff", c->tension_cutoff},
-                                         {"density", c->density},
-                                         {"k0", c->k0}});
+    soil.insert("continuum", toml::table{{"density", c->density}, {"k0", c->k0}});
+    // the constitutive model and its keys, through its parameter blocks
+    for (const auto& m : c->models) write_model(m, *soil.get_as<toml::table>("continuum"));
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
-    if (c->dilation_cutoff)
-      soil.get_as<toml::table>("continuum")->insert("dilation_cutoff", *c->dilation_cutoff);
-    if (c->modulus_exponent != 0.0)
-      soil.get_as<toml::table>("continuum")->insert("modulus_exponent", c->modulus_exponent);
-    if (c->modulus_reference_stress)
-      soil.get_as<toml::table>("continuum")
-          ->insert("modulus_reference_stress", *c->modulus_reference_stress);
-    if (c->modulus_min_stress)
-      soil.get_as<toml::table>("continuum")->insert("modulus_min_stress", *c->modulus_min_stress);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
     if (!c->provenance.empty()) { // where each value came from (issue 9)
       toml::table prov;

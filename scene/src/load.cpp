@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <set>
@@ -221,7 +222,7 @@ RadiusDistribution read_radius(Reader& parent) {
   return d;
 }
 
-DemSoil read_dem_soil(Reader& r) {
+DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   DemSoil s;
   s.count = r.integer("count", 0, 1, 100'000'000);
   if (!r.has("count") && !r.has("particles_file"))
@@ -230,6 +231,8 @@ DemSoil read_dem_soil(Reader& r) {
   s.density = r.positive("density", s.density);
   s.thickness = r.positive("thickness", s.thickness);
   s.law = read_enum(r, "contact", kContactLawNames, s.law);
+  std::vector<std::string> slot_keys; // the models' keys (params.hpp), for finish()
+  for (const auto& slot : vocabulary.dem) s.models.push_back(read_model(r, slot, slot_keys));
   s.kn = r.positive("kn", s.kn);
   s.ks = r.positive("ks", s.ks);
   s.mu_static = r.non_negative("mu_static", s.mu_static);
@@ -343,55 +346,65 @@ DemSoil read_dem_soil(Reader& r) {
       r.error("particle_mass",
               fmt::format("unknown mass convention '{}'; valid: disk, sphere", *pm));
   }
-  r.finish({"count",
-            "radius",
-            "density",
-            "thickness",
-            "contact",
-            "kn",
-            "ks",
-            "mu_static",
-            "mu_dynamic",
-            "rebound",
-            "rebound_speed",
-            "tension",
-            "tensile_strength",
-            "eta_n",
-            "eta_s",
-            "restitution",
-            "young",
-            "poisson",
-            "damping_c",
-            "damping_d",
-            "dt",
-            "dt_safety",
-            "max_overlap",
-            "energy_warning",
-            "energy_limit",
-            "fill",
-            "packing",
-            "particles",
-            "particles_file",
-            "particle_mass"});
+  std::vector<std::string> valid{"count",
+                                 "radius",
+                                 "density",
+                                 "thickness",
+                                 "contact",
+                                 "kn",
+                                 "ks",
+                                 "mu_static",
+                                 "mu_dynamic",
+                                 "rebound",
+                                 "rebound_speed",
+                                 "tension",
+                                 "tensile_strength",
+                                 "eta_n",
+                                 "eta_s",
+                                 "restitution",
+                                 "young",
+                                 "poisson",
+                                 "damping_c",
+                                 "damping_d",
+                                 "dt",
+                                 "dt_safety",
+                                 "max_overlap",
+                                 "energy_warning",
+                                 "energy_limit",
+                                 "fill",
+                                 "packing",
+                                 "particles",
+                                 "particles_file",
+                                 "particle_mass"};
+  valid.insert(valid.end(), slot_keys.begin(), slot_keys.end());
+  r.finish(valid);
   return s;
 }
 
-ContinuumSoil read_continuum_soil(Reader& r) {
+// The value of a number key of a choice's blocks; NaN when no block has it or it is unset.
+double number_of(const ModelChoice& choice, std::string_view key) {
+  class Get final : public ParamVisitor {
+  public:
+    explicit Get(std::string_view k) : wanted(k) {}
+    std::string_view wanted;
+    double value = std::numeric_limits<double>::quiet_NaN();
+    void number(const Field& f, double& v, Rule) override {
+      if (f.key == wanted) value = v;
+    }
+    void integer(const Field&, int&, int, int) override {}
+    void flag(const Field&, bool&) override {}
+    void text(const Field&, std::string&) override {}
+  } get(key);
+  for (const auto& b : choice.blocks) b.visit(get);
+  return get.value;
+}
+
+ContinuumSoil read_continuum_soil(Reader& r, const Vocabulary& vocabulary) {
   ContinuumSoil s;
-  s.model = read_enum(r, "model", kContinuumModelNames, s.model);
-  s.young = r.positive("young", s.young);
-  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
-  s.friction_angle = r.in_range("friction_angle", 30.0, 0.0, 89.0) * kDeg;
-  s.cohesion = r.non_negative("cohesion", s.cohesion);
-  s.dilation_angle = r.in_range("dilation_angle", 0.0, 0.0, 89.0) * kDeg;
-  if (s.dilation_angle > s.friction_angle)
-    r.error("dilation_angle", "dilation angle must not exceed the friction angle");
-  s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
-  if (r.has("dilation_cutoff")) s.dilation_cutoff = r.in_range("dilation_cutoff", 0.0, 0.0, 1.0);
-  s.modulus_exponent = r.in_range("modulus_exponent", s.modulus_exponent, 0.0, 1.0);
-  if (r.has("modulus_reference_stress"))
-    s.modulus_reference_stress = r.positive("modulus_reference_stress", 1.0);
-  if (r.has("modulus_min_stress")) s.modulus_min_stress = r.non_negative("modulus_min_stress", 0.0);
+  // the constitutive model and its keys (young, poisson, friction_angle, …), which its parameter
+  // blocks own (continuum/constitutive/)
+  std::vector<std::string> valid;
+  for (const ModelSlot& slot : vocabulary.continuum) s.models.push_back(read_model(r, slot, valid));
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
@@ -404,21 +417,25 @@ ContinuumSoil read_continuum_soil(Reader& r) {
                                        *cal));
   }
   // E = young (p/p_ref)^n needs p_ref; a calibrated soil gets both from the calibration
-  if (s.modulus_exponent != 0.0 && !s.modulus_reference_stress && !s.calibrate_dem)
-    r.error("modulus_exponent",
-            "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
-            "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
-  for (const char* k :
-       {"young", "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
-        "modulus_exponent", "modulus_reference_stress", "density", "k0", "surface"})
+  for (const auto& m : s.models) {
+    const double n = number_of(m, "modulus_exponent");
+    if (!std::isnan(n) && n != 0.0 && std::isnan(number_of(m, "modulus_reference_stress")) &&
+        !s.calibrate_dem)
+      r.error("modulus_exponent",
+              "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
+              "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
+  }
+  for (const std::string& k : valid)
+    if (r.has(k)) s.given.push_back(k);
+  for (const char* k : {"density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
   // Written by the resolved dump (where each calibrated value came from); informational.
   if (const auto* pv = r.table("provenance"))
     for (auto&& [k, v] : *pv)
       s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
-  r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "dilation_cutoff", "modulus_exponent", "modulus_reference_stress", "modulus_min_stress",
-            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
+  for (const char* k : {"density", "k0", "surface", "calibrate", "provenance"})
+    valid.emplace_back(k);
+  r.finish(valid);
   return s;
 }
 
@@ -682,7 +699,8 @@ Probe read_probe(Reader& r) {
   return p;
 }
 
-Scene resolve(const toml::table& root, const std::string& file, std::vector<Diagnostic>& diags) {
+Scene resolve(const toml::table& root, const std::string& file, const Vocabulary& vocabulary,
+              std::vector<Diagnostic>& diags) {
   const std::size_t diags_before = diags.size();
   Scene sc;
   sc.source_file = file;
@@ -730,11 +748,11 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     Reader r(*t, "soil", file, diags, t->source());
     if (const auto* d = r.table("dem")) {
       Reader rd(*d, "soil.dem", file, diags, d->source());
-      sc.soil.dem = read_dem_soil(rd);
+      sc.soil.dem = read_dem_soil(rd, vocabulary);
     }
     if (const auto* c = r.table("continuum")) {
       Reader rc(*c, "soil.continuum", file, diags, c->source());
-      sc.soil.continuum = read_continuum_soil(rc);
+      sc.soil.continuum = read_continuum_soil(rc, vocabulary);
     }
     r.finish({"dem", "continuum"});
   }
@@ -879,7 +897,7 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
               "probe", "load", "output", "variant"});
   // Semantic checks (issue 13) on a scene that read cleanly: what it asks must be possible.
-  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, diags);
+  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, vocabulary, diags);
   return sc;
 }
 
@@ -1016,13 +1034,14 @@ const Group* Scene::group(const std::string& n) const {
   return nullptr;
 }
 
-SceneFile parse_scene(std::string_view text, const std::string& source_name) {
+SceneFile parse_scene(std::string_view text, const std::string& source_name,
+                      const Vocabulary& vocabulary) {
   const toml::table root = parse_toml(text, source_name);
 
   std::vector<Diagnostic> diags;
   SceneFile out;
   out.path = source_name;
-  out.base = resolve(root, source_name, diags);
+  out.base = resolve(root, source_name, vocabulary, diags);
 
   if (const toml::node* vn = root.get("variant")) {
     const auto* arr = vn->as_array();
@@ -1086,7 +1105,7 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
           apply(*set, "");
         }
         copy.erase("variant");
-        Scene s = resolve(copy, source_name, diags);
+        Scene s = resolve(copy, source_name, vocabulary, diags);
         s.variant = *name;
         s.variant_description = vt["description"].value_or(std::string());
         out.variants.push_back(std::move(s));
@@ -1098,14 +1117,14 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
   return out;
 }
 
-SceneFile load_scene_file(const std::filesystem::path& path) {
+SceneFile load_scene_file(const std::filesystem::path& path, const Vocabulary& vocabulary) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw SceneError(
         {Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_scene(ss.str(), path.string());
+  return parse_scene(ss.str(), path.string(), vocabulary);
 }
 
 } // namespace demfem::scene

@@ -4,6 +4,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -28,6 +30,14 @@ std::string toml_number(double v) {
   return s;
 }
 
+// A number as the file states it (degrees for an angle held in radians), or nothing when unset.
+std::optional<double> as_stated(const Field& f, double v) {
+  if (f.value == Field::Value::optional && std::isnan(v)) return std::nullopt;
+  if (f.value == Field::Value::degrees)
+    return std::round(v * (180.0 / std::numbers::pi) * 1e9) / 1e9;
+  return v;
+}
+
 std::string rule_text(const Rule& r) {
   switch (r.kind) {
   case Rule::Kind::any:
@@ -46,7 +56,8 @@ class Describer final : public ParamVisitor {
 public:
   std::vector<ParamText> out;
   void number(const Field& f, double& v, Rule /*rule*/) override {
-    add(f, with_unit(fmt::format("{:.3g}", v), f.unit));
+    const auto x = as_stated(f, v);
+    add(f, x ? with_unit(fmt::format("{:.3g}", *x), f.unit) : std::string("unset"));
   }
   void integer(const Field& f, int& v, int /*lo*/, int /*hi*/) override {
     add(f, with_unit(fmt::format("{}", v), f.unit));
@@ -66,7 +77,8 @@ public:
   explicit SchemaLister(std::string_view block) : block_(block) {}
   std::vector<ParamSchema> out;
   void number(const Field& f, double& v, Rule rule) override {
-    add(f, "number", toml_number(v), rule_text(rule));
+    const auto x = as_stated(f, v);
+    add(f, "number", x ? toml_number(*x) : std::string("unset"), rule_text(rule));
   }
   void integer(const Field& f, int& v, int lo, int hi) override {
     add(f, "integer", fmt::format("{}", v), fmt::format("in [{}, {}]", lo, hi));
@@ -98,7 +110,37 @@ private:
   double f_;
 };
 
+class KeySetter final : public ParamVisitor {
+public:
+  KeySetter(std::string_view key, double value) : key_(key), value_(value) {}
+  bool found = false;
+  void number(const Field& f, double& v, Rule /*rule*/) override {
+    if (f.key == key_) set(v, value_);
+  }
+  void integer(const Field& f, int& v, int /*lo*/, int /*hi*/) override {
+    if (f.key == key_) set(v, static_cast<int>(value_));
+  }
+  void flag(const Field& f, bool& v) override {
+    if (f.key == key_) set(v, value_ != 0.0);
+  }
+  void text(const Field&, std::string&) override {}
+
+private:
+  template <class T> void set(T& to, T v) {
+    to = v;
+    found = true;
+  }
+  std::string_view key_;
+  double value_;
+};
+
 } // namespace
+
+bool set(ModelChoice& choice, std::string_view key, double value) {
+  KeySetter s(key, value);
+  for (auto& b : choice.blocks) b.visit(s);
+  return s.found;
+}
 
 ModelChoice default_choice(const ModelSlot& slot) {
   ModelChoice c;

@@ -11,12 +11,15 @@
 #include <nlohmann/json.hpp>
 
 #include "../../compare/src/report_sections.hpp"
+#include "constitutive/soil.hpp"
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/calibrate/calibrate.hpp"
 #include "demfem/compare/model_differences.hpp"
 #include "demfem/scene/load.hpp"
 #include <fmt/format.h>
 
 namespace fs = std::filesystem;
+namespace cst = demfem::continuum::constitutive;
 using namespace demfem;
 
 namespace {
@@ -94,7 +97,8 @@ calibrate::CalibrateOptions tiny_options(const fs::path& dir) {
 //  * Cached second call: identical values, from the cache.
 TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   const fs::path dir = demfem::test::scratch_dir("calibrate");
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), (dir / "tiny.toml").string());
+  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), (dir / "tiny.toml").string(),
+                                       demfem::app::vocabulary());
   const auto& s = file.base;
   const auto o = tiny_options(dir);
 
@@ -111,10 +115,10 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_GT(c.young, 0.0);
   EXPECT_GT(c.poisson, 0.0);
   EXPECT_LT(c.poisson, 0.5);
-  EXPECT_GT(c.friction_angle, 12.0);
-  EXPECT_LT(c.friction_angle, 32.0);
-  EXPECT_GE(c.dilation_angle, 0.0);
-  EXPECT_LE(c.dilation_angle, c.friction_angle);
+  EXPECT_GT(c.friction_angle_deg, 12.0);
+  EXPECT_LT(c.friction_angle_deg, 32.0);
+  EXPECT_GE(c.dilation_angle_deg, 0.0);
+  EXPECT_LE(c.dilation_angle_deg, c.friction_angle_deg);
   EXPECT_GT(c.k0, 0.3);
   EXPECT_LT(c.k0, 1.5);
   EXPECT_GT(c.bulk_density, 0.7 * 2650);
@@ -166,7 +170,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   (void)seconds; // no timed assertion (COMMON rules); from_cache is what makes it fast
   EXPECT_EQ(d.key, c.key);
   EXPECT_DOUBLE_EQ(d.young, c.young);
-  EXPECT_DOUBLE_EQ(d.friction_angle, c.friction_angle);
+  EXPECT_DOUBLE_EQ(d.friction_angle_deg, c.friction_angle_deg);
   EXPECT_DOUBLE_EQ(d.k0, c.k0);
   EXPECT_DOUBLE_EQ(d.surface, c.surface);
   EXPECT_EQ(d.tests[0].ea, c.tests[0].ea);
@@ -188,16 +192,16 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_NE(block.find("modulus_reference_stress = "), std::string::npos);
 
   // calibrate = "dem": the calibrated values fill what the scene does not state; stated ones win.
-  const auto stated =
-      scene::parse_scene(tiny_scene(dir / "cache", "young = 5.0e6\nk0 = 0.5\n"), "tiny2.toml");
+  const auto stated = scene::parse_scene(tiny_scene(dir / "cache", "young = 5.0e6\nk0 = 0.5\n"),
+                                         "tiny2.toml", demfem::app::vocabulary());
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = calibrate::apply_calibration(r, d);
   EXPECT_EQ(lines.size(), 12u); // 11 parameters and the damping
-  EXPECT_DOUBLE_EQ(r.soil.continuum->young, 5.0e6);
-  EXPECT_DOUBLE_EQ(r.soil.continuum->modulus_exponent, d.modulus_exponent);
-  ASSERT_TRUE(r.soil.continuum->modulus_reference_stress.has_value());
-  EXPECT_DOUBLE_EQ(*r.soil.continuum->modulus_reference_stress, d.modulus_reference_stress);
+  const auto& el = cst::elastic_block(*r.soil.continuum);
+  EXPECT_DOUBLE_EQ(el.young, 5.0e6);
+  EXPECT_DOUBLE_EQ(el.modulus_exponent, d.modulus_exponent);
+  EXPECT_DOUBLE_EQ(el.modulus_reference_stress, d.modulus_reference_stress);
   // Dilatancy cut-off: the mean of the tests' dilation (densest point to the end), which a
   // dilating specimen has (ψ > 0 above), cached and passed to the continuum.
   {
@@ -212,8 +216,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     }
     EXPECT_NEAR(c.dilation_cutoff, mean, 1e-12);
     EXPECT_DOUBLE_EQ(d.dilation_cutoff, c.dilation_cutoff);
-    ASSERT_TRUE(r.soil.continuum->dilation_cutoff.has_value());
-    EXPECT_DOUBLE_EQ(*r.soil.continuum->dilation_cutoff, c.dilation_cutoff);
+    EXPECT_DOUBLE_EQ(cst::strength_block(*r.soil.continuum).dilation_cutoff, c.dilation_cutoff);
     EXPECT_NE(block.find("dilation_cutoff = "), std::string::npos);
   }
   // Damping: Rayleigh α, β giving the smallest-amplitude cyclic ξ0 at the layer's first shear
@@ -223,7 +226,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     const auto& sc = *r.soil.continuum;
     double zmin = *sc.surface;
     for (const auto& q : r.domain) zmin = std::min(zmin, q.z);
-    const double vs = std::sqrt(sc.young / (2.0 * (1.0 + sc.poisson)) / sc.density);
+    const double vs = std::sqrt(el.young / (2.0 * (1.0 + el.poisson)) / sc.density);
     const double w1 = 2.0 * M_PI * vs / (4.0 * (*sc.surface - zmin));
     double xi0 = d.cyclic.front().xi, g0 = d.cyclic.front().gamma;
     for (const auto& p : d.cyclic)
@@ -247,8 +250,9 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     EXPECT_EQ(kept.continuum.rayleigh_beta, 0.0);
   }
   EXPECT_DOUBLE_EQ(r.soil.continuum->k0, 0.5);
-  EXPECT_DOUBLE_EQ(r.soil.continuum->poisson, d.poisson);
-  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle * M_PI / 180.0, 1e-12);
+  EXPECT_DOUBLE_EQ(cst::elastic_block(*r.soil.continuum).poisson, d.poisson);
+  EXPECT_NEAR(cst::strength_block(*r.soil.continuum).friction_angle,
+              d.friction_angle_deg * M_PI / 180.0, 1e-12);
   EXPECT_DOUBLE_EQ(r.soil.continuum->density, d.bulk_density);
   ASSERT_TRUE(r.soil.continuum->surface.has_value());
   EXPECT_DOUBLE_EQ(*r.soil.continuum->surface, d.surface);
@@ -257,8 +261,8 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_NE(dumped.find("calibrate = 'dem'"), std::string::npos) << dumped;
   EXPECT_NE(dumped.find("provenance"), std::string::npos);
   EXPECT_NE(dumped.find("stated in the scene"), std::string::npos);
-  const auto back = scene::parse_scene(dumped, "dumped.toml");
-  EXPECT_DOUBLE_EQ(back.base.soil.continuum->poisson, d.poisson);
+  const auto back = scene::parse_scene(dumped, "dumped.toml", demfem::app::vocabulary());
+  EXPECT_DOUBLE_EQ(cst::elastic_block(*back.base.soil.continuum).poisson, d.poisson);
 }
 
 // Deterministic: the same inputs computed twice (no cache) give bit-identical results.
@@ -268,9 +272,12 @@ TEST(Calibrate, IsDeterministic) {
   o.cyclic = false;
   o.depth_fractions = {1.0};
   o.max_axial_strain = 0.05;
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto a = calibrate::calibrate(file.base, o);
   const auto b = calibrate::calibrate(file.base, o);
+#include "constitutive/soil.hpp"
+#include "demfem/app/vocabulary.hpp"
   EXPECT_EQ(a.key, b.key);
   EXPECT_EQ(a.tests[0].sa, b.tests[0].sa);
   EXPECT_EQ(a.tests[0].el, b.tests[0].el);
@@ -288,8 +295,11 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
   auto o = tiny_options(dir);
   o.cyclic = false;
   o.max_axial_strain = 0.05;
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto one = calibrate::calibrate(file.base, o);
+#include "constitutive/soil.hpp"
+#include "demfem/app/vocabulary.hpp"
   o.specimens = 2;
   const auto two = calibrate::calibrate(file.base, o);
   EXPECT_NE(one.key, two.key);
@@ -367,8 +377,11 @@ TEST(Calibrate, PoolsTheCyclicTestsOfTheSpecimens) {
   auto o = tiny_options(dir);
   o.depth_fractions = {0.5};
   o.cyclic_amplitudes = {3e-4};
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto one = calibrate::calibrate(file.base, o);
+#include "constitutive/soil.hpp"
+#include "demfem/app/vocabulary.hpp"
   o.specimens = 2;
   const auto two = calibrate::calibrate(file.base, o);
   ASSERT_EQ(one.cyclic_per_specimen.size(), 1u);
@@ -400,7 +413,7 @@ TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
                            "[domain]\npolygon = [[0, 0], [1, 0], [1, 1], [0, 1]]\n"
                            "[soil.continuum]\ncalibrate = \"lab\"\n";
   try {
-    (void)scene::parse_scene(text, "x.toml");
+    (void)scene::parse_scene(text, "x.toml", demfem::app::vocabulary());
     ADD_FAILURE() << "calibrate = \"lab\" was accepted";
   } catch (const scene::SceneError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown calibration 'lab'"), std::string::npos)
@@ -408,5 +421,6 @@ TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
   }
   std::string ok = text;
   ok.replace(ok.find("\"lab\""), 5, "\"dem\"");
-  EXPECT_TRUE(scene::parse_scene(ok, "x.toml").base.soil.continuum->calibrate_dem);
+  EXPECT_TRUE(scene::parse_scene(ok, "x.toml", demfem::app::vocabulary())
+                  .base.soil.continuum->calibrate_dem);
 }

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "../scratch.hpp"
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 
 namespace fs = std::filesystem;
@@ -108,8 +109,10 @@ TEST(Quickstart, GuidePrintsTheExampleScene) {
     blocks.push_back((*it)[1].str());
   ASSERT_GE(blocks.size(), 2u);
   namespace sc = demfem::scene;
-  const auto file = sc::load_scene_file(kSource / "docs/examples/first_scene.toml");
-  const auto printed = sc::parse_scene(blocks[0] + "\n" + blocks[1], "quickstart.md");
+  const auto file =
+      sc::load_scene_file(kSource / "docs/examples/first_scene.toml", demfem::app::vocabulary());
+  const auto printed =
+      sc::parse_scene(blocks[0] + "\n" + blocks[1], "quickstart.md", demfem::app::vocabulary());
   EXPECT_EQ(body(printed.base), body(file.base));
   ASSERT_EQ(printed.variants.size(), 1u);
   ASSERT_EQ(file.variants.size(), 1u);

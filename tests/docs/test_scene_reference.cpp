@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 #include <toml++/toml.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 
 namespace fs = std::filesystem;
@@ -281,7 +282,7 @@ std::set<std::string> accepted_keys(const std::string& scene, const std::string&
     std::ostringstream text;
     text << root;
     try {
-      (void)demfem::scene::parse_scene(text.str(), "every_table.toml");
+      (void)demfem::scene::parse_scene(text.str(), "every_table.toml", demfem::app::vocabulary());
     } catch (const demfem::scene::SceneError& e) {
       for (const auto& d : e.diagnostics()) {
         const std::string tail = std::string(kProbeKey);
@@ -350,7 +351,7 @@ std::set<std::string> check_section(const Section& sec, const std::string& scene
 // A resolved scene file as a TOML tree, without its header comments.
 std::optional<toml::table> resolved(const std::string& scene) {
   try {
-    const auto f = demfem::scene::parse_scene(scene, "every_table.toml");
+    const auto f = demfem::scene::parse_scene(scene, "every_table.toml", demfem::app::vocabulary());
     std::string text;
     for (const auto* s : {&f.base}) text += demfem::scene::to_toml(*s);
     toml::table t = toml::parse(text);
@@ -448,7 +449,8 @@ std::vector<Section> reference() {
 } // namespace
 
 TEST(SceneReference, TheTestSceneIsValid) {
-  EXPECT_NO_THROW((void)demfem::scene::parse_scene(kEveryTable, "every_table.toml"));
+  EXPECT_NO_THROW(
+      (void)demfem::scene::parse_scene(kEveryTable, "every_table.toml", demfem::app::vocabulary()));
 }
 
 TEST(SceneReference, ListsExactlyTheKeysTheParserAccepts) {

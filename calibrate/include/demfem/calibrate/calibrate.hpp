@@ -124,8 +124,9 @@ struct Calibration {
   // p_ref = cyclic_sigma (where young's G0 is measured); n = 0: uniform (no shallow test)
   double modulus_exponent = 0.0, modulus_reference_stress = 0.0;
   // what the continuum takes (plane strain)
-  double young = 0.0, poisson = 0.0, friction_angle = 0.0, cohesion = 0.0,
-         dilation_angle = 0.0; // [Pa], –, [deg], [Pa], [deg]
+  double young = 0.0, poisson = 0.0, cohesion = 0.0; // [Pa], –, [Pa]
+  // φ and ψ in degrees (the scene's friction_angle and dilation_angle are radians)
+  double friction_angle_deg = 0.0, dilation_angle_deg = 0.0;
   // dilatancy cut-off: mean of the tests' `dilation` (NaN: none measured, or an older file)
   double dilation_cutoff = std::numeric_limits<double>::quiet_NaN();
   std::string young_source;   // which test and measure E comes from

@@ -6,8 +6,10 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "demfem/scene/params.hpp"
 #include "demfem/scene/time_function.hpp"
 
 namespace demfem::scene {
@@ -35,9 +37,6 @@ inline constexpr std::array<const char*, 3> kStructureKindNames = {"pile", "foot
 //   which stays fixed (paper eqs. 5.2–5.7)
 enum class DofMode { Fixed, Free, Prescribed };
 inline constexpr std::array<const char*, 3> kDofModeNames = {"fixed", "free", "prescribed"};
-
-enum class ContinuumModel { Elastic, MohrCoulomb };
-inline constexpr std::array<const char*, 2> kContinuumModelNames = {"elastic", "mohr-coulomb"};
 
 // The [[probe]] kinds; the keys each takes are in probe_spec.hpp.
 enum class ProbeKind { Energy, WallThrust, PressureProfile, SurfaceProfile, Loci, Coordination };
@@ -129,32 +128,34 @@ struct DemSoil {
   // paper); true ("sphere"): m = ρ(4/3)πr³, I = (2/5)mr², what LAMMPS's atom_style sphere gives
   // in 2D (used to race LAMMPS on an identical scene).
   bool sphere_mass = false;
+  // The models of the vocabulary's DEM slots (vocabulary.hpp), in its order, as read.
+  std::vector<ModelChoice> models;
+  [[nodiscard]] const ModelChoice* model(std::string_view key) const {
+    for (const auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
+  [[nodiscard]] ModelChoice* model(std::string_view key) {
+    for (auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
 };
 
 struct ContinuumSoil {
-  ContinuumModel model = ContinuumModel::MohrCoulomb;
-  double young = 3.0e7; // [Pa]
-  double poisson = 0.3;
-  double friction_angle = 0.5236; // [rad] (file: degrees)
-  double cohesion = 0.0;          // [Pa]
-  double dilation_angle = 0.0;    // [rad] (file: degrees)
-  double tension_cutoff = 0.0;    // [Pa]
-  // dilatancy cut-off: plastic volumetric strain (dilation positive) after which a point flows
-  // with ψ = 0 (continuum mohr_coulomb.hpp); unset: none (ψ for ever), unless calibrated
-  std::optional<double> dilation_cutoff;
-  // Stress-dependent modulus (Janbu 1963; Hardin & Richart 1963: G0 ∝ p^n): each point's E is
-  // young × (p/p_ref)^modulus_exponent at its in-plane mean stress p = −(σxx + σzz)/2 after the
-  // initial stresses (K0 procedure, seating), p below modulus_min_stress taken as that; young is
-  // E at p_ref = modulus_reference_stress [Pa]. Exponent 0 (the default): a uniform E. A granular
-  // bed of linear-contact disks stiffens with confinement (measured: the cyclic G0 of the
-  // foundation bed's specimens 18 / 24 / 29 / 32 MPa at 108 / 216 / 540 / 1080 kPa). The
-  // stiffness-proportional Rayleigh damping of the explicit integrator follows each point's E; the
-  // implicit integrator's (β K0) and the Lysmer dashpots use `young` throughout.
-  double modulus_exponent = 0.0;
-  std::optional<double> modulus_reference_stress; // [Pa]; needed when the exponent is not 0
-  std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
-  [[nodiscard]] bool stress_dependent_modulus() const {
-    return modulus_exponent != 0.0 && modulus_reference_stress.has_value();
+  // The models of the vocabulary's continuum slots (vocabulary.hpp), in its order, as read: the
+  // constitutive model (soil.continuum.model) with its parameter blocks (young, poisson,
+  // friction_angle, …: continuum/constitutive/, which owns their keys, defaults and meaning).
+  std::vector<ModelChoice> models;
+  [[nodiscard]] const ModelChoice* model(std::string_view key) const {
+    for (const auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
+  [[nodiscard]] ModelChoice* model(std::string_view key) {
+    for (auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
   }
   double density = 1700.0; // [kg/m³]
   double k0 = -1.0;        // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)

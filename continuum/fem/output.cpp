@@ -1,5 +1,5 @@
-// Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output.
-#include "fem_impl.hpp"
+// Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output (either integrator).
+#include "impl.hpp"
 
 #include <sstream>
 
@@ -56,7 +56,7 @@ Reaction Model::reaction(std::size_t patch) const {
   const Patch& p = m.pb.patches.at(patch);
   for (const auto& [i, cp] : m.patch_dofs.at(patch)) {
     if (!m.owned.is_element(i)) continue;
-    const double f = m.res(i);
+    const double f = m.im.res(i);
     if (cp.first == 0)
       r.fx += f;
     else
@@ -118,9 +118,8 @@ Reaction Model::soil_reaction(std::size_t region) const {
     fv.reinit(cell);
     m.cell_b(fv, cb);
     re = 0;
-    const mc::Parameters& P = m.mat[0];
     const double rho = m.rho[0];
-    const mc::Mat3 C = mc::elastic_tangent(P);
+    const constitutive::VoigtMatrix C = m.models[0].elastic_tangent();
     const std::size_t base = cell->active_cell_index() * m.nq();
     for (unsigned q = 0; q < m.nq(); ++q) {
       const QpState& st = m.committed[base + q];
@@ -275,7 +274,7 @@ std::vector<double> Model::soil_pressure(std::size_t region, double z0, double z
 Model::RegionMotion Model::region_motion(std::size_t region) const {
   Impl& m = *impl_;
   if (m.pb.regions.at(region).contact) { // unmeshed: its generalised coordinates (rest: zero)
-    for (const auto& b : m.ex.bodies)
+    for (const auto& b : m.ex.state.bodies)
       if (b.contact && b.region == region) return RegionMotion{b.q[0], b.q[1], b.q[2]};
     return RegionMotion{};
   }
@@ -326,10 +325,10 @@ double Model::elastic_energy() const {
                  update_values | update_gradients | update_quadrature_points | update_JxW_values);
   const unsigned n = m.fe.n_dofs_per_cell();
   dealii::Vector<double> lu(n), lv(n);
-  std::vector<mc::Vec3> eps;
+  std::vector<constitutive::Voigt> eps;
   Impl::CellB cb;
   double e = 0;
-  const bool lumped = m.is_explicit() && m.ex.ready;
+  const bool lumped = m.is_explicit() && m.ex.state.ready;
   for (const auto& cell : m.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     fv.reinit(cell);
@@ -338,7 +337,7 @@ double Model::elastic_energy() const {
     cell->get_dof_values(vg, lv);
     Impl::cell_strain(cb, lu, eps);
     const auto id = cell->material_id();
-    const mc::Mat3 C = mc::elastic_tangent(m.mat[id]);
+    const constitutive::VoigtMatrix C = m.models[id].elastic_tangent();
     for (unsigned q = 0; q < m.nq(); ++q) {
       const double w = fv.JxW(q);
       double vq[2] = {0, 0};
@@ -351,9 +350,10 @@ double Model::elastic_energy() const {
   }
   if (lumped) // the replicated nodal vectors: each rank adds its owned dofs
     for (const auto i : m.owned)
-      if (m.ex.kind[i] != 3) e += 0.5 * m.ex.mass[i] * m.ex.v[i] * m.ex.v[i];
+      if (m.ex.state.kind[i] != 3)
+        e += 0.5 * m.ex.state.mass[i] * m.ex.state.v[i] * m.ex.state.v[i];
   if (lumped) // moving contact bodies (unmeshed): ½ q̇ᵀ M_q q̇
-    for (const auto& b : m.ex.bodies)
+    for (const auto& b : m.ex.state.bodies)
       if (b.contact)
         for (int a = 0; a < 3; ++a)
           for (int c = 0; c < 3; ++c) e += 0.5 * b.qv[a] * b.M[a][c] * b.qv[c];
@@ -396,6 +396,7 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
     const auto c = cell->active_cell_index();
     double a = 0;
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    const constitutive::Material& model = m.model_of(c, cell->material_id());
     for (unsigned q = 0; q < m.nq(); ++q) {
       const QpState& s = m.committed[c * m.nq() + q];
       const double w = fv.JxW(q);
@@ -404,17 +405,13 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
       acc[1] += s.stress[1] * w;
       acc[2] += s.stress[2] * w;
       acc[3] += s.syy * w;
-      // equivalent plastic strain √(2/3 εp:εp)
-      const double e2 = s.eps_p[0] * s.eps_p[0] + s.eps_p[1] * s.eps_p[1] +
-                        s.eps_p[3] * s.eps_p[3] + 0.5 * s.eps_p[2] * s.eps_p[2];
-      acc[4] += std::sqrt(2.0 / 3.0 * e2) * w;
+      acc[4] += model.equivalent_plastic_strain(s) * w; // √(2/3 εp:εp)
       acc[5] += (grad[q][0][0] + grad[q][1][1]) * w;
       acc[6] += 0.5 * (grad[q][1][0] - grad[q][0][1]) * w;
       acc[7] += s.stiffness * w; // × the material's E below (stress-dependent modulus)
     }
     for (int k = 0; k < 7; ++k) cd[k][c] = float(acc[k] / a);
-    const mc::Parameters& P = m.iface_cell[c] ? m.iface_mat : m.mat[cell->material_id()];
-    cd[9][c] = float(P.young * acc[7] / a);
+    cd[9][c] = float(model.elasticity().hooke.young * acc[7] / a);
     // material: 0 soil, k structure k, n_regions + 1 the interface layer
     cd[7][c] = m.iface_cell[c] ? float(m.pb.regions.size() + 1) : float(cell->material_id());
     cd[8][c] = float(cell->subdomain_id());

@@ -1,5 +1,5 @@
 // Mohr–Coulomb return mapping: admissibility, consistency, flow direction, consistent tangent
-// (against central finite differences) in every return region.
+// (against central finite differences) in every return region; the dilatancy cut-off.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,25 +7,29 @@
 #include <random>
 #include <set>
 
-#include "constitutive.hpp"
-#include "mohr_coulomb.hpp"
+#include "constitutive/mohr_coulomb.hpp"
+#include "constitutive/registry.hpp"
 
-using namespace demfem::continuum::mc;
+using namespace demfem::continuum::constitutive;
+using namespace demfem::continuum::constitutive::mohr_coulomb;
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-Parameters soil(double tension = -1.0) {
-  Parameters p;
-  p.young = 2.0e7;
-  p.poisson = 0.3;
-  p.plastic = true;
+const Hooke kElastic{2.0e7, 0.3};
+
+Strength soil(double tension = -1.0) {
+  Strength p;
   p.friction = 30.0 * kPi / 180.0;
   p.cohesion = 1.0e4;
   p.dilation = 10.0 * kPi / 180.0;
   p.tension_cutoff = tension;
   return p;
+}
+
+Result integrate(const Strength& p, const ElasticStrain& trial) {
+  return mohr_coulomb::integrate(kElastic, p, trial);
 }
 
 // trial elastic strain from in-plane principal strains rotated by θ and the out-of-plane strain
@@ -48,19 +52,19 @@ void principal(const Result& r, double s[3]) {
 
 // admissible: on or inside the MC surface and the cut-off; consistent: re-integrating the
 // returned elastic strain is elastic and gives the same stress
-void check_admissible(const Parameters& p, const ElasticStrain& tr) {
+void check_admissible(const Strength& p, const ElasticStrain& tr) {
   const Result r = integrate(p, tr);
   double s[3];
   principal(r, s);
   const double scale = std::abs(s[0]) + std::abs(s[2]) + p.cohesion;
-  EXPECT_LE(mc_yield(p, s[0], s[2]), 1e-8 * scale);
+  EXPECT_LE(yield(p, s[0], s[2]), 1e-8 * scale);
   if (p.tension_cutoff >= 0) {
     EXPECT_LE(s[0], p.tension_cutoff + 1e-8 * scale);
   }
   if (r.region != Return::Elastic) {
     // on the surface: the main plane or the cut-off is active
     const double f =
-        std::max(mc_yield(p, s[0], s[2]), p.tension_cutoff >= 0 ? s[0] - p.tension_cutoff : -1e300);
+        std::max(yield(p, s[0], s[2]), p.tension_cutoff >= 0 ? s[0] - p.tension_cutoff : -1e300);
     EXPECT_NEAR(f, 0.0, 1e-8 * scale);
   }
   const Result again = integrate(p, r.elastic);
@@ -69,7 +73,7 @@ void check_admissible(const Parameters& p, const ElasticStrain& tr) {
 }
 
 // consistent tangent vs central differences of the integrated stress
-void check_tangent(const Parameters& p, const ElasticStrain& tr, Return expected) {
+void check_tangent(const Strength& p, const ElasticStrain& tr, Return expected) {
   const Result r = integrate(p, tr);
   ASSERT_EQ(r.region, expected);
   const double h = 1e-9;
@@ -93,22 +97,22 @@ void check_tangent(const Parameters& p, const ElasticStrain& tr, Return expected
 } // namespace
 
 TEST(MohrCoulomb, ElasticBelowYield) {
-  const Parameters p = soil();
+  const Strength p = soil();
   const ElasticStrain tr = trial(-1e-5, -2e-5, -1.5e-5, 0.3);
   const Result r = integrate(p, tr);
   EXPECT_EQ(r.region, Return::Elastic);
-  Vec3 s;
+  Voigt s;
   double syy;
-  elastic_stress(p, tr, s, syy);
+  elastic_stress(kElastic, tr, s, syy);
   for (int k = 0; k < 3; ++k) EXPECT_DOUBLE_EQ(r.stress[k], s[k]);
-  const Mat3 D = elastic_tangent(p);
+  const VoigtMatrix D = elastic_tangent(kElastic);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) EXPECT_NEAR(r.tangent[i][j], D[i][j], 1e-6 * D[0][0]);
   check_tangent(p, tr, Return::Elastic);
 }
 
 TEST(MohrCoulomb, MainPlaneReturnAndFlowDirection) {
-  const Parameters p = soil();
+  const Strength p = soil();
   const ElasticStrain tr = trial(2e-3, -3e-3, -0.5e-3, 0.4);
   const Result r = integrate(p, tr);
   ASSERT_EQ(r.region, Return::MainPlane);
@@ -129,7 +133,7 @@ TEST(MohrCoulomb, MainPlaneReturnAndFlowDirection) {
 }
 
 TEST(MohrCoulomb, EdgeReturns) {
-  const Parameters p = soil();
+  const Strength p = soil();
   // σ1 > σ2 ≈ σ3 (triaxial compression): the return lands on the σ2 = σ3 edge
   const ElasticStrain compression = trial(3e-3, -2e-3, -1.98e-3, 0.2);
   // σ1 ≈ σ2 > σ3 (triaxial extension): the σ1 = σ2 edge
@@ -149,7 +153,7 @@ TEST(MohrCoulomb, EdgeReturns) {
 }
 
 TEST(MohrCoulomb, ApexReturn) {
-  const Parameters p = soil();
+  const Strength p = soil();
   const ElasticStrain tr = trial(3e-3, 2e-3, 2.5e-3, 0.1);
   const Result r = integrate(p, tr);
   ASSERT_EQ(r.region, Return::Apex);
@@ -162,7 +166,7 @@ TEST(MohrCoulomb, ApexReturn) {
 }
 
 TEST(MohrCoulomb, TensionCutOff) {
-  const Parameters p = soil(5.0e3);
+  const Strength p = soil(5.0e3);
   const ElasticStrain tr = trial(1.0e-3, -0.2e-3, -0.1e-3, 0.5);
   const Result r = integrate(p, tr);
   EXPECT_TRUE(r.region == Return::Tension || r.region == Return::TensionMain) << int(r.region);
@@ -174,7 +178,7 @@ TEST(MohrCoulomb, TensionCutOff) {
 }
 
 TEST(MohrCoulomb, TrescaLimitWhenFrictionless) {
-  Parameters p = soil();
+  Strength p = soil();
   p.friction = 0.0;
   p.dilation = 0.0;
   const ElasticStrain tr = trial(3e-3, -3e-3, 0.0, 0.25);
@@ -190,7 +194,7 @@ TEST(MohrCoulomb, RandomTrialsAdmissibleInAllRegions) {
   std::uniform_real_distribution<double> u(-4e-3, 4e-3), ang(0.0, kPi);
   std::set<int> regions;
   for (const double t : {-1.0, 5.0e3}) {
-    const Parameters p = soil(t);
+    const Strength p = soil(t);
     for (int k = 0; k < 4000; ++k) {
       const ElasticStrain tr = trial(u(rng), u(rng), u(rng), ang(rng));
       regions.insert(int(integrate(p, tr).region));
@@ -203,26 +207,30 @@ TEST(MohrCoulomb, RandomTrialsAdmissibleInAllRegions) {
     EXPECT_TRUE(regions.count(int(r))) << "region never reached: " << int(r);
 }
 
-// Dilatancy cut-off (constitutive::Material, mohr_coulomb.hpp): drained simple shear at constant
-// σzz. Without the cut-off ψ = 10° dilates for ever (dε_v^p/dγ^p = sin ψ); with it the plastic
-// volumetric strain stops within one increment of the cut-off and shearing goes on at constant
-// volume, on the same Mohr–Coulomb strength.
+// Dilatancy cut-off (MohrCoulomb::update): drained simple shear at constant σzz. Without the
+// cut-off ψ = 10° dilates for ever (dε_v^p/dγ^p = sin ψ); with it the plastic volumetric strain
+// stops within one increment of the cut-off and shearing goes on at constant volume, on the same
+// Mohr–Coulomb strength.
 TEST(MohrCoulomb, DilatancyCutOffStopsDilation) {
-  namespace cst = demfem::continuum::constitutive;
   auto shear = [](double cutoff) {
-    Parameters p = soil();
-    p.cohesion = 0.0;
+    Elastic::Parameters e;
+    e.young = kElastic.young;
+    e.poisson = kElastic.poisson;
+    MohrCoulomb::Parameters p;
+    p.friction_angle = soil().friction;
+    p.dilation_angle = soil().dilation;
     p.dilation_cutoff = cutoff;
-    const auto m = cst::Material::from(p);
-    cst::State c;
+    const Material m{MohrCoulomb(e, p)};
+    State c = m.initial_state();
     const double s0 = -1.0e5; // isotropic compression [Pa]
-    c.ee = elastic_strain_from_stress(p, {{s0, s0, 0.0}}, s0);
-    elastic_stress(p, c.ee, c.stress, c.syy);
+    c.stress = {{s0, s0, 0.0}};
+    c.syy = s0;
+    m.set_stress(c);
     double max_step_dev = 0.0;
     for (int k = 0; k < 3000; ++k) { // γ to 0.3 in steps of 1e-4
-      Vec3 d{{0.0, 0.0, 1e-4}};
-      cst::State s;
-      Mat3 t{};
+      Voigt d{{0.0, 0.0, 1e-4}};
+      State s;
+      VoigtMatrix t{};
       for (int it = 0; it < 20; ++it) { // Δεzz such that σzz stays s0 (drained, free surface)
         m.update(c, d, s, &t);
         if (std::abs(s.stress[1] - s0) < 1e-6 * std::abs(s0)) break;
@@ -232,7 +240,9 @@ TEST(MohrCoulomb, DilatancyCutOffStopsDilation) {
       c = s;
     }
     EXPECT_LT(max_step_dev, 1e-3 * std::abs(s0));
-    return std::pair{cst::plastic_volumetric_strain(c), c.stress[2]};
+    return std::pair{
+        MohrCoulomb::plastic_volumetric_strain(std::get<MohrCoulomb::Internal>(c.internal)),
+        c.stress[2]};
   };
   const auto [ev_free, tau_free] = shear(std::numeric_limits<double>::infinity());
   const auto [ev_cut, tau_cut] = shear(0.01);

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "../fem.hpp"
+#include "fem.hpp"
 #include "demfem/continuum/run.hpp"
 #include "demfem/output/csv.hpp"
 #include "demfem/output/probe.hpp"

@@ -1,15 +1,18 @@
 #include "mohr_coulomb.hpp"
 
+#include "demfem/scene/params.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace demfem::continuum::mc {
+namespace demfem::continuum::constitutive {
+namespace mohr_coulomb {
 namespace {
 
 struct Spectral {
   double xa = 0.0, xb = 0.0; // in-plane eigenvalues (xa ≥ xb)
-  Vec3 Ea{}, Eb{};           // eigenprojections as tensor components (xx, zz, xz)
+  Voigt Ea{}, Eb{};          // eigenprojections as tensor components (xx, zz, xz)
 };
 
 // Eigen-decomposition of a symmetric 2×2 tensor given by tensor components (xx, zz, xz).
@@ -70,47 +73,23 @@ bool invert(int n, const double A[3][3], double Ainv[3][3]) {
 }
 
 struct Surface {
-  Vec3 a{}; // yield gradient in sorted principal space: Φ = a·σ − r
+  Voigt a{}; // yield gradient in sorted principal space: Φ = a·σ − r
   double r = 0.0;
-  Vec3 n{}; // flow direction (plastic potential gradient)
+  Voigt n{}; // flow direction (plastic potential gradient)
 };
 
 } // namespace
 
-void elastic_stress(const Parameters& p, const ElasticStrain& e, Vec3& stress, double& stress_yy) {
-  const double lam = p.lame(), G = p.shear_modulus();
-  const double tr = e.in_plane[0] + e.in_plane[1] + e.out_of_plane;
-  // Hooke's law σ = λ tr(ε) 1 + 2G ε (isotropic linear elasticity)
-  stress = {lam * tr + 2 * G * e.in_plane[0], lam * tr + 2 * G * e.in_plane[1], G * e.in_plane[2]};
-  stress_yy = lam * tr + 2 * G * e.out_of_plane;
-}
-
-ElasticStrain elastic_strain_from_stress(const Parameters& p, const Vec3& s, double syy) {
-  const double E = p.young, nu = p.poisson;
-  const double tr = s[0] + s[1] + syy;
-  // Inverse Hooke: ε = ((1+ν)σ − ν tr(σ) 1)/E
-  ElasticStrain e;
-  e.in_plane = {((1 + nu) * s[0] - nu * tr) / E, ((1 + nu) * s[1] - nu * tr) / E,
-                2.0 * (1 + nu) * s[2] / E};
-  e.out_of_plane = ((1 + nu) * syy - nu * tr) / E;
-  return e;
-}
-
-Mat3 elastic_tangent(const Parameters& p) {
-  const double lam = p.lame(), G = p.shear_modulus();
-  // Plane-strain Hooke matrix (Voigt, engineering shear)
-  return Mat3{{{lam + 2 * G, lam, 0.0}, {lam, lam + 2 * G, 0.0}, {0.0, 0.0, G}}};
-}
-
-double mc_yield(const Parameters& p, double s1, double s3) {
-  const double sp = std::sin(p.friction);
+double yield(const Strength& strength, double s1, double s3) {
+  const double sp = std::sin(strength.friction);
   // Φ = (σ1 − σ3) + (σ1 + σ3) sin φ − 2c cos φ (de Souza Neto et al. 2008, eq. 6.118)
-  return (s1 - s3) + (s1 + s3) * sp - 2.0 * p.cohesion * std::cos(p.friction);
+  return (s1 - s3) + (s1 + s3) * sp - 2.0 * strength.cohesion * std::cos(strength.friction);
 }
 
-Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_predictor) {
+Result integrate(const Hooke& e, const Strength& strength, const ElasticStrain& trial,
+                 bool plastic_predictor) {
   Result res;
-  const double lam = p.lame(), G = p.shear_modulus();
+  const double lam = e.lame(), G = e.shear_modulus();
   const Spectral sp = spectral(trial.in_plane[0], trial.in_plane[1], 0.5 * trial.in_plane[2]);
   const double x[3] = {sp.xa, sp.xb, trial.out_of_plane}; // principal elastic trial strains
   const double trx = x[0] + x[1] + x[2];
@@ -123,29 +102,32 @@ Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_p
   double s[3] = {st[perm[0]], st[perm[1]], st[perm[2]]};
 
   double dsdst[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}; // d σ_sorted / d σtrial_sorted
-  if (p.plastic) {
-    const double sphi = std::sin(p.friction), cphi = std::cos(p.friction);
-    const double spsi = std::sin(p.dilation);
-    const bool tension = p.tension_cutoff >= 0.0;
+  { // the return to the yield surfaces (Mohr–Coulomb planes, tension cut-off)
+    const double sphi = std::sin(strength.friction), cphi = std::cos(strength.friction);
+    const double spsi = std::sin(strength.dilation);
+    const bool tension = strength.tension_cutoff >= 0.0;
     // Surfaces in sorted principal space (tension positive):
     // 0: MC(1,3), 1: MC(2,3), 2: MC(1,2); 3..5: σ_k ≤ t (Rankine tension cut-off).
     Surface surf[6];
-    surf[0] = {{1 + sphi, 0, -(1 - sphi)}, 2 * p.cohesion * cphi, {1 + spsi, 0, -(1 - spsi)}};
-    surf[1] = {{0, 1 + sphi, -(1 - sphi)}, 2 * p.cohesion * cphi, {0, 1 + spsi, -(1 - spsi)}};
-    surf[2] = {{1 + sphi, -(1 - sphi), 0}, 2 * p.cohesion * cphi, {1 + spsi, -(1 - spsi), 0}};
+    surf[0] = {
+        {1 + sphi, 0, -(1 - sphi)}, 2 * strength.cohesion * cphi, {1 + spsi, 0, -(1 - spsi)}};
+    surf[1] = {
+        {0, 1 + sphi, -(1 - sphi)}, 2 * strength.cohesion * cphi, {0, 1 + spsi, -(1 - spsi)}};
+    surf[2] = {
+        {1 + sphi, -(1 - sphi), 0}, 2 * strength.cohesion * cphi, {1 + spsi, -(1 - spsi), 0}};
     for (int k = 0; k < 3; ++k) {
       surf[3 + k].a = {0, 0, 0};
       surf[3 + k].a[static_cast<std::size_t>(k)] = 1.0;
       surf[3 + k].n = surf[3 + k].a;
-      surf[3 + k].r = p.tension_cutoff;
+      surf[3 + k].r = strength.tension_cutoff;
     }
     const int nsurf = tension ? 6 : 3;
     auto phi = [&](int k, const double v[3]) {
       const Surface& f = surf[k];
       return f.a[0] * v[0] + f.a[1] * v[1] + f.a[2] * v[2] - f.r;
     };
-    const double scale = std::abs(s[0]) + std::abs(s[2]) + p.cohesion + 1e-300 +
-                         (tension ? std::abs(p.tension_cutoff) : 0.0);
+    const double scale = std::abs(s[0]) + std::abs(s[2]) + strength.cohesion + 1e-300 +
+                         (tension ? std::abs(strength.tension_cutoff) : 0.0);
     const double tol = 1e-10 * scale;
     bool yielded = phi(0, s) > tol;
     if (tension && phi(3, s) > tol) yielded = true;
@@ -248,7 +230,7 @@ Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_p
       if (!found && sphi > 1e-12) {
         // Apex return (perfect plasticity): σ = c cot φ · 1, dσ/dε = 0 (de Souza Neto et al.
         // 2008, Box 8.5); with ψ ≠ φ no non-negative combination of plane flows reaches it.
-        const double apex = p.cohesion * cphi / sphi;
+        const double apex = strength.cohesion * cphi / sphi;
         for (int i = 0; i < 3; ++i) {
           best_s[i] = apex;
           for (int j = 0; j < 3; ++j) best_d[i][j] = 0.0;
@@ -286,7 +268,7 @@ Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_p
   // elastic strain after the return: εe = D⁻¹σ in principal space
   const double try_ = y[0] + y[1] + y[2];
   double xe[3];
-  for (int i = 0; i < 3; ++i) xe[i] = ((1 + p.poisson) * y[i] - p.poisson * try_) / p.young;
+  for (int i = 0; i < 3; ++i) xe[i] = ((1 + e.poisson) * y[i] - e.poisson * try_) / e.young;
   res.elastic.in_plane = {xe[0] * sp.Ea[0] + xe[1] * sp.Eb[0], xe[0] * sp.Ea[1] + xe[1] * sp.Eb[1],
                           2.0 * (xe[0] * sp.Ea[2] + xe[1] * sp.Eb[2])};
   res.elastic.out_of_plane = xe[2];
@@ -297,7 +279,7 @@ Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_p
   const double coef = (std::abs(dx) > 1e-12 * (std::abs(x[0]) + std::abs(x[1]) + 1e-300))
                           ? (y[0] - y[1]) / dx
                           : dydx[0][0] - dydx[0][1];
-  const Vec3* E[2] = {&sp.Ea, &sp.Eb};
+  const Voigt* E[2] = {&sp.Ea, &sp.Eb};
   const double Is[3] = {1.0, 1.0, 0.5};
   for (int I = 0; I < 3; ++I)
     for (int J = 0; J < 3; ++J) {
@@ -311,4 +293,52 @@ Result integrate(const Parameters& p, const ElasticStrain& trial, bool plastic_p
   return res;
 }
 
-} // namespace demfem::continuum::mc
+} // namespace mohr_coulomb
+
+MohrCoulomb::MohrCoulomb(const Elastic::Parameters& elastic, const Parameters& p)
+    : el(elastic.elasticity()) {
+  strength.friction = p.friction_angle;
+  strength.cohesion = p.cohesion;
+  strength.dilation = p.dilation_angle;
+  strength.tension_cutoff = p.tension_cutoff > 0.0 ? p.tension_cutoff : -1.0;
+  strength_cut = strength;
+  strength_cut.dilation = 0.0;
+  if (!std::isnan(p.dilation_cutoff)) dilation_cutoff = p.dilation_cutoff;
+}
+
+void MohrCoulomb::Parameters::fields(scene::ParamVisitor& v) {
+  using scene::Field;
+  v.number({"friction_angle", "φ", "°", "Mohr–Coulomb friction angle", scene::Scale::none,
+            Field::Value::degrees},
+           friction_angle, scene::in_range(0.0, 89.0));
+  v.number({"cohesion", "c", "Pa", "Mohr–Coulomb cohesion"}, cohesion, scene::non_negative());
+  v.number({"dilation_angle", "ψ", "°", "dilatancy angle of the plastic flow (non-associated)",
+            scene::Scale::none, Field::Value::degrees},
+           dilation_angle, scene::in_range(0.0, 89.0));
+  v.number({"tension_cutoff", "t", "Pa",
+            "largest principal stress (tension positive) the soil carries; 0: none"},
+           tension_cutoff, scene::non_negative());
+  v.number({"dilation_cutoff", "ε_v,cut", "",
+            "plastic volumetric strain (dilation positive) after which a point flows with ψ = 0 "
+            "(PLAXIS's dilatancy cut-off); unset: none",
+            scene::Scale::none, Field::Value::optional},
+           dilation_cutoff, scene::in_range(0.0, 1.0));
+}
+
+void MohrCoulomb::Parameters::check(scene::ParamCheck& c) const {
+  if (dilation_angle > friction_angle)
+    c.error("dilation_angle", "dilation angle must not exceed the friction angle");
+}
+
+scene::ModelEntry MohrCoulomb::entry() {
+  return {keyword,
+          "elastic–perfectly plastic Mohr–Coulomb, non-associated flow, tension and dilatancy "
+          "cut-offs",
+          {scene::ParamBlock(Elastic::Parameters{}), scene::ParamBlock(Parameters{})}};
+}
+
+MohrCoulomb MohrCoulomb::from(const scene::ModelChoice& choice) {
+  return MohrCoulomb(choice.get<Elastic::Parameters>(), choice.get<Parameters>());
+}
+
+} // namespace demfem::continuum::constitutive

@@ -32,14 +32,16 @@
 #include <optional>
 #include <set>
 
+#include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/output/contract.hpp"
 #include "demfem/output/probe.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
 #include "fem.hpp"
+#include "hooks.hpp"
 #include "mesh_grading.hpp"
-#include "run/hooks.hpp"
 
 namespace demfem::continuum {
 namespace {
@@ -231,23 +233,13 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   pb.bbar = co.bbar;
 
   // ---- materials
-  pb.soil.young = soil.young;
-  pb.soil.poisson = soil.poisson;
-  pb.soil.plastic = soil.model == scene::ContinuumModel::MohrCoulomb;
-  pb.soil.friction = soil.friction_angle;
-  pb.soil.cohesion = soil.cohesion;
-  pb.soil.dilation = soil.dilation_angle;
-  if (soil.dilation_cutoff) pb.soil.dilation_cutoff = *soil.dilation_cutoff;
-  pb.soil.tension_cutoff = soil.tension_cutoff > 0.0 ? soil.tension_cutoff : -1.0;
+  // the soil's model, chosen by its keyword with its parameter blocks (constitutive/registry.hpp)
+  pb.soil = constitutive::Material::from(constitutive::soil_model(soil));
   pb.density = soil.density;
-  if (soil.stress_dependent_modulus()) {
-    // E = young (p/p_ref)^n (scene.hpp, constitutive.hpp), capped at the deepest geostatic
-    // in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with that factor)
-    auto& law = pb.soil_modulus;
-    law.exponent = soil.modulus_exponent;
-    law.reference_stress = *soil.modulus_reference_stress;
-    law.min_stress = soil.modulus_min_stress.value_or(0.01 * law.reference_stress);
-    const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky
+  if (pb.soil.stiffness_from_stress()) {
+    // E = young (p/p_ref)^n (scene.hpp, constitutive/elastic.hpp), capped at the deepest
+    // geostatic in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with it)
+    const double k0 = constitutive::soil_k0(soil);
     double zlo = 1e300, zhi = -1e300;
     for (const auto& p : domain) {
       zlo = std::min(zlo, p.z);
@@ -255,15 +247,14 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
     }
     const double p_max = soil.density * scene.load.gravity * std::max(zhi - zlo, 0.0) * 0.5 *
                          (1.0 + std::max(k0, 1.0));
-    law.max_factor = std::pow(std::max(p_max, law.min_stress) / law.reference_stress, law.exponent);
+    pb.soil.cap_stiffness_at(p_max);
   }
   for (const auto& s : scene.structures) {
     fem::Region r;
     r.name = s.name;
     for (const auto& p : s.outline) r.outline.push_back({p.x, p.z});
-    r.material.young = 1000.0 * soil.young; // "very stiff" elastic body
+    r.material.young = 1000.0 * pb.soil.elasticity().hooke.young; // "very stiff" elastic body
     r.material.poisson = 0.2;
-    r.material.plastic = false;
     const double area = std::abs(scene::signed_area(s.outline));
     r.density = s.mass > 0.0 && area > 0.0 ? s.mass / area : s.density;
     r.force_x = s.force_x;
@@ -382,7 +373,8 @@ scene::ContinuumStepLimit step_limit(const Setup& su, const scene::Scene& scene)
   lim.formula = fmt::format(
       "explicit_safety {} × 2/ω_max, ω_max bounded by the largest element eigenvalue (Irons "
       "1970) of the refinement-{} Q{} mesh, E = {:.4g} Pa, ν = {:.3g}, ρ = {:.4g} kg/m³{}",
-      pb.explicit_safety, pb.mesh.refinement, pb.degree, pb.soil.young, pb.soil.poisson, pb.density,
+      pb.explicit_safety, pb.mesh.refinement, pb.degree, pb.soil.elasticity().hooke.young,
+      pb.soil.elasticity().hooke.poisson, pb.density,
       scene.soil.continuum && scene.soil.continuum->calibrate_dem ? " (calibrated)" : "");
   return lim;
 }

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include "constitutive/soil.hpp"
 #include "hooks.hpp"
 
 namespace demfem::continuum::run_detail {
@@ -47,7 +48,7 @@ std::string initialise(fem::Model& m, const scene::Scene& scene, const fem::Prob
                        CheckedStream& log, bool root, RunSummary& summary,
                        std::chrono::steady_clock::time_point t_start) {
   const scene::ContinuumSoil& soil = *scene.soil.continuum;
-  const double k0 = soil.k0 >= 0.0 ? soil.k0 : 1.0 - std::sin(soil.friction_angle); // Jaky (1944)
+  const double k0 = constitutive::soil_k0(soil);
   const fem::StepStats g = m.initialise_gravity(true, k0, scene.continuum.load_steps);
   if (!g.converged) return "gravity initialisation did not converge\n" + m.log();
   summary.setup_newton_iterations = g.newton_iterations;

@@ -1,6 +1,6 @@
 // Internal interface of the deal.II/PETSc plane-strain solver. No deal.II type appears here and
-// the header is C++17/C++20-neutral: fem.cpp compiles with deal.II's flags (C++17), run.cpp and
-// the tests with the project's (C++20).
+// the header is C++17/C++20-neutral: the solver (fem/*.cpp) compiles with deal.II's flags (C++17),
+// run.cpp and the tests with the project's (C++20).
 //
 // Coordinates: x horizontal, z vertical (up); deal.II's point[0] = x, point[1] = z.
 // Stresses are tension-positive (continuum convention); soil compression is negative.
@@ -12,9 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "constitutive.hpp"
+#include "constitutive/registry.hpp"
 #include "demfem/scene/time_function.hpp"
-#include "mohr_coulomb.hpp"
 
 namespace demfem::continuum::fem {
 
@@ -47,8 +46,8 @@ void ensure_mpi();
 // A region of the mesh with its own material (structures as very stiff elastic bodies).
 struct Region {
   std::string name;
-  std::vector<Point> outline; // cells whose centre lies inside get this material
-  mc::Parameters material;    // elastic
+  std::vector<Point> outline;   // cells whose centre lies inside get this material
+  constitutive::Hooke material; // elastic constants
   double density = 2400.0;
   // external loads on the region (body-force distribution with the given resultant and moment)
   scene::TimeFunction force_x, force_z, moment;
@@ -73,7 +72,7 @@ struct Region {
   // own nodes on those faces (no shared nodes); soil_reaction and soil_pressure come from the
   // contact forces. Explicit integrator. With a mode not Fixed it is a moving rigid body (mass and
   // polar moment from the outline × density, dead weight, its loads and modes as a tied body's)
-  // whose faces move with it: the contact is solved with its motion (explicit_contact_body).
+  // whose faces move with it: the contact is solved with its motion (Explicit::contact_body).
   bool contact = false;
 };
 
@@ -153,11 +152,10 @@ struct Problem {
   // B-bar (Hughes 1980): volumetric strain projected onto P(degree − 1) per cell, so that
   // isochoric plastic flow (φ = ψ = 0) and near-incompressible soil do not lock
   bool bbar = true;
-  mc::Parameters soil;
-  // Stress-dependent modulus of the soil (constitutive.hpp): each soil point's E is
-  // soil.young × factor(p) of its in-plane mean stress after the initial-stress procedure
-  // (initialise_gravity: the K0 stresses, and again after seating); exponent 0: uniform E.
-  constitutive::StressDependentModulus soil_modulus;
+  // The soil's constitutive model (constitutive/registry.hpp). With a stress-dependent modulus
+  // each soil point's E is fixed from its in-plane mean stress after the initial-stress procedure
+  // (initialise_gravity: the K0 stresses, and again after seating).
+  constitutive::Material soil;
   double density = 1700.0;
   std::vector<Region> regions; // material id k+1
   // Soil–structure interface. < 0: tied (the soil next to a structure is ordinary soil). ≥ 0:

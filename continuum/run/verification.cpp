@@ -42,9 +42,7 @@ FlamantResult flamant_strip_load(int refinement, int degree) {
   std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end()); // fine at the top
   pb.mesh.refinement = refinement;
   pb.degree = degree;
-  pb.soil.young = E;
-  pb.soil.poisson = nu;
-  pb.soil.plastic = false;
+  pb.soil = constitutive::Material(constitutive::Elastic(constitutive::Hooke{E, nu}));
   pb.gravity = 0.0;
   pb.left = fem::Bc::Roller; // symmetry plane x = 0
   pb.tractions.push_back({{0.0, 0.0}, {b, 0.0}, q});
