@@ -274,8 +274,10 @@ Estimates estimate(const Scene& sc) {
       e.snapshots = std::floor(duration / sc.output.interval) + 1.0;
       e.output_bytes = e.snapshots * n * kSnapshotBytesPerParticle;
     }
-    if (sc.output.probe_interval > 0.0)
-      e.output_bytes += (duration / sc.output.probe_interval) * 25.0 * 12.0; // ~12 columns a row
+    if (sc.output.probe_interval > 0.0) {
+      e.series_bytes = (duration / sc.output.probe_interval) * 25.0 * 12.0; // ~12 columns a row
+      e.output_bytes += e.series_bytes;
+    }
   }
   return e;
 }
@@ -384,8 +386,11 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
 
+  // ---- memory: the continuum mesh and the particles against the machine's available memory
+  const bool mesh_fits = validate_memory(sc, root, file, diags);
+
   // ---- continuum: an explicit step above the stable step (the run refuses the same; issue 10)
-  if (g_continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
+  if (mesh_fits && g_continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
       sc.continuum.integrator == "explicit" && sc.continuum.dt > 0.0)
     if (const auto lim = g_continuum_step_limit(sc); lim && sc.continuum.dt > lim->dt)
       add(locate(root, {"continuum", "dt"}), "continuum.dt",
@@ -420,6 +425,7 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
   }
+  validate_container(sc, root, file, diags); // walls and structures hold the fill
 
   // ---- explicit particles ----------------------------------------------------------------------
   for (std::size_t i = 0; i < d.particles.size(); ++i) {
@@ -493,7 +499,16 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                         std::max(1.0, e.memory_bytes / kBytesPerParticle) / 1e7 / 86400.0,
                     dt_given ? " or raise soil.dem.dt" : ""));
   }
-  if (!too_long && e.output_bytes > kMaxOutputBytes)
+  if (!too_long && e.output_bytes > kMaxOutputBytes && e.series_bytes > e.output_bytes / 2.0)
+    add(root["output"]["probe_interval"].node() ? locate(root, {"output", "probe_interval"})
+                                                : locate(root, {"scene", "duration"}),
+        "output.probe_interval",
+        fmt::format("time series every {} s over {:.6g} s ({:.4g} rows per file) would write "
+                    "about {}; the ceiling is {}; raise output.probe_interval",
+                    sc.output.probe_interval, sc.info.duration,
+                    sc.info.duration / sc.output.probe_interval, human_bytes(e.output_bytes),
+                    human_bytes(kMaxOutputBytes)));
+  else if (!too_long && e.output_bytes > kMaxOutputBytes)
     add(root["output"]["interval"].node() ? locate(root, {"output", "interval"})
                                           : locate(root, {"scene", "duration"}),
         "output.interval",
