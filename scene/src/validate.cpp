@@ -143,6 +143,9 @@ bool touches_or_overlaps(const std::vector<Vec2>& a, bool a_closed, const Polygo
     if (inside_closed(p, q, tol)) return true;
   for (const auto& q : p)
     if (a_closed && a.size() >= 3 && inside_closed(a, q, tol)) return true;
+  for (std::size_t i = 0; !a_closed && i + 1 < a.size(); ++i) // a corner of p on the polyline
+    for (const auto& q : p)
+      if (segment_distance(q, a[i], a[i + 1]) <= tol) return true;
   const std::size_t na = a_closed ? a.size() : (a.empty() ? 0 : a.size() - 1);
   for (std::size_t i = 0; i < na; ++i)
     for (std::size_t j = 0; j < p.size(); ++j)
