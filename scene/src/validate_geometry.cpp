@@ -10,8 +10,9 @@
 // rises again) or on a level one; if it falls past every boundary it is lost. An edge whose
 // particles are lost is an error: the run would drain (a whole side open to nothing). An open
 // edge whose particles land somewhere is accepted (a landslide's open front, cases/slope_ontake).
-// Wall corners outside the domain are warnings: the domain is what the continuum meshes and the
-// profiles span, but a wall reaching beyond it can be deliberate.
+// Walls that open later (opens_at, open-wall events) count as closed: that opening is planned.
+// Wall corners outside the domain (other than above it) are warnings: the domain is what the
+// continuum meshes and the profiles span, but a wall reaching beyond it can be deliberate.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -35,7 +36,7 @@ struct Segment {
 struct Trace {
   bool lost = false;
   std::string via; // the boundary it last slid on, when any
-  Vec2 end;        // where it fell past every boundary
+  Vec2 end;        // where it left that boundary (or was released, when none)
 };
 
 double dist(Vec2 q, const Segment& s) {
@@ -72,7 +73,7 @@ Trace follow(const std::vector<Segment>& segs, Vec2 p, double gap, double tol) {
     const Segment* s = first_below(segs, p, skip, tol, hz);
     if (!s) {
       t.lost = true;
-      t.end = p;
+      if (t.via.empty()) t.end = p;
       return t;
     }
     // slide down s (and down what continues it) to where it stops or leaves the boundaries
@@ -96,6 +97,7 @@ Trace follow(const std::vector<Segment>& segs, Vec2 p, double gap, double tol) {
         if (std::min(o.a.z, o.b.z) < lo.z - tol) next = &o; // it goes on down along o
       }
       if (!next) { // a free lower end: it falls from there
+        t.end = lo;
         p = {lo.x + dir * gap, lo.z};
         skip = s;
         break;
@@ -114,12 +116,24 @@ void validate_container(const Scene& sc, const toml::table& root, const std::str
   const double size = std::hypot(db.x1 - db.x0, db.z1 - db.z0);
   const double tol = 1e-6 * size;
 
-  // ---- wall corners outside the domain: warnings
+  // ---- wall corners outside the domain, other than above it (side walls taller than the
+  // domain are common and harmless): warnings
+  auto above_the_domain = [&](Vec2 q) {
+    double top = -std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < sc.domain.size(); ++i) {
+      const Vec2 a = sc.domain[i], b = sc.domain[(i + 1) % sc.domain.size()];
+      if (q.x < std::min(a.x, b.x) - tol || q.x > std::max(a.x, b.x) + tol) continue;
+      top =
+          std::max(top, std::abs(b.x - a.x) <= tol ? std::max(a.z, b.z)
+                                                   : a.z + (b.z - a.z) * (q.x - a.x) / (b.x - a.x));
+    }
+    return std::isfinite(top) && q.z > top;
+  };
   for (std::size_t w = 0; w < sc.walls.size(); ++w) {
     const auto& pts = sc.walls[w].points;
     for (std::size_t k = 0; k < pts.size(); ++k) {
       const Vec2 q = pts[k];
-      if (contains(sc.domain, q)) continue;
+      if (contains(sc.domain, q) || above_the_domain(q)) continue;
       double d = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < sc.domain.size(); ++i)
         d = std::min(d, segment_distance(q, sc.domain[i], sc.domain[(i + 1) % sc.domain.size()]));
@@ -173,7 +187,9 @@ void validate_container(const Scene& sc, const toml::table& root, const std::str
     if (!(len > tol)) continue;
     const Vec2 n{(b.z - a.z) / len, -(b.x - a.x) / len}; // outward (counter-clockwise fill)
     if (n.z > 0.5) continue; // faces upwards: the packing leaves it open too
-    const int samples = static_cast<int>(std::clamp(std::ceil(len / r_min), 8.0, 2000.0));
+    // about one sample per smallest radius, at most 20,000 over the whole fill
+    const double most = std::max(8.0, std::floor(20000.0 / static_cast<double>(fill.size())));
+    const int samples = static_cast<int>(std::clamp(std::ceil(len / r_min), 8.0, most));
     std::optional<double> lost_from;
     double lost_to = 0.0;
     Trace first;

@@ -166,6 +166,10 @@ refinement = 2
 TEST(Container, ClosedBoxAccepted) {
   const auto f = parse_scene(kBox, "test.toml");
   EXPECT_TRUE(f.warnings.empty());
+  // a side wall taller than the domain: no warning (the open top is open anyway)
+  const auto tall = parse_scene(
+      replaced(kBox, "points = [[8, 0], [8, 5.6]]", "points = [[8, 0], [8, 7]]"), "test.toml");
+  EXPECT_TRUE(tall.warnings.empty()) << tall.warnings.front().format();
 }
 
 // A side without a wall: what leaves through it falls out of the scene.
