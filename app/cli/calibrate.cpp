@@ -107,7 +107,7 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
        sub.add_flag("!--no-cyclic", ca->cyclic, "Skip the cyclic tests (G/G0, damping)");
        sub.add_flag("--force", ca->force, "Recompute even when the calibration is cached");
        sub.add_option("--seed", ra->seed, "Packing seed (scene.seed) instead of the file's")
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::Range(0LL, 2147483647LL)); // scene.seed's range
        return [ra, ca] { return cmd_calibrate(*ra, *ca); };
      }});
 

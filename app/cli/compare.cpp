@@ -18,6 +18,7 @@
 #include "run_dir.hpp"
 #include "scenes.hpp"
 #include "solver.hpp"
+#include "thread_cap.hpp"
 
 namespace fs = std::filesystem;
 
@@ -199,15 +200,17 @@ int compare_ensemble(const RunArgs& a) {
                     "Run nothing: rewrite report.html and metrics.json from the run directory");
        sub.add_option("--threads", ra->threads, "DEM OpenMP threads (0 = all cores)")
            ->default_val(1)
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::NonNegativeNumber)
+           ->transform(threads_capped_at_cores());
        sub.add_option("--refinement", ra->refinement, "Continuum: refinement level");
        sub.add_option("--degree", ra->degree, "Continuum: polynomial degree");
        sub.add_option("--seed", ra->seed, "Packing seed (scene.seed) instead of the file's")
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::Range(0LL, 2147483647LL)); // scene.seed's range
        sub.add_option("--seeds", ra->seeds,
                       "Seed ensemble: one comparison per packing seed into <out>/seed-N, then "
                       "ensemble.html and ensemble.json (e.g. --seeds 41,101,202)")
-           ->delimiter(',');
+           ->delimiter(',')
+           ->check(CLI::Range(0LL, 2147483647LL));
        return [ra] { return cmd_compare(*ra); };
      }});
 

@@ -80,7 +80,7 @@ int cmd_pack(const RunArgs& a) {
                       "Run directory (default runs/<scene>[/<variant>]); the "
                       "packing goes to packing.cache or <out>/packing");
        sub.add_option("--seed", ra->seed, "Packing seed (scene.seed) instead of the file's")
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::Range(0LL, 2147483647LL)); // scene.seed's range
        sub.add_flag("--target-not-met-ok", ra->target_not_met_ok,
                     "Exit 0 when a porosity target is not met (the packing nearest to it is "
                     "kept, and a run uses it and says so; run --jobs prepares packings this way)");

@@ -12,6 +12,7 @@
 #include "run_jobs.hpp"
 #include "scenes.hpp"
 #include "solver.hpp"
+#include "thread_cap.hpp"
 
 namespace fs = std::filesystem;
 
@@ -97,12 +98,13 @@ int cmd_run(const RunArgs& a) {
        sub.add_option("--seed", ra->seed,
                       "Packing seed (scene.seed) instead of the file's; default directory gains "
                       "seed-N")
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::Range(0LL, 2147483647LL)); // scene.seed's range
        sub.add_option(
               "--threads", ra->threads,
               "DEM OpenMP threads (0 = all cores; results are bit-reproducible for a given count)")
            ->default_val(1)
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::NonNegativeNumber)
+           ->transform(threads_capped_at_cores());
        sub.add_option("--jobs", ra->jobs,
                       "With several variants: run N of them at once, as separate processes "
                       "(shared packings and calibrations are made first, once each, and a run "

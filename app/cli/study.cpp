@@ -19,6 +19,7 @@
 #include "log.hpp"
 #include "progress.hpp"
 #include "scenes.hpp"
+#include "thread_cap.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "continuum_module.hpp"
 #include "demfem/studies/stability_continuum.hpp"
@@ -336,7 +337,8 @@ struct StudyArgs {
                     "parameters change (default: such rows are skipped unless their packing is "
                     "cached)");
        sub.add_option("--threads", st->ra.threads, "stability: DEM OpenMP threads (0 = all cores)")
-           ->check(CLI::NonNegativeNumber);
+           ->check(CLI::NonNegativeNumber)
+           ->transform(threads_capped_at_cores());
        sub.add_option("--jobs", st->ea.jobs, "error-vs-time: runs at once (separate processes)")
            ->default_val(1)
            ->check(CLI::Range(1, 256));

@@ -14,7 +14,9 @@ namespace demfem::app {
 scene::SceneFile load_or_report(const std::string& path, int& rc) {
   try {
     rc = kOk;
-    return scene::load_scene_file(path, vocabulary());
+    auto f = scene::load_scene_file(path, vocabulary());
+    for (const auto& w : f.warnings) fmt::print(stderr, "{}\n", w.format()); // accepted, but…
+    return f;
   } catch (const scene::SceneError& e) {
     fmt::print(stderr, "{}\n", e.what());
     fmt::print(stderr, "demfem: {} problem(s) in {}\n", e.diagnostics().size(), path);

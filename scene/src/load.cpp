@@ -16,6 +16,7 @@
 #include <fmt/ranges.h>
 #include <toml++/toml.h>
 
+#include "demfem/scene/names.hpp"
 #include "demfem/scene/particles_file.hpp"
 #include "demfem/scene/probe_spec.hpp"
 #include "demfem/scene/reader.hpp"
@@ -26,8 +27,9 @@ namespace demfem::scene {
 std::string Diagnostic::format() const {
   std::string where = file;
   if (line > 0) where += fmt::format(":{}:{}", line, column);
-  if (key.empty()) return fmt::format("{}: error: {}", where, message);
-  return fmt::format("{}: error: {}: {}", where, key, message);
+  const char* what = warning ? "warning" : "error";
+  if (key.empty()) return fmt::format("{}: {}: {}", where, what, message);
+  return fmt::format("{}: {}: {}: {}", where, what, key, message);
 }
 
 namespace {
@@ -330,7 +332,16 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
                           *pf, path.string()));
     } else {
       s.particles_file = std::filesystem::absolute(path, ec).lexically_normal().string();
+      const std::size_t before = r.diags().size();
       s.particles = read_particles_file(path, r.key_path("particles_file"), r.diags());
+      if (const std::size_t n = r.diags().size() - before; n > 0) {
+        // where the scene names the file, before the file's own problems
+        r.error("particles_file", fmt::format("the particle file '{}' is refused ({} problem(s) "
+                                              "in it, listed next)",
+                                              *pf, n));
+        std::rotate(r.diags().begin() + static_cast<std::ptrdiff_t>(before),
+                    std::prev(r.diags().end()), r.diags().end());
+      }
       if (r.has("count") && !s.particles.empty() &&
           static_cast<std::size_t>(s.count) != s.particles.size())
         r.error("count", fmt::format("count = {} but {} holds {} particles; give count = {} or "
@@ -525,6 +536,7 @@ Wall read_wall(Reader& r) {
   Wall w;
   w.name = r.string("name", "");
   if (w.name.empty()) r.error_here("every [[wall]] needs a 'name'");
+  if (const auto why = part_name_problem(w.name)) r.error("name", *why);
   w.points = r.points("points", 2);
   if (!r.has("points")) r.error_here("missing required key 'points' (a polyline [[x, z], …])");
   w.mu_static = friction_opt(r, "mu_static");
@@ -539,6 +551,7 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
   Structure s;
   s.name = r.string("name", "");
   if (s.name.empty()) r.error_here("every [[structure]] needs a 'name'");
+  if (const auto why = part_name_problem(s.name)) r.error("name", *why);
   s.kind = read_enum(r, "kind", kStructureKindNames, s.kind);
   const std::string shape = r.string("shape", "rectangle");
   std::vector<std::string> valid{"name", "kind", "shape"};
@@ -710,7 +723,10 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
   if (const auto* t = top.table("scene")) {
     Reader r(*t, "scene", file, diags, t->source());
     sc.info.name = r.string("name", "");
-    if (sc.info.name.empty()) r.error_here("missing required key 'name'");
+    if (sc.info.name.empty())
+      r.error_here("missing required key 'name'");
+    else if (const auto why = name_problem(sc.info.name))
+      r.error("name", *why);
     sc.info.description = r.string("description", "");
     sc.info.duration = r.positive("duration", sc.info.duration, true);
     sc.info.seed = static_cast<unsigned long>(r.integer("seed", 1, 0, 2147483647));
@@ -772,8 +788,9 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
       for (std::size_t i = 0; i < a->size(); ++i) {
         const auto& tbl = *(*a)[i].as_table();
         const auto nm = tbl["name"].value<std::string>();
-        Reader r(tbl, nm ? fmt::format("{}[{}]", key, *nm) : fmt::format("{}[{}]", key, i), file,
-                 diags, tbl.source());
+        Reader r(tbl,
+                 nm ? fmt::format("{}[{}]", key, printable(*nm)) : fmt::format("{}[{}]", key, i),
+                 file, diags, tbl.source());
         fn(r);
       }
     }
@@ -1056,10 +1073,17 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name,
         const int vline = static_cast<int>(vt.source().begin.line);
         const int vcol = static_cast<int>(vt.source().begin.column);
         const auto name = vt["name"].value<std::string>();
-        const std::string label = name ? *name : fmt::format("#{}", i + 1);
+        const std::string label = name ? printable(*name) : fmt::format("#{}", i + 1);
         if (!name || name->empty()) {
           diags.push_back({source_name, vline, vcol, fmt::format("variant[{}]", i),
                            "every [[variant]] needs a non-empty 'name'"});
+          continue;
+        }
+        if (const auto why = name_problem(*name)) { // it names a run directory: a name, no path
+          const auto& src = vt.get("name")->source();
+          diags.push_back({source_name, static_cast<int>(src.begin.line),
+                           static_cast<int>(src.begin.column), fmt::format("variant[{}].name", i),
+                           *why});
           continue;
         }
         if (!seen.insert(*name).second)
@@ -1113,6 +1137,10 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name,
     }
   }
   dedupe(diags);
+  const auto warn = std::stable_partition(diags.begin(), diags.end(),
+                                          [](const Diagnostic& d) { return !d.warning; });
+  out.warnings.assign(std::make_move_iterator(warn), std::make_move_iterator(diags.end()));
+  diags.erase(warn, diags.end());
   if (!diags.empty()) throw SceneError(std::move(diags));
   return out;
 }

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <string>
 #include <tuple>
 
@@ -24,6 +25,9 @@
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
+
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 using namespace demfem;
 
@@ -727,6 +731,31 @@ TEST(DemResume, PackingKeepsContactHistory) {
   };
   const double with = first_step_shear(true), without = first_step_shear(false);
   EXPECT_GT(with, 10.0 * without) << with << " vs " << without;
+}
+
+// A packing cache that cannot be read (here: cut short) is deposited again, and the log says so:
+// the rebuild (minutes on a large bed) is never silent.
+TEST(DemResume, CorruptPackingCacheIsRebuiltWithALogLine) {
+  auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/retaining_wall.toml",
+                                  demfem::app::vocabulary());
+  auto s = f.base;
+  s.soil.dem->packing.cache.clear();
+  s.soil.dem->count = 150;
+  const auto dir = scratch("pack-corrupt");
+  const auto a = dem::pack_or_load(s, dir);
+  ASSERT_FALSE(a.from_cache);
+  const auto size = std::filesystem::file_size(a.path);
+  std::filesystem::resize_file(a.path, size / 2);
+  std::ostringstream log;
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(log);
+  spdlog::default_logger()->sinks().push_back(sink);
+  const auto b = dem::pack_or_load(s, dir);
+  spdlog::default_logger()->sinks().pop_back();
+  EXPECT_FALSE(b.from_cache);
+  EXPECT_EQ(a.particles.x, b.particles.x); // deposited again, the same bed
+  EXPECT_NE(log.str().find("cannot be read"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find(a.path.string()), std::string::npos) << log.str();
+  EXPECT_GT(std::filesystem::file_size(b.path), size / 2); // replaced whole
 }
 
 // The blocked, vectorised pair loop of cundall-rebound (pair_kernel.hpp) computes what the one-pass

@@ -72,6 +72,10 @@ points = [[0, 0], [10, 0]]
 name = "left"
 points = [[0, 5], [0, 0]]
 
+[[wall]]
+name = "right"
+points = [[10, 0], [10, 5]]
+
 [[structure]]
 name = "footing"
 shape = "rectangle"

@@ -58,6 +58,14 @@ set = { "load.shaking.amplitude" = 8.0 }
 [[variant]]
 name = "rough"
 set = { "soil.dem.mu_static" = 1.0, "soil.dem.mu_dynamic" = 0.5 }
+
+[[wall]]
+name = "base"
+points = [[0, 0], [8, 0]]
+
+[[wall]]
+name = "left"
+points = [[0, 5.6], [0, 0]]
 )";
 
 // Replace the first occurrence of `from` with `to` in the valid scene.
