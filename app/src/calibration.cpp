@@ -4,6 +4,7 @@
 
 #include "demfem/calibrate/calibrate.hpp"
 #include "progress.hpp"
+#include "signals.hpp"
 
 namespace fs = std::filesystem;
 
@@ -31,7 +32,8 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
     }
   }
   ProgressReporter reporter;
-  o.progress = [&](const scene::Progress& p) { reporter(p); };
+  o.progress = stoppable([&](const scene::Progress& p) { reporter(p); }); // no checkpoint
+
   const auto c = calibrate::load_or_calibrate(s, o);
   reporter.finish();
   const auto files = calibrate::write_calibration(c, o.out_dir, figures || !c.from_cache);

@@ -250,6 +250,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   const SplitOptions so = split_options(options.scene, t_end);
   nlohmann::json metrics = nlohmann::json::object();
   metrics["run_dir"] = run_dir.string();
+  if (!options.incomplete.empty()) metrics["incomplete"] = options.incomplete;
   metrics["divergence_threshold"] = thr;
   metrics["split"] = {{"load_start_s", so.load_start},
                       {"moving_average_window_s", so.window},
@@ -577,6 +578,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
        "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
   h += "<!--report-body-->\n";
   h += "<h1>" + html_escape(options.title) + "</h1>\n";
+  for (const auto& i : options.incomplete)
+    h += "<p class=\"note incomplete\"><b>Incomplete:</b> " + html_escape(i) + "</p>\n";
   for (const auto& note : options.notes) h += "<p class=\"note\">" + html_escape(note) + "</p>\n";
   for (const auto& w : set.warnings) h += "<p class=\"note\">" + html_escape(w) + "</p>\n";
   h += fmt::format("<p>Run directory: <code>{}</code>. Quantities compared: {} (each once; "
