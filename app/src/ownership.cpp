@@ -6,10 +6,12 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <string_view>
+#include <thread>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -85,15 +87,42 @@ bool older_demfem_run(const fs::path& dir) {
           (fs::is_directory(dir / "dem", ec) || fs::is_directory(dir / "continuum", ec)));
 }
 
+// The lock file's text: "<pid>\n" while its holder checks the folder, "<pid> ready\n" once it has
+// taken it (Ownership::commit), "" after a clean release.
+std::string lock_text(int fd) {
+  char buf[64] = {};
+  const ::ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
+  return n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string();
+}
+
 // The PID written into a held lock file, or "" when it cannot be read.
 std::string holder_pid(int fd) {
-  char buf[32] = {};
-  const ::ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
-  if (n <= 0) return {};
-  std::string s(buf, static_cast<std::size_t>(n));
-  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  std::string s = lock_text(fd);
+  s = s.substr(0, s.find_first_of(" \n"));
   if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos) return {};
   return s;
+}
+
+// An MPI rank > 0: waits until another process (the first rank) holds the folder's lock and has
+// taken the folder (checked it, cleared what it clears, written the manifest), so that nothing
+// this rank writes precedes that. When the first rank refuses the folder it exits, and the
+// launcher ends this rank.
+int wait_for_first_rank(const fs::path& dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::minutes(10)) {
+    const int fd = ::open(lock_file(dir).c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd >= 0) {
+      const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+      const bool ready = lock_text(fd).find(" ready") != std::string::npos;
+      ::close(fd);
+      if (held && ready) return kOk;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  fmt::print(stderr,
+             "demfem: MPI rank {}: the first rank did not take the folder {} in 10 minutes\n",
+             studies::study_rank(), dir.string());
+  return kRunFailed;
 }
 
 } // namespace
@@ -138,6 +167,12 @@ void Ownership::commit() {
   std::string text(kManifestHeader);
   for (const auto& n : manifest_) text += n + "\n";
   scene::write_file_atomic(manifest_file(dir_), text);
+  // "ready": the other ranks of an MPI launch wait for it (take_ownership)
+  const std::string ready = fmt::format("{} ready\n", ::getpid());
+  if (::ftruncate(fd_, 0) != 0 ||
+      ::pwrite(fd_, ready.data(), ready.size(), 0) != static_cast<::ssize_t>(ready.size()))
+    throw scene::WriteError(
+        fmt::format("cannot write {}: {}", lock_file(dir_).string(), std::strerror(errno)));
 }
 
 bool Ownership::lists(const std::string& name) const {
@@ -170,7 +205,7 @@ int take_ownership(const fs::path& dir, const OwnRequest& req, Ownership& own) {
   own = Ownership{};
   own.dir_ = dir;
   // Under an MPI launcher every rank runs the command: the first takes the folder for all.
-  if (studies::study_rank() != 0) return kOk;
+  if (studies::study_rank() != 0) return wait_for_first_rank(dir);
   const std::string q = compare::shell_quote(dir.string());
   std::error_code ec;
   if (!fs::exists(dir, ec)) {

@@ -45,8 +45,9 @@ public:
   [[nodiscard]] const std::set<std::string>& manifest() const { return manifest_; }
   // True when the manifest lists `name` (an entry ending in '*' lists every name it begins).
   [[nodiscard]] bool lists(const std::string& name) const;
-  // Writes the marker and the manifest (before any of the entries it lists is written). Throws
-  // scene::WriteError naming the file.
+  // Writes the marker and the manifest (before any of the entries it lists is written) and marks
+  // the folder taken (the other ranks of an MPI launch wait for that). Throws scene::WriteError
+  // naming the file.
   void commit();
   // Deletes those of `names` that the manifest lists; never anything else. Throws
   // std::runtime_error naming the path that could not be removed.
@@ -67,8 +68,9 @@ private:
 // parent of variants' run directories), or when its parent's manifest lists it (a calibration
 // folder a run made). An entry of `req.writes` that is in the folder but not in its manifest
 // (and not a demfem folder) is refused too: demfem overwrites only what it wrote. Nothing is
-// written into an existing folder until commit(). Under an MPI launcher ranks > 0 take nothing
-// (rank 0 does). Returns kOk, kBadInput or kRunFailed (cannot create the folder).
+// written into an existing folder until commit(). Under an MPI launcher ranks > 0 take nothing:
+// they wait until the first rank has taken the folder (commit). Returns kOk, kBadInput or
+// kRunFailed (cannot create the folder).
 int take_ownership(const std::filesystem::path& dir, const OwnRequest& req, Ownership& own);
 
 } // namespace demfem::app

@@ -16,6 +16,7 @@
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
+#include "demfem/studies/error_study.hpp"
 #include "log.hpp"
 
 namespace fs = std::filesystem;
@@ -184,7 +185,8 @@ int start_run_dir(const scene::Scene& s, const scene::Scene& given, const fs::pa
     text.insert(text.find('\n') + 1,
                 scene_identity(given) +
                     " (the scene before calibration; a run into this directory must have it)\n");
-    scene::write_file_atomic(out / "scene.resolved.toml", text);
+    // under an MPI launcher the first rank writes it, after its checks (open_run_dir)
+    if (studies::study_rank() == 0) scene::write_file_atomic(out / "scene.resolved.toml", text);
     setup_run_log(out, resume);
   } catch (const std::exception& e) {
     fmt::print(stderr, "demfem: cannot write into the run directory {}: {}\n", out.string(),
@@ -269,8 +271,10 @@ int open_run_dir(const scene::Scene& given, const fs::path& out, const RunArgs& 
     }
   }
   try {
-    own.commit();
-    if (use.check_only) return kOk;
+    if (use.check_only) {
+      own.commit();
+      return kOk;
+    }
     own.remove(clear);
     if (!a.resume) own.remove(fresh);
     std::error_code ec;
@@ -287,6 +291,7 @@ int open_run_dir(const scene::Scene& given, const fs::path& out, const RunArgs& 
           "# demfem: the scene and the DEM engine of the run whose checkpoint is in dem/; "
           "--resume continues only that\n" +
               label + fmt::format("{}{}\n", kEngineTag, dem::engine_fingerprint()) + here);
+    own.commit(); // the manifest (nothing it lists is written before), then the other ranks go on
   } catch (const std::exception& e) {
     fmt::print(stderr, "demfem {}: cannot write into the run directory {}: {}\n", sub, out.string(),
                e.what());
