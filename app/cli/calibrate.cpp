@@ -74,7 +74,12 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
                    100.0 * p.xi, p.nu);
       fmt::print("{}", calibrate::continuum_block(c));
       for (const auto& f : files.written) fmt::print("  wrote {}\n", f.string());
-      for (const auto& p : files.problems) fmt::print(stderr, "figure: {}\n", p);
+      bool unwritten = false; // a figure a full disk or a file size limit kept out: a failure
+      for (const auto& p : files.problems) {
+        fmt::print(stderr, "figure: {}\n", p);
+        unwritten = unwritten || p.starts_with("cannot write") || p.starts_with("gnuplot failed (");
+      }
+      if (unwritten) return kRunFailed;
     } catch (const scene::SceneError& e) {
       reporter.finish();
       fmt::print(stderr, "{}\n", e.what());

@@ -33,6 +33,13 @@ double interpolate(const std::vector<double>& t, const std::vector<double>& y, d
 
 namespace {
 
+// A figure a full disk or a file size limit kept from being written fails the report (a figure
+// with nothing to draw is only left out).
+void fail_on_write_error(const std::string& err) {
+  if (err.starts_with("cannot write") || err.starts_with("gnuplot failed ("))
+    throw scene::WriteError(err);
+}
+
 struct Named {
   std::vector<double> t, y;
   std::string file;
@@ -303,6 +310,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     std::string err;
     std::string figure;
     if (plot(spec, png, &err)) figure = fs::relative(png, run_dir).string();
+    fail_on_write_error(err);
     metrics["rows"].push_back({{"key", m.def.key},
                                {"quantity", m.def.quantity},
                                {"unit", m.def.unit},
@@ -388,6 +396,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
       const fs::path png = figdir / (safe_name(wall) + "_pressure_profile.png");
       std::string err;
       if (plot(spec, png, &err)) res.profile_figures.push_back(fs::relative(png, run_dir).string());
+      fail_on_write_error(err);
       metrics["pressure_profiles"][wall] = jp;
     }
   }
@@ -466,6 +475,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           std::string err;
           if (plot(spec, png, &err))
             res.profile_figures.push_back(fs::relative(png, run_dir).string());
+          fail_on_write_error(err);
           const std::string note =
               subsidence_summary(tr, te, de, ce) +
               (dem_followed
