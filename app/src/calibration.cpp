@@ -40,7 +40,8 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
   const auto files = calibrate::write_calibration(c, o.out_dir, figures || !c.from_cache);
   for (const auto& p : files.problems) {
     // a figure a full disk or a file size limit kept out fails the run (the others are notes)
-    if (p.starts_with("cannot write") || p.starts_with("gnuplot failed (")) throw scene::WriteError(p);
+    if (p.starts_with("cannot write") || p.starts_with("gnuplot failed ("))
+      throw scene::WriteError(p);
     spdlog::warn("calibration figure: {}", p);
   }
   for (const auto& line : calibrate::apply_calibration(r, c)) {

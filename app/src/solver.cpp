@@ -161,8 +161,10 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     r.message = e.what();
   }
   reporter.finish();
-  // a continuum run, a figure or the calibration stopped by a stop signal (signals.hpp: Stopped)
-  if (r.ran && !r.ok && !r.bad_input && stop_requested().load()) r.interrupted = true;
+  // a continuum run stopped by a stop signal (signals.hpp: Stopped); the DEM says so itself
+  if (solver == scene::Solver::Continuum && r.ran && !r.ok && !r.bad_input &&
+      stop_requested().load())
+    r.interrupted = true;
   if (r.ran && !r.bad_input && !r.interrupted && root) { // (MPI: rank 0 writes it)
     rec.ok = r.ok;
     rec.message = r.message;

@@ -317,7 +317,8 @@ TEST(RunDirSignals, RunJobsStopsItsChildren) {
   }
 }
 
-// A stability study stops at SIGTERM with exit 3 and writes no study page over a partial sweep.
+// A study (stability: in-process DEM rows; error-vs-time: child processes) stops at SIGTERM with
+// exit 3 and writes no study page over a partial sweep.
 TEST(RunDirSignals, StudyStopsWithExit3) {
   const auto scene = settle_box("study", 5.0);
   const fs::path out = scratch("study");
@@ -335,6 +336,25 @@ TEST(RunDirSignals, StudyStopsWithExit3) {
   EXPECT_NE(r.out.find("run it again"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out / "study.json"));
   fs::remove(out.string() + ".log");
+
+  // error-vs-time: its runs are child processes; the first one's log appears, then SIGTERM
+  const fs::path ev = scratch("study_ev");
+  Child e({"study", "error-vs-time",
+           (kSource / "cases/verification/head_on_collision.toml").string(), "--repeats", "3",
+           "--jobs", "1", "--out", ev.string()},
+          ev.string() + ".log");
+  ASSERT_TRUE(wait_for(e, [&] {
+    std::error_code ec;
+    for (const auto& f : fs::recursive_directory_iterator(ev / "runs", ec))
+      if (f.path().extension() == ".log") return true;
+    return false;
+  })) << e.wait().out;
+  e.signal(SIGTERM);
+  const auto re = e.wait();
+  EXPECT_EQ(re.code, 3) << re.out;
+  EXPECT_NE(re.out.find("the study was not written"), std::string::npos) << re.out;
+  EXPECT_FALSE(fs::exists(ev / "study.json"));
+  fs::remove(ev.string() + ".log");
 }
 
 // A calibration stops at SIGTERM in its element tests with exit 3, the command that starts it
