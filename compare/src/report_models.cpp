@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/output/contract.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
@@ -284,7 +285,7 @@ ModelFacts read_model_facts(const fs::path& run_dir) {
   f.dem = read_solver_run(run_dir, "dem");
   f.continuum = read_solver_run(run_dir, "continuum");
   json p;
-  if (parse_file(run_dir / "dem" / "packing.json", p)) {
+  if (parse_file(run_dir / output::dir::dem / output::file::packing, p)) {
     f.packing = true;
     f.packing_porosity = num_or(p, "porosity");
     for (const auto& [k, v] : p.items())

@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/probe_spec.hpp"
 
 namespace demfem::scene {
 
@@ -303,12 +304,14 @@ std::string to_toml(const Scene& s) {
   }
   if (!s.probes.empty()) {
     toml::array a;
-    for (const auto& p : s.probes)
-      a.push_back(toml::table{{"kind", keyword(kProbeKindNames, p.kind)},
-                              {"target", p.target},
-                              {"interval", p.interval},
-                              {"bins", p.bins},
-                              {"points", pts(p.points)}});
+    for (const auto& p : s.probes) { // the keys its kind takes (probe_spec.hpp)
+      toml::table t{{"kind", keyword(kProbeKindNames, p.kind)}, {"interval", p.interval}};
+      const ProbeSpec& spec = probe_spec(p.kind);
+      if (spec.target) t.insert("target", p.target);
+      if (spec.bins) t.insert("bins", p.bins);
+      if (spec.points) t.insert("points", pts(p.points));
+      a.push_back(t);
+    }
     root.insert("probe", a);
   }
   toml::table load{{"gravity", s.load.gravity}};

@@ -16,6 +16,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/particles_file.hpp"
+#include "demfem/scene/probe_spec.hpp"
 #include "demfem/scene/reader.hpp"
 #include "validate_internal.hpp"
 
@@ -641,17 +642,43 @@ Load read_load(Reader& r) {
   return l;
 }
 
+// A [[probe]]: the keys its kind takes (probe_spec.hpp); a key it does not take is refused.
 Probe read_probe(Reader& r) {
   Probe p;
+  if (const toml::node* n = r.node("kind"); n && n->value<std::string>() == "structure") {
+    r.error("kind", "there is no probe kind 'structure': structures.csv records every structure "
+                    "(settlement, rotation, moment, soil forces) at output.probe_interval in both "
+                    "solvers; delete this [[probe]] (for a wall's thrust: kind = \"wall-thrust\")");
+    for (const char* k : {"target", "interval", "bins", "points"}) r.mark_used(k);
+    return p;
+  }
   p.kind = read_enum(r, "kind", kProbeKindNames, p.kind);
   if (!r.has("kind"))
     r.error_here(
         fmt::format("every [[probe]] needs 'kind'; valid: {}", fmt::join(kProbeKindNames, ", ")));
-  p.target = r.string("target", "");
+  const ProbeSpec& spec = probe_spec(p.kind);
+  std::vector<std::string> keys{"kind", "interval"};
   p.interval = r.non_negative("interval", 0.0);
-  p.bins = r.integer("bins", p.bins, 1, 100000);
-  p.points = r.points("points", 0);
-  r.finish({"kind", "target", "interval", "bins", "points"});
+  if (spec.target) {
+    p.target = r.string("target", "");
+    keys.emplace_back("target");
+  }
+  if (spec.bins) {
+    p.bins = r.integer("bins", p.bins, 1, 100000);
+    keys.emplace_back("bins");
+  }
+  if (spec.points) {
+    p.points = r.points("points", 0);
+    keys.emplace_back("points");
+  }
+  for (const char* k : {"target", "bins", "points"})
+    if (r.has(k) && std::find(keys.begin(), keys.end(), k) == keys.end()) {
+      r.error(k, fmt::format("{} {} probe takes no '{}' (it would have no effect); its keys: {}",
+                             p.kind == ProbeKind::Energy ? "an" : "a",
+                             keyword(kProbeKindNames, p.kind), k, fmt::join(keys, ", ")));
+      r.mark_used(k);
+    }
+  r.finish(keys);
   return p;
 }
 
@@ -820,13 +847,33 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
   }
   for (std::size_t i = 0; i < sc.probes.size(); ++i) {
     const auto& p = sc.probes[i];
-    const bool needs_target = p.kind == ProbeKind::Structure || p.kind == ProbeKind::WallThrust ||
-                              p.kind == ProbeKind::PressureProfile;
-    if (needs_target && !sc.structure(p.target) && !sc.wall(p.target))
+    const char* kind = keyword(kProbeKindNames, p.kind);
+    if (probe_spec(p.kind).target && !sc.structure(p.target) && !sc.wall(p.target))
       top.error_at(
           at("probe", i, "target"), fmt::format("probe[{}].target", i),
-          fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
-                      keyword(kProbeKindNames, p.kind), p.target));
+          fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither", kind,
+                      p.target));
+    // One probe of a kind per target: each writes its own file. The wall-thrust probes write one
+    // file (walls.csv) at one interval.
+    for (std::size_t j = 0; j < i; ++j) {
+      const auto& q = sc.probes[j];
+      if (q.kind != p.kind) continue;
+      if (p.kind == ProbeKind::WallThrust) {
+        if (q.interval != p.interval)
+          top.error_at(at("probe", i, "interval"), fmt::format("probe[{}].interval", i),
+                       fmt::format("the wall-thrust probes write one file, walls.csv, at one "
+                                   "interval: probe[{}] gives {} s, this one {} s",
+                                   j, q.interval, p.interval));
+        if (q.target != p.target) continue;
+      } else if (q.target != p.target) {
+        continue;
+      }
+      top.error_at(at("probe", i, "kind"), fmt::format("probe[{}].kind", i),
+                   fmt::format("a second '{}' probe{} (probe[{}] is one): give one", kind,
+                               p.target.empty() ? std::string() : fmt::format(" on '{}'", p.target),
+                               j));
+      break;
+    }
   }
 
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",

@@ -121,6 +121,16 @@ target = "screen"
 [[probe]]
 kind = "coordination"
 
+[[probe]]
+kind = "pressure-profile"
+target = "screen"
+bins = 4
+interval = 0.02
+
+[[probe]]
+kind = "loci"
+points = [[5, 1]]
+
 [output]
 interval = 0.5
 

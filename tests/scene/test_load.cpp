@@ -403,3 +403,51 @@ TEST(SceneLoad, VtkCompressionKeyword) {
   const int line = static_cast<int>(std::count(bad.begin(), bad.end(), '\n'));
   expect_error(bad, line, "unknown keyword 'gzip'; valid: zlib, lz4, none");
 }
+
+// ---- probes: every key a kind takes has an effect; the others are refused --------------------
+namespace {
+std::string with_probes(const std::string& probes) {
+  return kValid + "\n" + probes;
+}
+} // namespace
+
+TEST(SceneLoad, ProbeKindStructureSaysWhatToWriteInstead) {
+  expect_error(with_probes("[[probe]]\nkind = \"structure\"\ntarget = \"wall\"\n"), 0,
+               "there is no probe kind 'structure': structures.csv records every structure");
+}
+TEST(SceneLoad, ProbeKeyItsKindDoesNotTakeIsRefused) {
+  expect_error(with_probes("[[probe]]\nkind = \"loci\"\npoints = [[1, 1]]\nbins = 4\n"), 0,
+               "a loci probe takes no 'bins' (it would have no effect); its keys: kind, interval, "
+               "points");
+  expect_error(with_probes("[[probe]]\nkind = \"energy\"\ntarget = \"wall\"\n"), 0,
+               "an energy probe takes no 'target'");
+}
+TEST(SceneLoad, OneProbeOfAKindPerTarget) {
+  expect_error(with_probes("[[probe]]\nkind = \"surface-profile\"\n\n[[probe]]\nkind = "
+                           "\"surface-profile\"\nbins = 8\n"),
+               0, "a second 'surface-profile' probe (probe[0] is one)");
+  expect_error(with_probes("[[probe]]\nkind = \"pressure-profile\"\ntarget = \"wall\"\n\n[[probe]]"
+                           "\nkind = \"pressure-profile\"\ntarget = \"wall\"\n"),
+               0, "a second 'pressure-profile' probe on 'wall'");
+  expect_error(with_probes("[[probe]]\nkind = \"wall-thrust\"\ntarget = \"wall\"\n\n[[probe]]"
+                           "\nkind = \"wall-thrust\"\ntarget = \"wall\"\ninterval = 0.1\n"),
+               0, "the wall-thrust probes write one file, walls.csv, at one interval");
+}
+TEST(SceneLoad, ProbesRoundTripWithTheirKeys) {
+  const auto f = parse_scene(
+      with_probes("[[probe]]\nkind = \"energy\"\ninterval = 0.05\n\n[[probe]]\nkind = "
+                  "\"pressure-profile\"\ntarget = \"wall\"\nbins = 7\ninterval = 0.02\n\n[[probe]]"
+                  "\nkind = \"loci\"\npoints = [[1, 1], [2, 2]]\n"),
+      "test.toml");
+  ASSERT_EQ(f.base.probes.size(), 3u);
+  EXPECT_EQ(f.base.probes[0].interval, 0.05);
+  EXPECT_EQ(f.base.probes[1].bins, 7);
+  EXPECT_EQ(f.base.probes[1].interval, 0.02);
+  const std::string dumped = to_toml(f.base);
+  const auto again = parse_scene(dumped, "dumped.toml");
+  ASSERT_EQ(again.base.probes.size(), 3u);
+  EXPECT_EQ(again.base.probes[1].target, "wall");
+  EXPECT_EQ(again.base.probes[2].points.size(), 2u);
+  auto body = [](const std::string& t) { return t.substr(t.find('\n')); };
+  EXPECT_EQ(body(to_toml(again.base)), body(dumped));
+}

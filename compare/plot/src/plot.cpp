@@ -24,34 +24,7 @@ namespace fs = std::filesystem;
 
 namespace demfem::compare {
 
-int CsvTable::find(const std::string& name) const {
-  for (std::size_t i = 0; i < columns.size(); ++i)
-    if (columns[i] == name || columns[i].rfind(name + " [", 0) == 0) return static_cast<int>(i);
-  return -1;
-}
-
-std::vector<double> CsvTable::column(const std::string& name) const {
-  const int c = find(name);
-  std::vector<double> out;
-  if (c < 0) return out;
-  out.reserve(rows.size());
-  for (const auto& r : rows) out.push_back(static_cast<std::size_t>(c) < r.size() ? r[c] : NAN);
-  return out;
-}
-
 namespace {
-std::vector<std::string> split(const std::string& line, char sep) {
-  std::vector<std::string> out;
-  std::string cur;
-  std::istringstream ss(line);
-  while (std::getline(ss, cur, sep)) out.push_back(cur);
-  return out;
-}
-std::string trim(std::string s) {
-  const auto b = s.find_first_not_of(" \t\r\"");
-  const auto e = s.find_last_not_of(" \t\r\"");
-  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
-}
 // gnuplot string literal: single quotes, doubled inside.
 std::string quote(const std::string& s) {
   std::string out = "'";
@@ -115,27 +88,6 @@ bool run_or_queue(const fs::path& png, const fs::path& script, std::string* erro
   return true;
 }
 } // namespace
-
-CsvTable read_csv(const fs::path& path) {
-  CsvTable t;
-  std::ifstream in(path);
-  std::string line;
-  bool header = false;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    const auto cells = split(line, ',');
-    if (!header) {
-      for (const auto& c : cells) t.columns.push_back(trim(c));
-      header = true;
-      continue;
-    }
-    std::vector<double> row;
-    row.reserve(cells.size());
-    for (const auto& c : cells) row.push_back(std::strtod(c.c_str(), nullptr));
-    t.rows.push_back(std::move(row));
-  }
-  return t;
-}
 
 bool plot(const PlotSpec& spec, const fs::path& png, std::string* error, PlotQueue* queue) {
   std::size_t finite = 0;

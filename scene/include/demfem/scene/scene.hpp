@@ -39,18 +39,10 @@ inline constexpr std::array<const char*, 3> kDofModeNames = {"fixed", "free", "p
 enum class ContinuumModel { Elastic, MohrCoulomb };
 inline constexpr std::array<const char*, 2> kContinuumModelNames = {"elastic", "mohr-coulomb"};
 
-enum class ProbeKind {
-  Energy,
-  Structure,
-  WallThrust,
-  PressureProfile,
-  SurfaceProfile,
-  Loci,
-  Coordination
-};
-inline constexpr std::array<const char*, 7> kProbeKindNames = {
-    "energy",          "structure", "wall-thrust", "pressure-profile",
-    "surface-profile", "loci",      "coordination"};
+// The [[probe]] kinds; the keys each takes are in probe_spec.hpp.
+enum class ProbeKind { Energy, WallThrust, PressureProfile, SurfaceProfile, Loci, Coordination };
+inline constexpr std::array<const char*, 6> kProbeKindNames = {
+    "energy", "wall-thrust", "pressure-profile", "surface-profile", "loci", "coordination"};
 
 enum class EventAction { SetFriction, OpenWall };
 inline constexpr std::array<const char*, 2> kEventActionNames = {"set-friction", "open-wall"};
@@ -299,8 +291,8 @@ struct Event {
 
 struct Probe {
   ProbeKind kind = ProbeKind::Energy;
-  std::string target;       // structure or wall name where relevant
-  double interval = 0.0;    // [s] (0 = output.probe_interval)
+  std::string target;       // wall-thrust, pressure-profile: a structure or wall name
+  double interval = 0.0;    // [s] this probe samples at (0 = output.probe_interval)
   int bins = 20;            // pressure and surface profiles
   std::vector<Vec2> points; // loci: the particles nearest to these points are traced
 };

@@ -8,20 +8,13 @@
 #include <vector>
 
 #include "demfem/dem/state.hpp"
+#include "demfem/output/csv.hpp"
 
 namespace demfem::compare {
 
-// A CSV file as written by scene::TimeSeriesWriter or any solver: a header row of column names
-// ("name [unit]"), '#' comment lines, then numeric rows.
-struct CsvTable {
-  std::vector<std::string> columns;
-  std::vector<std::vector<double>> rows;
-
-  // Index of the column whose name is `name` or starts with `name + " ["`; -1 if none.
-  [[nodiscard]] int find(const std::string& name) const;
-  [[nodiscard]] std::vector<double> column(const std::string& name) const; // empty if missing
-};
-[[nodiscard]] CsvTable read_csv(const std::filesystem::path& path);
+// A CSV file of the run directory, read through its contract (output/csv.hpp).
+using output::CsvTable;
+using output::read_csv;
 
 struct Series {
   std::string label;
