@@ -8,7 +8,9 @@
 #include "command.hpp"
 #include "demfem/calibrate/calibrate.hpp"
 #include "progress.hpp"
+#include "run_dir.hpp"
 #include "scenes.hpp"
+#include "signals.hpp"
 
 namespace fs = std::filesystem;
 
@@ -30,11 +32,13 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
   const auto scenes = pick(file, a, rc);
   if (rc != kOk) return rc;
   for (const scene::Scene* s : scenes) {
-    fs::path out =
-        a.out.empty() ? fs::path("runs") / s->info.name / "calibration" : fs::path(a.out);
-    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
-      out /= s->variant.empty() ? "base" : s->variant;
-    out = with_seed_dir(out, a);
+    const fs::path out = run_dir_for(*s, a, scenes.size(), "calibration");
+    Ownership own; // the folder's lock, held while the calibration runs
+    OwnRequest req;
+    req.command = "calibrate";
+    req.writes = {"calibration.json", "calibration.toml", "figures", "cache", "packing"};
+    if (const int p = take_ownership(out, req, own); p != kOk) return p;
+    own.commit();
     calibrate::CalibrateOptions o;
     o.out_dir = out;
     o.particles = ca.particles;
@@ -42,7 +46,8 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
     o.depth_fractions = ca.depths;
     o.cyclic = ca.cyclic;
     ProgressReporter reporter;
-    o.progress = [&](const scene::Progress& p) { reporter(p); };
+    // no checkpoint: a stop signal ends it at its next progress report (Stopped, exit 3)
+    o.progress = stoppable([&](const scene::Progress& p) { reporter(p); });
     try {
       const auto c = ca.force ? calibrate::calibrate(*s, o) : calibrate::load_or_calibrate(*s, o);
       reporter.finish();
@@ -69,7 +74,12 @@ int cmd_calibrate(const RunArgs& a, const CalibrateArgs& ca) {
                    100.0 * p.xi, p.nu);
       fmt::print("{}", calibrate::continuum_block(c));
       for (const auto& f : files.written) fmt::print("  wrote {}\n", f.string());
-      for (const auto& p : files.problems) fmt::print(stderr, "figure: {}\n", p);
+      bool unwritten = false; // a figure a full disk or a file size limit kept out: a failure
+      for (const auto& p : files.problems) {
+        fmt::print(stderr, "figure: {}\n", p);
+        unwritten = unwritten || p.starts_with("cannot write") || p.starts_with("gnuplot failed (");
+      }
+      if (unwritten) return kRunFailed;
     } catch (const scene::SceneError& e) {
       reporter.finish();
       fmt::print(stderr, "{}\n", e.what());

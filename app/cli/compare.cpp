@@ -1,5 +1,6 @@
 // `demfem compare SCENE`: DEM and continuum on the same scene, then report.html and metrics.json
 // comparing every quantity both wrote; with --seeds, a seed ensemble of such comparisons.
+#include <algorithm>
 #include <memory>
 #include <set>
 #include <string>
@@ -12,6 +13,7 @@
 
 #include "calibration.hpp"
 #include "command.hpp"
+#include "demfem/compare/model_differences.hpp"
 #include "demfem/compare/report.hpp"
 #include "demfem/studies/ensemble.hpp"
 #include "log.hpp"
@@ -40,7 +42,26 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
 
 int compare_ensemble(const RunArgs& a);
 
-// Both solvers on the same scene, then the comparison report.
+// Why a solver's series in `out` cannot stand for the whole scene ("" when they can): no run
+// record (the run did not finish), a failed run, or a run that stopped before the scene's
+// duration (e.g. the continuum's small-strain validity limit).
+std::string incomplete(const fs::path& out, const char* name, double duration) {
+  const auto rec = compare::read_solver_run(out, name);
+  if (!rec.present)
+    return fmt::format("{}: no run record ({}): the {} run did not finish, so its series in {}/ "
+                       "may end early",
+                       name, compare::solver_run_file(out, name).string(), name, name);
+  if (!rec.ok) return fmt::format("{}: the run failed: {}", name, rec.message);
+  // (the DEM stops within its last step of the end: less than one Δt short)
+  if (rec.simulated_time < duration - std::max(rec.dt, 0.0) - 1e-9 * duration)
+    return fmt::format("{}: the series end at t = {:.4g} s of the scene's {:.4g} s{}", name,
+                       rec.simulated_time, duration, rec.note.empty() ? "" : " (" + rec.note + ")");
+  return {};
+}
+
+// Both solvers on the same scene, then the comparison report. Exit 1 when either solver the
+// scene lists failed or stopped before the scene's duration (the report is written, marked
+// incomplete).
 int cmd_compare(const RunArgs& a) {
   if (!a.seeds.empty()) return compare_ensemble(a);
   int rc = kOk;
@@ -52,20 +73,27 @@ int cmd_compare(const RunArgs& a) {
   for (const scene::Scene* s0 : scenes) {
     log_before_run_dir();
     const fs::path out = run_dir_for(*s0, a, scenes.size());
+    Ownership own; // the run directory's lock, held until its report is written
+    if (a.report_only) {
+      OwnRequest req;
+      req.command = "compare --report-only";
+      req.writes = {"report.html", "metrics.json", "compare"};
+      req.must_exist = true;
+      req.must_exist_why = "no run to report on";
+      if (const int p = take_ownership(out, req, own); p != kOk) return p;
+      own.commit();
+    } else {
+      RunDirUse use;
+      use.sub = "compare";
+      use.dem = use.continuum = use.report = true;
+      if (const int p = open_run_dir(*s0, out, a, use, own); p != kOk) return p;
+    }
     std::vector<std::string> calibrated;
     const scene::Scene cs = a.report_only ? calibration_of_run(*s0, out)
                                           : with_calibration(*s0, out, &calibrated, true);
     const scene::Scene* s = &cs; // calibrate = "dem" resolved
-    if (a.report_only) {
-      if (!fs::is_directory(out)) {
-        fmt::print(stderr, "demfem compare --report-only: no run directory {}\n", out.string());
-        return kBadInput;
-      }
-    } else {
-      if (const int p = prepare_run_dir(*s, *s0, out, a, "compare", kRunOutputs); p != kOk)
-        return p;
+    if (!a.report_only)
       if (const int d = start_run_dir(*s, *s0, out, a.resume); d != kOk) return d;
-    }
     compare::ReportOptions ro;
     ro.scene = s;
     ro.command = reproduce_command(*s0, out, a);
@@ -76,33 +104,33 @@ int cmd_compare(const RunArgs& a) {
       ro.notes.push_back("The continuum is calibrated from the DEM (soil.continuum.calibrate = "
                          "\"dem\"; a value stated in the scene wins): each value and where it "
                          "came from is in \"Parameters of both models\".");
-    bool any_ok = false;
     for (const auto solver : {scene::Solver::Dem, scene::Solver::Continuum}) {
       const char* name = solver == scene::Solver::Dem ? "dem" : "continuum";
-      if (a.report_only) {
-        any_ok = any_ok || fs::is_directory(out / name);
-        continue;
-      }
       if (!s->uses(solver)) {
         ro.notes.push_back(fmt::format("The scene does not list \"{}\" in scene.solvers.", name));
         continue;
       }
-      spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), name,
-                   out.string());
-      const auto r = run_solver(*s, solver, out, a);
-      if (r.bad_input) {
-        fmt::print(stderr, "{}\n", r.message);
-        return kBadInput;
+      if (!a.report_only) {
+        spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), name,
+                     out.string());
+        const auto r = run_solver(*s, solver, out, a);
+        if (r.bad_input) {
+          fmt::print(stderr, "{}\n", r.message);
+          return kBadInput;
+        }
+        if (r.interrupted) return report_interrupted("compare", *s, solver, out, a, r.message);
+        if (r.ok && !r.note.empty())
+          ro.notes.push_back(fmt::format("The {} run {}.", name, r.note));
+        if (!r.ok) {
+          spdlog::error("{}: {} solver: {}", s->label(), name, r.message);
+          if (!r.ran) { // no run record: the solver is not in this build
+            ro.incomplete.push_back(fmt::format("{}: the solver did not run: {}", name, r.message));
+            continue;
+          }
+        }
       }
-      if (r.interrupted) return report_interrupted("compare", *s, out, a, r.message);
-      if (r.ok) {
-        any_ok = true;
-        if (!r.note.empty()) ro.notes.push_back(fmt::format("The {} run {}.", name, r.note));
-      } else {
-        ro.notes.push_back(
-            fmt::format("The {} solver {}: {}", name, r.ran ? "failed" : "did not run", r.message));
-        spdlog::error("{}: {} solver: {}", s->label(), name, r.message);
-      }
+      if (const auto why = incomplete(out, name, s->info.duration); !why.empty())
+        ro.incomplete.push_back(why);
     }
     compare::ReportResult rep;
     try {
@@ -114,7 +142,12 @@ int cmd_compare(const RunArgs& a) {
     }
     spdlog::info("{}: report {} ({} quantities compared), metrics {}", s->label(),
                  rep.html.string(), rep.compared.size(), rep.metrics_json.string());
-    if (!any_ok) worst = kRunFailed;
+    if (!ro.incomplete.empty()) {
+      for (const auto& i : ro.incomplete) spdlog::error("{}: incomplete: {}", s->label(), i);
+      spdlog::error("{}: the comparison is incomplete (marked so in {} and {}): exit 1", s->label(),
+                    rep.html.string(), rep.metrics_json.string());
+      worst = kRunFailed;
+    }
   }
   return worst;
 }
@@ -146,6 +179,16 @@ int compare_ensemble(const RunArgs& a) {
   int worst = kOk;
   for (const scene::Scene* s : scenes) {
     const fs::path dir = run_dir_for(*s, a, scenes.size());
+    // the ensemble's folder: its pages and the realisations' run directories (each taken by its
+    // own comparison)
+    Ownership own;
+    OwnRequest req;
+    req.command = a.report_only ? "compare --seeds --report-only" : "compare --seeds";
+    req.writes = {"ensemble.json", "ensemble.html", "figures", "seed-*"};
+    req.must_exist = a.report_only;
+    req.must_exist_why = "no ensemble to report on";
+    if (const int p = take_ownership(dir, req, own); p != kOk) return p;
+    own.commit();
     std::vector<studies::EnsembleMember> members;
     for (const long long seed : a.seeds) {
       RunArgs m = a;

@@ -7,7 +7,9 @@
 #include "command.hpp"
 #include "demfem/dem/pack.hpp"
 #include "progress.hpp"
+#include "run_dir.hpp"
 #include "scenes.hpp"
+#include "signals.hpp"
 
 namespace fs = std::filesystem;
 
@@ -27,13 +29,20 @@ int cmd_pack(const RunArgs& a) {
       fmt::print(stderr, "demfem pack: scene '{}' has no [soil.dem]\n", s->label());
       return kBadInput;
     }
-    fs::path out = a.out.empty() ? fs::path("runs") / s->info.name : fs::path(a.out);
-    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
-      out /= s->variant.empty() ? "base" : s->variant;
-    out = with_seed_dir(out, a);
+    const fs::path out = run_dir_for(*s, a, scenes.size());
+    Ownership own; // <out>/packing when the scene names no packing cache
+    if (s->soil.dem->packing.cache.empty()) {
+      OwnRequest req;
+      req.command = "pack";
+      req.writes = {"packing"};
+      if (const int p = take_ownership(out, req, own); p != kOk) return p;
+      own.commit();
+    }
     ProgressReporter reporter;
     try {
-      const auto r = dem::pack_or_load(*s, out, [&](const scene::Progress& p) { reporter(p); });
+      // no checkpoint: a stop signal ends the deposition at its next progress report (exit 3)
+      const auto r =
+          dem::pack_or_load(*s, out, stoppable([&](const scene::Progress& p) { reporter(p); }));
       reporter.finish();
       fmt::print(
           "{}: {} particles, {} {} (deposition {:.3g} s simulated, {} steps, KE/PE {:.2e}{}, "

@@ -49,17 +49,15 @@ int cmd_run(const RunArgs& a) {
   for (const scene::Scene* s : scenes) {
     log_before_run_dir();
     const fs::path out = run_dir_for(*s, a, scenes.size());
+    Ownership own; // the run directory's lock, held until this run ends
+    RunDirUse use;
+    use.dem = solver == scene::Solver::Dem;
+    use.continuum = !use.dem;
+    if (const int p = open_run_dir(*s, out, a, use, own); p != kOk) return p;
     // A continuum run calibrates (calibrate = "dem"); a DEM run records a cached calibration
     // only: it reads none, and its directory's identity is the scene before calibration.
     const scene::Scene sc =
         with_calibration(*s, out, nullptr, false, solver == scene::Solver::Continuum);
-    if (const int p = prepare_run_dir(
-            sc, *s, out, a, "run",
-            solver == scene::Solver::Dem
-                ? std::vector<std::string>{"dem", "figures", "summary.json", "run_dem.json"}
-                : std::vector<std::string>{"continuum", "run_continuum.json"});
-        p != kOk)
-      return p;
     if (const int d = start_run_dir(sc, *s, out, a.resume); d != kOk) return d;
     spdlog::info("demfem {}: {} with the {} solver → {}", DEMFEM_VERSION, s->label(), a.solver,
                  out.string());
@@ -68,7 +66,7 @@ int cmd_run(const RunArgs& a) {
       fmt::print(stderr, "{}\n", r.message);
       return kBadInput;
     }
-    if (r.interrupted) return report_interrupted("run", *s, out, a, r.message);
+    if (r.interrupted) return report_interrupted("run", *s, solver, out, a, r.message);
     if (r.ok) {
       spdlog::info("{}: done; outputs in {}", s->label(), out.string());
     } else {
@@ -94,7 +92,9 @@ int cmd_run(const RunArgs& a) {
        sub.add_flag("--resume", ra->resume,
                     "Continue from the last checkpoint in the run directory");
        sub.add_flag("--force", ra->force,
-                    "Run into a directory that holds another scene's results, clearing them first");
+                    "Run into a run directory that holds another scene's results, clearing the "
+                    "results demfem wrote there first (a folder demfem did not make is never "
+                    "cleared)");
        sub.add_option("--seed", ra->seed,
                       "Packing seed (scene.seed) instead of the file's; default directory gains "
                       "seed-N")

@@ -18,7 +18,9 @@
 #include "demfem/studies/study.hpp"
 #include "log.hpp"
 #include "progress.hpp"
+#include "run_dir.hpp"
 #include "scenes.hpp"
+#include "signals.hpp"
 #include "thread_cap.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "continuum_module.hpp"
@@ -30,6 +32,30 @@ namespace fs = std::filesystem;
 namespace demfem::app {
 
 namespace {
+
+// What a study writes into its folder (ownership.hpp).
+const std::vector<std::string> kStudyWrites = {"log.txt", "study.json",  "study.md", "study.html",
+                                               "figures", "rows",        "runs",     "packings",
+                                               "packing", "calibration", "cache",    ".ranks-*"};
+
+// Takes a study's folder (rank 0 under a launcher); kOk or the refusal's exit code.
+int take_study_dir(const fs::path& out, Ownership& own) {
+  OwnRequest req;
+  req.command = "study";
+  req.writes = kStudyWrites;
+  if (const int p = take_ownership(out, req, own); p != kOk) return p;
+  own.commit();
+  return kOk;
+}
+
+// A study stopped by a stop signal: its page is not written (it would show a partial sweep as
+// if whole); its runs so far stay in `out`.
+int study_stopped(const fs::path& out) {
+  spdlog::warn("study: stopped by {}: the study was not written (its runs so far are in {}); "
+               "run it again:\n  {}",
+               stop_signal_name(), out.string(), command_line());
+  return kInterrupted;
+}
 
 // `demfem study error-vs-time SCENE`: resolution sweeps, each run a separate
 // `demfem` process; SCENE = "flamant" is the built-in Flamant strip load (continuum).
@@ -97,7 +123,7 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
   o.kn_same_packing = ea.kn_packing != "deposit";
   if (ea.duration > 0.0) o.duration = ea.duration;
   ProgressReporter reporter;
-  o.progress = [&](const scene::Progress& p) { reporter(p); };
+  o.progress = stoppable([&](const scene::Progress& p) { reporter(p); });
   if (path == "flamant") {
 #ifndef DEMFEM_WITH_CONTINUUM
     fmt::print(stderr, "demfem study error-vs-time flamant: the continuum solver is not in this "
@@ -107,8 +133,11 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
     o.out_dir =
         a.out.empty() ? fs::path("runs") / "flamant" / "study-error-vs-time" : fs::path(a.out);
     o.out_dir = fs::absolute(o.out_dir);
+    Ownership own;
+    if (const int p = take_study_dir(o.out_dir, own); p != kOk) return p;
     if (studies::study_rank() == 0) setup_run_log(o.out_dir, false);
     const auto st = studies::flamant_error_study(o);
+    if (stop_requested().load()) return study_stopped(o.out_dir);
     if (studies::study_rank() == 0) studies::write_error_study(st, o.out_dir);
     studies::finish_study_ranks(o.out_dir);
     for (const auto& f : st.fits)
@@ -174,11 +203,9 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
           return kBadInput;
         }
       }
-    fs::path out =
-        a.out.empty() ? fs::path("runs") / s->info.name / "study-error-vs-time" : fs::path(a.out);
-    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
-      out /= s->variant.empty() ? "base" : s->variant;
-    o.out_dir = fs::absolute(out);
+    o.out_dir = fs::absolute(run_dir_for(*s, a, scenes.size(), "study-error-vs-time"));
+    Ownership own;
+    if (const int p = take_study_dir(o.out_dir, own); p != kOk) return p;
     // under mpirun the runs are spread over the ranks; rank 0 keeps the log and writes the study
     if (studies::study_rank() == 0) setup_run_log(o.out_dir, false);
     if (studies::study_ranks() > 1)
@@ -212,6 +239,7 @@ int cmd_error_study(const std::string& path, const RunArgs& a, const ErrorStudyA
         return kBadInput;
       }
     }
+    if (stop_requested().load()) return study_stopped(o.out_dir);
     if (studies::study_rank() == 0) studies::write_error_study(st, o.out_dir);
     studies::finish_study_ranks(o.out_dir);
     if (studies::study_rank() != 0) continue;
@@ -256,13 +284,13 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
                  path);
       return kBadInput;
     }
-    fs::path out =
-        a.out.empty() ? fs::path("runs") / s->info.name / "study-stability" : fs::path(a.out);
-    if (scenes.size() > 1 || (!s->variant.empty() && a.out.empty()))
-      out /= s->variant.empty() ? "base" : s->variant;
+    const fs::path out = run_dir_for(*s, a, scenes.size(), "study-stability");
+    Ownership own;
+    if (const int p = take_study_dir(out, own); p != kOk) return p;
     setup_run_log(out, false);
     studies::StudyOptions o;
     o.out_dir = out;
+    o.interrupt = &stop_requested();
     o.threads = a.threads;
     o.repack = repack;
     if (duration > 0.0) o.duration = duration;
@@ -276,6 +304,7 @@ int cmd_study(const std::string& kind, const std::string& path, const RunArgs& a
       };
 #endif
     const auto rows = studies::stability_study(*s, o);
+    if (stop_requested().load()) return study_stopped(out);
     studies::write_stability_study(rows, *s, out);
     for (const auto& r : rows) spdlog::info("{:<22} {:<15} {}", r.name, r.outcome, r.cause);
     spdlog::info("{}: stability study in {}", s->label(), (out / "study.html").string());

@@ -14,6 +14,7 @@
 #include "demfem/scene/write_file.hpp"
 #include "log.hpp"
 #include "scenes.hpp"
+#include "signals.hpp"
 #ifdef DEMFEM_WITH_CONTINUUM
 #include "continuum_module.hpp"
 #endif
@@ -39,7 +40,9 @@ int cmd_study_point(const PointArgs& pa) {
     dem::RunOptions o;
     o.out_dir = pa.out;
     o.threads = 1;
+    o.interrupt = &stop_requested(); // the study stops its runs with SIGTERM
     const auto x = dem::run(file.base, o);
+    if (x.interrupted) return kInterrupted;
     scene::write_file_atomic(
         pa.json, fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "
                              "\"steps\": {}, \"dt\": {:.17g}, \"ok\": {}}}\n",
@@ -57,7 +60,9 @@ int cmd_study_point(const PointArgs& pa) {
     const scene::Scene sc = with_calibration(file.base, pa.out);
     continuum::RunOptions o;
     o.out_dir = pa.out;
+    o.progress = stoppable({}); // the study stops its runs with SIGTERM
     const auto x = continuum_module().run(sc, o);
+    if (!x.ok && stop_requested().load()) return kInterrupted;
     scene::write_file_atomic(
         pa.json,
         fmt::format("{{\"solver_seconds\": {:.9g}, \"process_seconds\": {:.9g}, "

@@ -3,7 +3,9 @@
 #include <spdlog/spdlog.h>
 
 #include "demfem/calibrate/calibrate.hpp"
+#include "demfem/scene/write_file.hpp"
 #include "progress.hpp"
+#include "signals.hpp"
 
 namespace fs = std::filesystem;
 
@@ -31,11 +33,17 @@ scene::Scene with_calibration(const scene::Scene& s, const fs::path& out,
     }
   }
   ProgressReporter reporter;
-  o.progress = [&](const scene::Progress& p) { reporter(p); };
+  o.progress = stoppable([&](const scene::Progress& p) { reporter(p); }); // no checkpoint
+
   const auto c = calibrate::load_or_calibrate(s, o);
   reporter.finish();
   const auto files = calibrate::write_calibration(c, o.out_dir, figures || !c.from_cache);
-  for (const auto& p : files.problems) spdlog::warn("calibration figure: {}", p);
+  for (const auto& p : files.problems) {
+    // a figure a full disk or a file size limit kept out fails the run (the others are notes)
+    if (p.starts_with("cannot write") || p.starts_with("gnuplot failed ("))
+      throw scene::WriteError(p);
+    spdlog::warn("calibration figure: {}", p);
+  }
   for (const auto& line : calibrate::apply_calibration(r, c)) {
     spdlog::info("{}: continuum {}", s.label(), line);
     if (notes) notes->push_back("Continuum " + line);

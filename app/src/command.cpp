@@ -4,9 +4,10 @@
 
 namespace demfem::app {
 
-const char* const kExitCodes = "Exit codes: 0 success, 1 the run failed, 2 bad input or usage, 3 "
-                               "stopped by SIGINT/SIGTERM/SIGHUP after writing a checkpoint "
-                               "(continue with --resume).";
+const char* const kExitCodes =
+    "Exit codes: 0 success, 1 the run failed (a comparison: a solver failed or stopped early), 2 "
+    "bad input or usage (a run directory that is not demfem's, holds another scene or is in use), "
+    "3 stopped by SIGINT/SIGTERM/SIGHUP (the message gives the command that continues).";
 
 namespace {
 std::vector<Command>& registry() {

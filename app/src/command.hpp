@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,13 @@ constexpr int kRunFailed = 1;
 constexpr int kBadInput = 2;
 constexpr int kInterrupted = 3;
 extern const char* const kExitCodes;
+
+// Bad input found while a command runs (e.g. a name that cannot be a folder name): main prints
+// the message and exits kBadInput.
+class UsageError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
 
 struct Command {
   std::string name;

@@ -12,6 +12,7 @@
 #include "demfem/dem/malloc_tuning.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/studies/error_study.hpp"
+#include "demfem/studies/processes.hpp"
 #include "scenes.hpp"
 #include "signals.hpp"
 #include "words.hpp"
@@ -44,6 +45,8 @@ int main(int argc, char** argv) {
   }
 
   app::install_stop_signals();
+  app::set_command_line(argc, argv);
+  studies::stop_children_on(&app::stop_requested()); // run --jobs, study: children stop too
   if (!app::check_words(cli, argc, argv)) return app::kBadInput;
   try {
     cli.parse(argc, argv);
@@ -67,6 +70,14 @@ int main(int argc, char** argv) {
       spdlog::set_level(spdlog::level::warn);
     try {
       return e.run();
+    } catch (const app::UsageError& ex) {
+      fmt::print(stderr, "demfem {}: {}\n", e.command.name, ex.what());
+      return app::kBadInput;
+    } catch (const app::Stopped& ex) {
+      // work without a checkpoint of its own (a calibration, a study): it starts over
+      spdlog::warn("{}: nothing to resume from; run it again:\n  {}", ex.what(),
+                   app::command_line());
+      return app::kInterrupted;
     } catch (const std::exception& ex) {
       fmt::print(stderr, "demfem: error: {}\n", ex.what());
       return app::kRunFailed;

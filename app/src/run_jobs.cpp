@@ -13,10 +13,12 @@
 
 #include "command.hpp"
 #include "demfem/calibrate/calibrate.hpp"
+#include "demfem/compare/report.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/studies/processes.hpp"
 #include "run_dir.hpp"
+#include "signals.hpp"
 
 namespace fs = std::filesystem;
 
@@ -60,14 +62,21 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
         dt = s.soil.dem->dt_safety * b->dt;
     return dt > 0.0 ? static_cast<double>(s.soil.dem->count) * span / dt : 0.0;
   };
+  // Every run directory is checked first (a folder that is not demfem's, another scene's
+  // results, a resume that does not match): one refusal and nothing starts. Each gets its marker
+  // and manifest (with the consoles written here); each run takes its own directory's lock.
+  for (const scene::Scene* s : scenes) {
+    Ownership own;
+    RunDirUse use;
+    use.dem = !continuum;
+    use.continuum = continuum;
+    use.check_only = true;
+    if (const int p = open_run_dir(*s, run_dir_for(*s, a, scenes.size()), a, use, own); p != kOk)
+      return p;
+  }
+  std::vector<fs::path> run_dirs;
   for (const scene::Scene* s : scenes) {
     const fs::path out = run_dir_for(*s, a, scenes.size());
-    fs::create_directories(out, ec);
-    if (ec) {
-      fmt::print(stderr, "demfem: cannot create the run directory {}: {}\n", out.string(),
-                 ec.message());
-      return kRunFailed;
-    }
     const auto with_variant = [&](std::vector<std::string> v) {
       if (!s->variant.empty()) v.insert(v.end(), {"--variant", s->variant});
       return v;
@@ -108,6 +117,7 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
     if (a.resume) argv.push_back("--resume");
     if (a.seed >= 0) argv.insert(argv.end(), {"--seed", std::to_string(a.seed)});
     runs.push_back({with_variant(argv), out / "console.txt", 0.0, {}});
+    run_dirs.push_back(out);
     run_prep.push_back(needs);
     run_label.push_back(s->label());
     run_cost.push_back(continuum ? 0.0 : dem_work(*s, s->info.duration));
@@ -162,37 +172,73 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                "soon as its own is made: {} run(s)\n",
                a.jobs, n_prep, n_runs);
   std::size_t done_prep = 0, done_runs = 0;
-  studies::run_processes(tasks, a.jobs, [&](std::size_t i, const studies::ProcessResult& r) {
-    const bool is_prep = i < n_prep;
-    const std::size_t done = is_prep ? ++done_prep : ++done_runs;
-    const std::size_t of = is_prep ? n_prep : n_runs;
-    const char* what = is_prep ? "prepare" : "run";
-    const std::string& label = is_prep ? prep_label[i] : run_label[i - n_prep];
-    const double since =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (r.exit_code == 0) {
-      fmt::print(stderr,
-                 "demfem run --jobs {}: [{}/{}] {} {}: done in {:.1f} s ({:.0f} s in "
-                 "all)\n",
-                 a.jobs, done, of, what, label, r.wall, since);
-      return;
-    }
-    if (first_failure == kOk) first_failure = r.exit_code > 0 ? r.exit_code : kRunFailed;
-    if (r.not_started) {
-      const std::size_t d = tasks[i].after.empty() ? 0 : tasks[i].after.front();
-      fmt::print(stderr,
-                 "demfem run --jobs {}: [{}/{}] {} {}: NOT STARTED: its preparation {} failed "
-                 "(console: {})\n",
-                 a.jobs, done, of, what, label, d < n_prep ? prep_label[d] : "?",
-                 d < tasks.size() ? tasks[d].log.string() : "?");
-      return;
+  const auto res =
+      studies::run_processes(tasks, a.jobs, [&](std::size_t i, const studies::ProcessResult& r) {
+        const bool is_prep = i < n_prep;
+        const std::size_t done = is_prep ? ++done_prep : ++done_runs;
+        const std::size_t of = is_prep ? n_prep : n_runs;
+        const char* what = is_prep ? "prepare" : "run";
+        const std::string& label = is_prep ? prep_label[i] : run_label[i - n_prep];
+        const double since =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (r.exit_code == 0) {
+          fmt::print(stderr,
+                     "demfem run --jobs {}: [{}/{}] {} {}: done in {:.1f} s ({:.0f} s in "
+                     "all)\n",
+                     a.jobs, done, of, what, label, r.wall, since);
+          return;
+        }
+        if (first_failure == kOk) first_failure = r.exit_code > 0 ? r.exit_code : kRunFailed;
+        if (r.stopped && r.not_started) {
+          fmt::print(stderr, "demfem run --jobs {}: [{}/{}] {} {}: not started (stopped by {})\n",
+                     a.jobs, done, of, what, label, stop_signal_name());
+          return;
+        }
+        if (r.stopped) {
+          fmt::print(stderr,
+                     "demfem run --jobs {}: [{}/{}] {} {}: stopped (exit {}) after {:.1f} s\n",
+                     a.jobs, done, of, what, label, r.exit_code, r.wall);
+          return;
+        }
+        if (r.not_started) {
+          const std::size_t d = tasks[i].after.empty() ? 0 : tasks[i].after.front();
+          fmt::print(stderr,
+                     "demfem run --jobs {}: [{}/{}] {} {}: NOT STARTED: its preparation {} failed "
+                     "(console: {})\n",
+                     a.jobs, done, of, what, label, d < n_prep ? prep_label[d] : "?",
+                     d < tasks.size() ? tasks[d].log.string() : "?");
+          return;
+        }
+        fmt::print(stderr,
+                   "demfem run --jobs {}: [{}/{}] {} {}: FAILED (exit {}) after {:.1f} s: "
+                   "{} (console: {})\n",
+                   a.jobs, done, of, what, label, r.exit_code, r.wall, last_line(tasks[i].log),
+                   tasks[i].log.string());
+      });
+  if (stop_requested().load()) {
+    // what each run needs to continue: a stopped DEM run resumes from its checkpoint; a run
+    // that did not start (or a continuum run, which has no checkpoint yet) starts again
+    std::vector<std::string> again;
+    for (std::size_t k = 0; k < n_runs; ++k) {
+      const std::size_t i = n_prep + k;
+      if (res[i].exit_code == 0) continue;
+      const std::size_t old = run_order[k]; // index into scenes
+      std::string c = "demfem run " + compare::shell_quote(a.scene);
+      if (continuum) c += " --solver continuum";
+      if (!scenes[old]->variant.empty())
+        c += " --variant " + compare::shell_quote(scenes[old]->variant);
+      c += " --out " + compare::shell_quote(run_dirs[old].string());
+      if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+      if (a.seed >= 0) c += fmt::format(" --seed {}", a.seed);
+      if (!continuum && res[i].exit_code == kInterrupted) c += " --resume";
+      again.push_back(c);
     }
     fmt::print(stderr,
-               "demfem run --jobs {}: [{}/{}] {} {}: FAILED (exit {}) after {:.1f} s: "
-               "{} (console: {})\n",
-               a.jobs, done, of, what, label, r.exit_code, r.wall, last_line(tasks[i].log),
-               tasks[i].log.string());
-  });
+               "demfem run --jobs {}: stopped by {}: {} run(s) not finished; continue them "
+               "with:\n  {}\n",
+               a.jobs, stop_signal_name(), again.size(), fmt::join(again, "\n  "));
+    return kInterrupted;
+  }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fmt::print(stderr, "demfem run --jobs {}: {} run(s) in {:.1f} s{}\n", a.jobs, n_runs, total,
              first_failure == kOk ? "" : " — some FAILED (above)");

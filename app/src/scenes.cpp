@@ -6,6 +6,9 @@
 
 #include "command.hpp"
 #include "demfem/app/vocabulary.hpp"
+#include "demfem/calibrate/calibrate.hpp"
+#include "demfem/scene/validate.hpp"
+#include "run_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -51,8 +54,16 @@ std::vector<const scene::Scene*> pick(const scene::SceneFile& f, const RunArgs& 
     } else {
       for (const auto& v : a.variants) out.push_back(&f.select(v));
     }
+    // every folder name the chosen scenes give, before anything runs (run_dir.hpp)
+    for (const scene::Scene* s : out) {
+      if (a.out.empty()) (void)child_dir("runs", s->info.name, "scene name");
+      if (!s->variant.empty()) (void)child_dir(a.out, s->variant, "variant name");
+    }
   } catch (const scene::SceneError& e) {
     fmt::print(stderr, "{}\n", e.what());
+    rc = kBadInput;
+  } catch (const UsageError& e) {
+    fmt::print(stderr, "demfem: {}\n", e.what());
     rc = kBadInput;
   }
   return out;

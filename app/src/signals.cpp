@@ -3,6 +3,8 @@
 #include <csignal>
 #include <signal.h>
 
+#include "demfem/compare/report.hpp"
+
 namespace demfem::app {
 
 namespace {
@@ -19,6 +21,11 @@ extern "C" void on_stop_signal(int sig) {
   for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &dfl, nullptr);
 }
 
+std::string& the_command_line() {
+  static std::string c;
+  return c;
+}
+
 } // namespace
 
 void install_stop_signals() {
@@ -27,6 +34,10 @@ void install_stop_signals() {
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = SA_RESTART;
   for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &sa, nullptr);
+  struct sigaction ign {};
+  ign.sa_handler = SIG_IGN;
+  sigemptyset(&ign.sa_mask);
+  ::sigaction(SIGXFSZ, &ign, nullptr);
 }
 
 std::atomic<bool>& stop_requested() {
@@ -44,6 +55,28 @@ const char* stop_signal_name() {
   default:
     return "a stop signal";
   }
+}
+
+Stopped::Stopped() : std::runtime_error(std::string("stopped by ") + stop_signal_name()) {}
+
+scene::ProgressFn stoppable(scene::ProgressFn progress) {
+  return [progress = std::move(progress)](const scene::Progress& p) {
+    if (g_interrupt.load()) throw Stopped();
+    if (progress) progress(p);
+  };
+}
+
+void set_command_line(int argc, char** argv) {
+  std::string c = "demfem";
+  for (int i = 1; i < argc; ++i) {
+    c += ' ';
+    c += compare::shell_quote(argv[i]);
+  }
+  the_command_line() = c;
+}
+
+const std::string& command_line() {
+  return the_command_line();
 }
 
 } // namespace demfem::app

@@ -75,6 +75,9 @@ std::string resume_command(const char* sub, const scene::Scene& s, const fs::pat
   if (!s.variant.empty()) c += " --variant " + shell_quote(s.variant);
   c += " --out " + shell_quote(out.string());
   if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+  if (a.refinement >= 0) c += fmt::format(" --refinement {}", a.refinement);
+  if (a.degree >= 0) c += fmt::format(" --degree {}", a.degree);
+  if (a.seed >= 0) c += fmt::format(" --seed {}", a.seed);
   return c + " --resume";
 }
 
@@ -121,7 +124,9 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       o.out_dir = out;
       o.refinement = a.refinement;
       o.degree = a.degree;
-      o.progress = progress;
+      // no checkpoint yet: a stop signal ends the run at its next progress report (every 10
+      // steps), and the run starts over
+      o.progress = stoppable(progress);
       const auto x = continuum_module().run(s, o);
       r.ran = true;
       r.ok = x.ok;
@@ -156,6 +161,10 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     r.message = e.what();
   }
   reporter.finish();
+  // a continuum run stopped by a stop signal (signals.hpp: Stopped); the DEM says so itself
+  if (solver == scene::Solver::Continuum && r.ran && !r.ok && !r.bad_input &&
+      stop_requested().load())
+    r.interrupted = true;
   if (r.ran && !r.bad_input && !r.interrupted && root) { // (MPI: rank 0 writes it)
     rec.ok = r.ok;
     rec.message = r.message;
@@ -165,17 +174,31 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     try {
       compare::write_solver_run(out, rec);
     } catch (const std::exception& e) {
-      spdlog::warn("{}: {}", s.label(), e.what()); // the run's results stand without it
+      // the record is an output: the report's run times and "what differs" come from it
+      r.ok = false;
+      r.message = e.what();
     }
   }
   return r;
 }
 
-int report_interrupted(const char* sub, const scene::Scene& s, const fs::path& out,
-                       const RunArgs& a, const std::string& message) {
+int report_interrupted(const char* sub, const scene::Scene& s, scene::Solver solver,
+                       const fs::path& out, const RunArgs& a, const std::string& message) {
   spdlog::warn("{}: stopped by {}: {}", s.label(), stop_signal_name(), message);
-  spdlog::warn("{}: checkpoint {}; continue with:\n  {}", s.label(),
-               (out / "dem" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
+  if (solver == scene::Solver::Dem) {
+    spdlog::warn("{}: checkpoint {}; continue with:\n  {}", s.label(),
+                 (out / "dem" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
+    return kInterrupted;
+  }
+  std::string again = resume_command(sub, s, out, a);
+  if (std::string(sub) == "run") again.resize(again.size() - std::string(" --resume").size());
+  spdlog::warn("{}: the continuum run cannot resume yet (it writes no checkpoint): its outputs "
+               "in {} stop at the time it reached; {}:\n  {}",
+               s.label(), (out / "continuum").string(),
+               std::string(sub) == "run" ? "run it again from the start"
+                                         : "continue (the DEM's results are kept, the continuum "
+                                           "starts over) with",
+               again);
   return kInterrupted;
 }
 

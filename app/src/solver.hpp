@@ -21,13 +21,15 @@ struct SolverOutcome {
 // Runs one solver on one resolved scene into `out` (outputs under out/dem or out/continuum), with
 // the DEM run's figures and summary.json. Each run also records itself in out/run_<solver>.json
 // (compare::SolverRun: outcome, the solver's own and the total wall time, steps, Δt,
-// resolution), which the comparison report reads.
+// resolution), which the comparison report reads; failing to write it fails the run.
 SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver,
                          const std::filesystem::path& out, const RunArgs& a);
 
-// Logs the stop and the command that continues the run of `sub` ("run" or "compare") in `out`;
+// Logs the stop of `solver` and the command that continues the run of `sub` ("run" or "compare")
+// in `out` (the DEM from its checkpoint; the continuum, which has none yet, from the start);
 // returns kInterrupted.
-int report_interrupted(const char* sub, const scene::Scene& s, const std::filesystem::path& out,
-                       const RunArgs& a, const std::string& message);
+int report_interrupted(const char* sub, const scene::Scene& s, scene::Solver solver,
+                       const std::filesystem::path& out, const RunArgs& a,
+                       const std::string& message);
 
 } // namespace demfem::app

@@ -34,6 +34,13 @@ double interpolate(const std::vector<double>& t, const std::vector<double>& y, d
 
 namespace {
 
+// A figure a full disk or a file size limit kept from being written fails the report (a figure
+// with nothing to draw is only left out).
+void fail_on_write_error(const std::string& err) {
+  if (err.starts_with("cannot write") || err.starts_with("gnuplot failed ("))
+    throw scene::WriteError(err);
+}
+
 struct Named {
   std::vector<double> t, y;
   std::string file;
@@ -238,6 +245,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
   const SplitOptions so = split_options(options.scene, t_end);
   nlohmann::json metrics = nlohmann::json::object();
   metrics["run_dir"] = run_dir.string();
+  if (!options.incomplete.empty()) metrics["incomplete"] = options.incomplete;
   metrics["divergence_threshold"] = thr;
   metrics["split"] = {{"load_start_s", so.load_start},
                       {"moving_average_window_s", so.window},
@@ -290,6 +298,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     std::string err;
     std::string figure;
     if (plot(spec, png, &err)) figure = fs::relative(png, run_dir).string();
+    fail_on_write_error(err);
     metrics["rows"].push_back({{"key", m.def.key},
                                {"quantity", m.def.quantity},
                                {"unit", m.def.unit},
@@ -375,6 +384,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
       const fs::path png = figdir / (safe_name(wall) + "_pressure_profile.png");
       std::string err;
       if (plot(spec, png, &err)) res.profile_figures.push_back(fs::relative(png, run_dir).string());
+      fail_on_write_error(err);
       metrics["pressure_profiles"][wall] = jp;
     }
   }
@@ -454,6 +464,7 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
           std::string err;
           if (plot(spec, png, &err))
             res.profile_figures.push_back(fs::relative(png, run_dir).string());
+          fail_on_write_error(err);
           const std::string note =
               subsidence_summary(tr, te, de, ce) +
               (dem_followed
@@ -566,6 +577,8 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
        "h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}</style></head><body>\n";
   h += "<!--report-body-->\n";
   h += "<h1>" + html_escape(options.title) + "</h1>\n";
+  for (const auto& i : options.incomplete)
+    h += "<p class=\"note incomplete\"><b>Incomplete:</b> " + html_escape(i) + "</p>\n";
   for (const auto& note : options.notes) h += "<p class=\"note\">" + html_escape(note) + "</p>\n";
   for (const auto& w : set.warnings) h += "<p class=\"note\">" + html_escape(w) + "</p>\n";
   h += fmt::format("<p>Run directory: <code>{}</code>. Quantities compared: {} (each once; "

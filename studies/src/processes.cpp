@@ -7,6 +7,7 @@
 #include <csignal>
 #include <fcntl.h>
 #include <string_view>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
@@ -31,7 +32,13 @@ std::vector<std::string> child_environment() {
   return env;
 }
 
+std::atomic<const std::atomic<bool>*> g_stop{nullptr};
+
 } // namespace
+
+void stop_children_on(const std::atomic<bool>* flag) {
+  g_stop.store(flag);
+}
 
 std::vector<ProcessResult>
 run_processes(const std::vector<ProcessTask>& tasks, int jobs,
@@ -54,6 +61,27 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
   jobs = std::max(1, jobs);
   bool any_timeout = false;
   for (const auto& t : tasks) any_timeout = any_timeout || t.timeout > 0.0;
+  const std::atomic<bool>* stop = g_stop.load();
+  const pid_t parent = ::getpid();
+  bool stopping = false; // the stop request has been passed on to the running children
+  // On a stop request: the waiting tasks are given up (not started) and each running child is
+  // sent SIGTERM once.
+  const auto pass_on_stop = [&] {
+    if (stopping || !stop || !stop->load()) return;
+    stopping = true;
+    for (std::size_t i = 0; i < tasks.size(); ++i)
+      if (state[i] == kWaiting) {
+        state[i] = kFailed;
+        --left;
+        res[i].not_started = true;
+        res[i].stopped = true;
+        if (on_done) on_done(i, res[i]);
+      }
+    for (const auto& [cpid, r] : running) {
+      res[r.index].stopped = true;
+      ::kill(cpid, SIGTERM);
+    }
+  };
   // The first waiting task whose prerequisites all succeeded (tasks.size() when none); a task
   // with a failed prerequisite is given up on the way, as not started.
   const auto next_ready = [&]() {
@@ -78,6 +106,7 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
     return tasks.size();
   };
   while (left > 0 || !running.empty()) {
+    pass_on_stop();
     while (left > 0 && static_cast<int>(running.size()) < jobs) {
       const std::size_t next = next_ready();
       if (next == tasks.size()) break;
@@ -91,6 +120,11 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
       const auto start = Clock::now();
       const pid_t pid = ::fork();
       if (pid == 0) {
+        // its own process group; SIGTERM when the parent dies (checked once more after the
+        // request, in case the parent died before it)
+        ::setpgid(0, 0);
+        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (::getppid() != parent) ::_exit(127);
         const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) {
           ::dup2(fd, 1);
@@ -122,8 +156,9 @@ run_processes(const std::vector<ProcessTask>& tasks, int jobs,
     }
     int status = 0;
     struct rusage ru {};
-    // with time limits: poll, and kill (SIGKILL, the child we started) a run past its limit
-    const pid_t pid = ::wait4(-1, &status, any_timeout ? WNOHANG : 0, &ru);
+    // with time limits or a stop flag: poll, and kill (SIGKILL, the child we started) a run past
+    // its limit (a stop signal restarts a blocking wait4: SA_RESTART)
+    const pid_t pid = ::wait4(-1, &status, any_timeout || stop ? WNOHANG : 0, &ru);
     const auto end = Clock::now();
     if (pid == 0) {
       for (const auto& [cpid, r] : running) {

@@ -137,6 +137,7 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
   }
   std::vector<StabilityRow> rows;
   for (const auto& var : base.soil.dem ? dem_variants(base) : std::vector<Variant>{}) {
+    if (o.interrupt && o.interrupt->load()) return rows;
     StabilityRow row;
     row.name = var.name;
     row.description = var.description;
@@ -178,6 +179,7 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
     dem::RunOptions ro;
     ro.out_dir = o.out_dir / "rows" / var.name;
     ro.threads = o.threads;
+    ro.interrupt = o.interrupt;
     std::filesystem::remove_all(ro.out_dir);
     const auto t0 = std::chrono::steady_clock::now();
     try {
@@ -199,7 +201,7 @@ std::vector<StabilityRow> stability_study(const scene::Scene& base, const StudyO
     row.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     rows.push_back(row);
   }
-  if (cont) {
+  if (cont && !(o.interrupt && o.interrupt->load())) {
     scene::Scene s = base;
     if (o.duration) s.info.duration = *o.duration;
     for (auto& r : o.continuum_rows(s)) {

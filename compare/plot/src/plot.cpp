@@ -48,9 +48,41 @@ bool run_gnuplot(const fs::path& script, std::string* error) {
   if (error) *error = r[0];
   return false;
 }
+// A PNG ends with its IEND chunk, an SVG with </svg>: gnuplot exits 0 over a figure a full disk
+// or a file size limit cut short.
+bool image_whole(const fs::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  if (!in) return false;
+  in.seekg(0, std::ios::end);
+  const auto size = static_cast<long long>(in.tellg());
+  const long long tail = std::min<long long>(size, 64);
+  std::string t(static_cast<std::size_t>(tail), '\0');
+  in.seekg(size - tail);
+  in.read(t.data(), tail);
+  if (!in) return false;
+  if (f.extension() == ".svg") return t.find("</svg>") != std::string::npos;
+  return size >= 12 &&
+         t.compare(t.size() - 12, 12, std::string("\0\0\0\0IEND\xae\x42\x60\x82", 12)) == 0;
+}
 bool run_or_queue(const fs::path& png, const fs::path& script, std::string* error,
                   PlotQueue* queue) {
-  if (!queue) return run_gnuplot(script, error);
+  if (!queue) {
+    if (!run_gnuplot(script, error)) return false;
+    fs::path svg = png;
+    svg.replace_extension(".svg");
+    for (const auto& f : {png, svg}) {
+      std::error_code ec;
+      if ((f == svg && !fs::exists(f, ec)) || image_whole(f)) continue;
+      fs::remove(png, ec); // no figure rather than a cut one
+      fs::remove(svg, ec);
+      if (error)
+        *error = fmt::format("cannot write {}: the figure is missing or cut short (a full disk or "
+                             "a file size limit?)",
+                             f.string());
+      return false;
+    }
+    return true;
+  }
   queue->pngs.push_back(png);
   queue->scripts.push_back(script);
   return true;

@@ -26,6 +26,9 @@ struct ReportOptions {
   double kernel_width = 0.0;           // coarse-graining support radius [m] (0: 2 mean diameters)
   bool fields = true;                  // coarse-grained field maps (needs both solvers' snapshots)
   std::string command;                 // the reproducing command ("" = demfem compare SCENE …)
+  // Solvers whose series end before the scene's duration or come from a failed run, one line
+  // each: shown first in the report and listed in metrics.json ("incomplete") when not empty.
+  std::vector<std::string> incomplete;
 };
 
 // A word of a shell command, single-quoted when it holds anything but [A-Za-z0-9_-./=:+,@%]

@@ -7,6 +7,7 @@
 // residual history.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -31,6 +32,9 @@ struct StudyOptions {
   // The continuum rows of a scene with [soil.continuum] (studies/ does not link the continuum:
   // the application supplies them, continuum/stability.hpp); unset: none.
   std::function<std::vector<StabilityRow>(const scene::Scene&)> continuum_rows;
+  // A stop request (a stop signal): the DEM row running stops at its next step and no further
+  // row runs. nullptr: none.
+  std::atomic<bool>* interrupt = nullptr;
 };
 
 struct StabilityRow {

@@ -43,7 +43,8 @@ struct PlotQueue {
 
 // Writes `<stem>.png` and `<stem>.svg` (stem = path without extension) plus the gnuplot script and
 // data beside them, so a person can re-plot. Returns false (and says why in `error`) when gnuplot
-// is missing or fails; the run is not failed for a figure. With a `queue` it only writes the
+// is missing or fails, or when the figure came out cut short ("cannot write <file>: …", the cut
+// files removed: a full disk). With a `queue` it only writes the
 // script and data and queues the figure (false only for a figure with nothing to draw).
 bool plot(const PlotSpec& spec, const std::filesystem::path& png, std::string* error = nullptr,
           PlotQueue* queue = nullptr);
