@@ -471,96 +471,105 @@ void initial_stress(const DiffContext& x, std::vector<DiffRow>& rows) {
                   matched});
 }
 
-// The boundaries: the continuum's box (continuum/src/fem.hpp Problem: left/right rollers,
-// bottom fixed, top free; box conditions skip structure dofs), the DEM's [[wall]]s
-void boundaries(const DiffContext& x, std::vector<DiffRow>& rows) {
+// The continuum's box sides (continuum/src/fem.hpp Problem: left/right rollers, bottom fixed,
+// top free; box conditions skip structure dofs), each with the DEM walls that lie on it.
+struct BoxSide {
+  const char* name;
+  const char* continuum;
+  bool (*on)(const scene::Wall&, const Box&, double);
+};
+const BoxSide kBoxSides[] = {
+    {"base", "fixed: u = 0 (fully rough, no sliding or lift-off)",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.z - b.z0) < t; });
+     }},
+    {"left side", "roller: u_x = 0, frictionless, no separation",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.x - b.x0) < t; });
+     }},
+    {"right side", "roller: u_x = 0, frictionless, no separation",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.x - b.x1) < t; });
+     }},
+};
+
+// One side of the box: the DEM's walls on it (marked in `used`) against the continuum's condition.
+void box_side(const DiffContext& x, const BoxSide& side, std::vector<bool>& used,
+              std::vector<DiffRow>& rows) {
   const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
-  struct Side {
-    const char* name;
-    const char* continuum;
-    bool (*on)(const scene::Wall&, const Box&, double);
-  };
-  const Side sides[] = {
-      {"base", "fixed: u = 0 (fully rough, no sliding or lift-off)",
-       [](const scene::Wall& w, const Box& b, double t) {
-         return std::all_of(w.points.begin(), w.points.end(),
-                            [&](const scene::Vec2& q) { return std::abs(q.z - b.z0) < t; });
-       }},
-      {"left side", "roller: u_x = 0, frictionless, no separation",
-       [](const scene::Wall& w, const Box& b, double t) {
-         return std::all_of(w.points.begin(), w.points.end(),
-                            [&](const scene::Vec2& q) { return std::abs(q.x - b.x0) < t; });
-       }},
-      {"right side", "roller: u_x = 0, frictionless, no separation",
-       [](const scene::Wall& w, const Box& b, double t) {
-         return std::all_of(w.points.begin(), w.points.end(),
-                            [&](const scene::Vec2& q) { return std::abs(q.x - b.x1) < t; });
-       }},
-  };
-  std::vector<bool> used(s.walls.size(), false);
-  for (const auto& side : sides) {
-    const bool right = std::string(side.name) == "right side";
-    const bool left = std::string(side.name) == "left side";
-    // A structure at the mesh's edge takes that side's dofs (box conditions skip them).
-    const scene::Structure* edge = nullptr;
-    for (const auto& st : s.structures) {
-      const auto b = scene::bounds(st.outline);
-      if ((right && std::abs(b.x1 - mesh.x1) < tol && b.x0 >= dom.x1 - tol) ||
-          (left && std::abs(b.x0 - mesh.x0) < tol && b.x1 <= dom.x0 + tol))
-        edge = &st;
-    }
-    std::string dem;
-    double mu = 0.0, mu_d = 0.0;
-    bool any = false;
-    for (std::size_t k = 0; k < s.walls.size(); ++k)
-      if (side.on(s.walls[k], dom, tol)) {
-        used[k] = true;
-        any = true;
-        dem += fmt::format(
-            "{}frictional wall '{}': {}{}", dem.empty() ? "" : "; ", s.walls[k].name,
-            boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d, &mu, &mu_d),
-            s.walls[k].opens_at ? fmt::format(", removed at t = {} s", g3(*s.walls[k].opens_at))
-                                : "");
-      }
-    if (!any && edge) continue; // the structure row covers it
-    if (!any) dem = "no wall";
-    std::string cont =
-        edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
-    std::string why;
-    bool matched = false;
-    // continuum.interface = "coulomb" (continuum/src/run.cpp): the wall is a zero-thickness
-    // Coulomb contact plane with the DEM's μ (continuum/README.md)
-    const bool coulomb = co.interface == "coulomb" && any && !edge;
-    if (coulomb) {
-      cont = fmt::format("Coulomb contact plane (continuum.interface = \"coulomb\"): zero "
-                         "thickness, μ_s {} / μ_D {}, slides and separates",
-                         g3(mu), g3(mu_d));
-      why = "Matched: the same wall friction; the soil slides on the wall at μ_D once μ_s is "
-            "exceeded and leaves it when pulled, as the DEM particles do.";
-      matched = true;
-    } else if (!any && !edge) {
-      why = "The DEM soil has no wall on this side; the continuum's is held there.";
-    } else if (std::string(side.name) == "base") {
-      why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
-      if (s.load.shaking && s.load.shaking->direction == 'x' && any) {
-        // Rigid block on a Coulomb base: it starts sliding when |a| > μ_s g and keeps sliding
-        // while |a| > μ_D g (Newmark 1965 sliding block).
-        const double a = peak(s.load.shaking->acceleration, s.info.duration);
-        why += fmt::format(" Peak shaking {} m/s² against μ_s g = {} and μ_D g = {} m/s²: {}.",
-                           g3(a), g3(mu * g), g3(mu_d * g),
-                           a > mu * g     ? "the DEM bed can slide on its base"
-                           : a > mu_d * g ? "the DEM bed cannot start sliding on its base"
-                                          : "no sliding on the base");
-      }
-    } else {
-      matched = any && mu == 0.0 && !edge;
-      why = matched ? "Both frictionless (the DEM wall can still separate from the soil)."
-            : edge  ? "See structure faces."
-                    : "Shear stress along this side: carried by the DEM wall's friction, zero "
-                      "on the continuum's roller.";
-    }
-    rows.push_back({std::string("boundary: ") + side.name, dem, cont, why, matched});
+  const bool right = std::string(side.name) == "right side";
+  const bool left = std::string(side.name) == "left side";
+  // A structure at the mesh's edge takes that side's dofs (box conditions skip them).
+  const scene::Structure* edge = nullptr;
+  for (const auto& st : s.structures) {
+    const auto b = scene::bounds(st.outline);
+    if ((right && std::abs(b.x1 - mesh.x1) < tol && b.x0 >= dom.x1 - tol) ||
+        (left && std::abs(b.x0 - mesh.x0) < tol && b.x1 <= dom.x0 + tol))
+      edge = &st;
   }
+  std::string dem;
+  double mu = 0.0, mu_d = 0.0;
+  bool any = false;
+  for (std::size_t k = 0; k < s.walls.size(); ++k)
+    if (side.on(s.walls[k], dom, tol)) {
+      used[k] = true;
+      any = true;
+      dem += fmt::format(
+          "{}frictional wall '{}': {}{}", dem.empty() ? "" : "; ", s.walls[k].name,
+          boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d, &mu, &mu_d),
+          s.walls[k].opens_at ? fmt::format(", removed at t = {} s", g3(*s.walls[k].opens_at))
+                              : "");
+    }
+  if (!any && edge) return; // the structure row covers it
+  if (!any) dem = "no wall";
+  std::string cont =
+      edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
+  std::string why;
+  bool matched = false;
+  // continuum.interface = "coulomb" (continuum/src/run.cpp): the wall is a zero-thickness
+  // Coulomb contact plane with the DEM's μ (continuum/README.md)
+  const bool coulomb = co.interface == "coulomb" && any && !edge;
+  if (coulomb) {
+    cont = fmt::format("Coulomb contact plane (continuum.interface = \"coulomb\"): zero "
+                       "thickness, μ_s {} / μ_D {}, slides and separates",
+                       g3(mu), g3(mu_d));
+    why = "Matched: the same wall friction; the soil slides on the wall at μ_D once μ_s is "
+          "exceeded and leaves it when pulled, as the DEM particles do.";
+    matched = true;
+  } else if (!any && !edge) {
+    why = "The DEM soil has no wall on this side; the continuum's is held there.";
+  } else if (std::string(side.name) == "base") {
+    why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
+    if (s.load.shaking && s.load.shaking->direction == 'x' && any) {
+      // Rigid block on a Coulomb base: it starts sliding when |a| > μ_s g and keeps sliding
+      // while |a| > μ_D g (Newmark 1965 sliding block).
+      const double a = peak(s.load.shaking->acceleration, s.info.duration);
+      why += fmt::format(" Peak shaking {} m/s² against μ_s g = {} and μ_D g = {} m/s²: {}.", g3(a),
+                         g3(mu * g), g3(mu_d * g),
+                         a > mu * g     ? "the DEM bed can slide on its base"
+                         : a > mu_d * g ? "the DEM bed cannot start sliding on its base"
+                                        : "no sliding on the base");
+    }
+  } else {
+    matched = any && mu == 0.0 && !edge;
+    why = matched ? "Both frictionless (the DEM wall can still separate from the soil)."
+          : edge  ? "See structure faces."
+                  : "Shear stress along this side: carried by the DEM wall's friction, zero "
+                    "on the continuum's roller.";
+  }
+  rows.push_back({std::string("boundary: ") + side.name, dem, cont, why, matched});
+}
+
+// The boundaries: the continuum's box against the DEM's [[wall]]s, side by side, then the DEM
+// walls on no side of the box.
+void boundaries(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& s = x.s;
+  const auto& d = x.d;
+  std::vector<bool> used(s.walls.size(), false);
+  for (const auto& side : kBoxSides) box_side(x, side, used, rows);
   std::string other;
   for (std::size_t k = 0; k < s.walls.size(); ++k)
     if (!used[k])
