@@ -350,6 +350,7 @@ MetricSeries instance(const Metric& row, const std::string& owner) {
   m.def.role = row.role;
   m.def.threshold = row.threshold;
   m.def.rank = row.rank;
+  m.def.scale = row.scale;
   return m;
 }
 

@@ -83,25 +83,32 @@ void add_displacement_remarks(MetricRow& row, double grain, double beyond_small_
         100.0 * beyond_small_strain);
 }
 
-// The increments from rest of both solvers with their moving averages; the figure's path
-// relative to the run directory, "" when it could not be drawn.
+// The increments from rest of both solvers with their moving averages, in the row's scale; the
+// figure's path relative to the run directory, "" when it could not be drawn.
 std::string increment_figure(const MetricSeries& m, const MetricRow& row, const SplitOptions& so,
                              const fs::path& run_dir, const fs::path& figdir) {
+  const double k = m.def.scale.factor;
+  const std::string unit = m.def.scale.unit.empty() ? m.def.unit : std::string(m.def.scale.unit);
+  auto scaled = [k](std::vector<double> v) {
+    if (k != 1.0)
+      for (double& y : v) y *= k;
+    return v;
+  };
   PlotSpec spec;
   spec.title =
       fmt::format("{}: increment from rest (static: DEM {:.4g}, continuum {:.4g} {})",
-                  m.def.quantity, row.static_part.dem, row.static_part.continuum, m.def.unit);
+                  m.def.quantity, k * row.static_part.dem, k * row.static_part.continuum, unit);
   spec.xlabel = "time [s]";
-  spec.ylabel = fmt::format("{} − static [{}]", m.def.quantity, m.def.unit);
+  spec.ylabel = fmt::format("{} − static [{}]", m.def.quantity, unit);
   spec.height = 450;
   spec.series.push_back(
-      {"DEM", m.dem.t, row.dem_split.increment, "lines", "lw 1 lc rgb '#a6cee3'"});
-  spec.series.push_back({"continuum", m.continuum.t, row.continuum_split.increment, "lines",
+      {"DEM", m.dem.t, scaled(row.dem_split.increment), "lines", "lw 1 lc rgb '#a6cee3'"});
+  spec.series.push_back({"continuum", m.continuum.t, scaled(row.continuum_split.increment), "lines",
                          "lw 1 lc rgb '#fb9a99'"});
   spec.series.push_back({fmt::format("DEM, moving mean ({:.3g} s)", so.window), m.dem.t,
-                         row.dem_split.mean, "lines", "lw 3 lc rgb '#1f78b4'"});
-  spec.series.push_back({"continuum, moving mean", m.continuum.t, row.continuum_split.mean, "lines",
-                         "lw 3 lc rgb '#e31a1c'"});
+                         scaled(row.dem_split.mean), "lines", "lw 3 lc rgb '#1f78b4'"});
+  spec.series.push_back({"continuum, moving mean", m.continuum.t, scaled(row.continuum_split.mean),
+                         "lines", "lw 3 lc rgb '#e31a1c'"});
   const fs::path png = figdir / (detail::safe_name(m.def.key) + ".png");
   std::string err;
   return plot(spec, png, &err) ? fs::relative(png, run_dir).string() : std::string();

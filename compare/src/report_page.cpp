@@ -111,6 +111,16 @@ std::string verdicts_method(const SplitOptions& so, double thr) {
       so.late_from, so.late_to, so.window, 100 * thr, 100 * thr);
 }
 
+// How a check is judged, in words, when the table has one.
+std::string checks_method(const std::vector<MetricRow>& rows) {
+  if (std::none_of(rows.begin(), rows.end(),
+                   [](const MetricRow& r) { return r.def.role == Role::Check; }))
+    return {};
+  return "<p>A <b>check</b> is an identity both solvers must satisfy: it <b>holds</b> when the "
+         "two agree as a verdict would, against the check's own threshold, and <b>fails</b> "
+         "otherwise.</p>\n";
+}
+
 // A deposited bed is one realisation of the soil: say so, and how to measure the spread.
 std::string realisation_note(const scene::Scene* scene) {
   if (!scene || !scene->soil.dem || !scene->soil.dem->particles.empty() ||
@@ -158,8 +168,8 @@ std::string verdicts_section(const ReportResult& res, const SplitOptions& so,
                              const ReportOptions& options) {
   std::string h;
   if (!res.compared.empty())
-    h += verdicts_method(so, options.divergence_threshold) + realisation_note(options.scene) +
-         verdicts_table(res.compared);
+    h += verdicts_method(so, options.divergence_threshold) + checks_method(res.compared) +
+         realisation_note(options.scene) + verdicts_table(res.compared);
   if (!res.zero.empty()) {
     h += "<p>Not compared (zero in both solvers): ";
     for (std::size_t k = 0; k < res.zero.size(); ++k)

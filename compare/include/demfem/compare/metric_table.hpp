@@ -76,25 +76,27 @@ enum class Role : std::uint8_t {
 // both solvers and is listed as such, not compared.
 enum class Dof : std::uint8_t { None, X, Z, Rotation };
 
-// How a figure shows the values: figure value = factor × SI value, in `unit`. factor 0: chosen
-// from the values (a displacement: mm below 1 cm, else cm).
+// How a figure shows the values: figure value = factor × SI value, in `unit` ("": the row's).
+// factor 0: chosen from the values (a displacement profile: mm below 1 cm, else cm).
 struct Scale {
   double factor = 1.0;
   std::string_view unit{};
 };
 
+// Metric::rank below this: the key quantities.
 inline constexpr int kKeyRanks = 4;
 
 struct Metric {
-  std::string_view key{};      // "thrust": the metric "<owner>.thrust"; the whole key for the scene
-  std::string_view quantity{}; // plain words, after the owner's name: unique over the table
+  std::string_view key{}; // "thrust": the metric "<owner>.thrust"; the whole key for the scene
+  // plain words, after the owner's name: unique among the rows one owner gets
+  std::string_view quantity{};
   Subject subject = Subject::Series;
   Owners owners = Owners::Scene;
   Source source{};
   Reduction reduction = Reduction::Split;
   std::string_view unit{}; // SI unit of the values
   Scale scale{};
-  // relative threshold of the verdict or check; NaN: the report's (--threshold)
+  // relative threshold of the verdict or check; NaN: the report's (divergence_threshold)
   double threshold = std::numeric_limits<double>::quiet_NaN();
   Role role = Role::Verdict;
   // order in the report (stable within a rank): below kKeyRanks the key quantities (thrust,
@@ -121,10 +123,10 @@ struct OtherName {
 [[nodiscard]] std::span<const OtherName> other_names();
 
 // A row's fields agree with each other: a series is read from a column or the surface and split;
-// a profile is shown, not judged; pressure bins are read per pressure target and reduced to their
-// rest and late means, the surface's bins once for the scene and reduced to end − rest; a column
-// is read from a named file. (A profile read or reduced another way is a new reader in
-// profiles.cpp, then rows.)
+// a profile is shown, not judged; only a displacement profile chooses its scale from its values;
+// pressure bins are read per pressure target and reduced to their rest and late means, the
+// surface's bins once for the scene and reduced to end − rest; a column is read from a named file.
+// (A profile read or reduced another way is a new reader in profiles.cpp, then rows.)
 [[nodiscard]] constexpr bool consistent(const Metric& m) {
   const Read r = m.source.read;
   const bool series = m.subject == Subject::Series;
@@ -136,7 +138,8 @@ struct OtherName {
          (r == Read::PressureBins) == (m.owners == Owners::PressureTargets) &&
          (r == Read::PressureBins) == (m.reduction == Reduction::RestAndLateMean) &&
          (r == Read::SurfaceBins) == (m.reduction == Reduction::EndMinusRest) &&
-         (!surface || m.owners == Owners::Scene) && (r != Read::Column || !m.source.file.empty());
+         (!surface || m.owners == Owners::Scene) && (r != Read::Column || !m.source.file.empty()) &&
+         (m.scale.factor > 0.0 || m.reduction == Reduction::EndMinusRest);
 }
 
 } // namespace demfem::compare

@@ -30,6 +30,7 @@ struct MetricDef {
   Role role = Role::Verdict;
   double threshold = std::numeric_limits<double>::quiet_NaN(); // NaN: the caller's
   int rank = 10;                                               // Metric::rank
+  Scale scale{};                                               // Metric::scale
 };
 
 struct TimeSeries {
