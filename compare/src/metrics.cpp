@@ -5,6 +5,7 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -309,11 +310,11 @@ struct OwnerLists {
 };
 
 OwnerLists owner_lists(SolverFiles& files) {
-  std::map<std::string, int> keys; // both files' columns, in key order
+  std::set<std::string> keys; // both files' columns, in key order
   for (const auto f : {file::structures, file::walls})
-    for (const auto& [k, s] : files.file(f)) keys[k];
+    for (const auto& [k, s] : files.file(f)) keys.insert(k);
   OwnerLists r;
-  for (const auto& [k, unused] : keys) {
+  for (const auto& k : keys) {
     std::string owner, q, unit;
     if (!split_column(k + " []", owner, q, unit)) continue;
     auto& list = q == col::thrust.name ? r.walls : r.all;
@@ -426,7 +427,9 @@ std::optional<MetricSeries> read_surface_mean(const Metric& row, const fs::path&
   m.def.continuum_source = "continuum/*.vtu snapshots: top of the soil cells + vertical "
                            "displacement, averaged over the same bins";
   for (std::size_t r = 0; r < t.rows.size(); ++r) {
-    const double z = finite_mean({t.rows[r].begin() + 1, t.rows[r].begin() + 1 + nb});
+    const auto& row_r = t.rows[r];
+    const std::size_t n = std::min(nb + 1, row_r.size());
+    const double z = n > 1 ? finite_mean({row_r.begin() + 1, row_r.begin() + n}) : NAN;
     if (!std::isfinite(z)) continue;
     m.dem.t.push_back(time[r]);
     m.dem.y.push_back(z);
@@ -495,6 +498,25 @@ void warn_untouched(const std::string& b, SolverFiles& dem, SolverFiles& cont, M
         b));
 }
 
+// The columns of one owner that are a metric of the table under another name, and the load's own
+// history, where the solver writes them.
+void add_other_names(const std::string& owner, bool wall, std::span<const Metric> table,
+                     SolverFiles& files, MetricSet& set) {
+  for (const auto& on : other_names()) {
+    const std::string k = output::key(owner, on.column);
+    const bool written = files.find(file::structures, k) || files.find(file::walls, k);
+    const bool input = on.same_as.name.empty();
+    const bool compared = std::any_of(table.begin(), table.end(), [&](const Metric& m) {
+      return m.subject == Subject::Series && m.source.read == Read::Column &&
+             applies(m.owners, wall) && m.source.column.name == on.same_as.name;
+    });
+    if (applies(on.owners, wall) && written && (input || compared))
+      set.aliases.push_back({output::heading(owner, on.column),
+                             input ? std::string("(input)") : output::key(owner, on.same_as),
+                             std::string(on.why)});
+  }
+}
+
 MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides sides,
                   std::span<const Metric> table) {
   MetricSet set;
@@ -522,17 +544,7 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
       if (row.subject == Subject::Series && row.source.read == Read::Column &&
           row.owners != Owners::Scene && applies(row.owners, wall))
         add(row, read_column(row, o, dem, cont), o);
-    // The same physical quantities under other names, and the load's own history.
-    for (const auto& on : other_names()) {
-      const std::string k = output::key(o, on.column);
-      if (!applies(on.owners, wall) || (!(dem.wanted() ? dem : cont).find(file::structures, k) &&
-                                        !(dem.wanted() ? dem : cont).find(file::walls, k)))
-        continue;
-      set.aliases.push_back(
-          {output::heading(o, on.column),
-           on.same_as.name.empty() ? std::string("(input)") : output::key(o, on.same_as),
-           std::string(on.why)});
-    }
+    add_other_names(o, wall, table, dem.wanted() ? dem : cont, set);
   }
   // The scene's own series.
   std::optional<ContinuumSnapshot> last_snapshot;

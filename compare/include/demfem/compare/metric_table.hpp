@@ -110,7 +110,8 @@ struct Metric {
 };
 
 // A column the solvers write that is a metric's quantity under another name, listed once in the
-// report instead of being compared twice (or the load's own history: same_as empty).
+// report instead of being compared twice (or the load's own history: same_as empty). Listed for
+// an owner whose files have the column, when the table compares its same_as.
 struct OtherName {
   Owners owners;
   output::Column column;
