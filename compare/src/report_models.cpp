@@ -851,16 +851,16 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
   if (!s.soil.dem || !s.soil.continuum) return rows;
   const auto& c = *s.soil.continuum;
   const Box mesh = box_of(s, true);
-  const DiffContext x{s,
-                      f,
-                      *s.soil.dem,
-                      c,
-                      s.continuum,
-                      c.model == scene::ContinuumModel::MohrCoulomb,
-                      s.load.gravity,
-                      box_of(s, false),
-                      mesh,
-                      1e-6 * std::max(1.0, std::max(mesh.x1 - mesh.x0, mesh.z1 - mesh.z0))};
+  const DiffContext x{.s = s,
+                      .f = f,
+                      .d = *s.soil.dem,
+                      .c = c,
+                      .co = s.continuum,
+                      .mc = c.model == scene::ContinuumModel::MohrCoulomb,
+                      .g = s.load.gravity,
+                      .dom = box_of(s, false),
+                      .mesh = mesh,
+                      .tol = 1e-6 * std::max(1.0, std::max(mesh.x1 - mesh.x0, mesh.z1 - mesh.z0))};
   // one writer per aspect, in the report's order
   using Aspect = void (*)(const DiffContext&, std::vector<DiffRow>&);
   for (const Aspect aspect :
