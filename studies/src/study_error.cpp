@@ -375,6 +375,13 @@ ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o)
                  "π √(m*/K_n); the centre distance at the end is r1 + r2 + v_sep (t − t_touch − "
                  "π √(m*/K_n))";
   st.primary_metric = "distance";
+  // The closed-form studies' metrics (these and flamant_error_study's) are not rows of the
+  // comparison's metric table (compare/metric_table.hpp): a row is one quantity both solvers write
+  // through the run-directory contract, reduced alike for both (rest value, late mean,
+  // oscillation, profile per bin); these are one solver's end state (two particles of a
+  // checkpoint, the last rebound energy, a study-point result) against a closed form, with no
+  // counterpart in the other solver. Scenes without a closed form are measured with the table
+  // itself (study_scene.cpp, compare::collect_solver_metrics).
   st.metric_descriptions = {
       {"distance", "|d − d_exact| / (d_exact − r1 − r2): centre distance at the end, relative to "
                    "the gap opened since separation"},

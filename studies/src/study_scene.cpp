@@ -36,16 +36,14 @@ using namespace study_detail;
 
 namespace {
 
-// The metric table's key quantities (issue 11: wall thrust, structure settlement and rotation,
-// surface subsidence) of the scene's structures (the boundary walls' reactions are not studied).
-bool studied(const std::string& key, const scene::Scene& s) {
-  if (key == "surface.elevation") return true;
-  const auto dot = key.rfind('.');
-  if (dot == std::string::npos) return false;
-  const std::string owner = key.substr(0, dot), q = key.substr(dot + 1);
-  if (q != "thrust" && q != "settlement" && q != "rotation") return false;
-  return std::any_of(s.structures.begin(), s.structures.end(),
-                     [&](const scene::Structure& st) { return st.name == owner; });
+// The metric table's key quantities (compare::kKeyRanks: wall thrust, structure settlement and
+// rotation, surface subsidence) of the scene's structures (the boundary walls' reactions are not
+// studied) and of the scene.
+bool studied(const compare::MetricDef& d, const scene::Scene& s) {
+  if (d.rank >= compare::kKeyRanks) return false;
+  return d.owner.empty() ||
+         std::any_of(s.structures.begin(), s.structures.end(),
+                     [&](const scene::Structure& st) { return st.name == d.owner; });
 }
 
 // Static value, mean increment and oscillation amplitude (metrics.hpp split_series) of every
@@ -56,7 +54,7 @@ std::map<std::string, double> measure(const fs::path& run, const scene::Scene& s
   const MetricSet set = collect_solver_metrics(run, &s, solver);
   std::map<std::string, double> out;
   for (const auto& m : set.series) {
-    if (!studied(m.def.key, s)) continue;
+    if (!studied(m.def, s)) continue;
     const TimeSeries& ts = solver == scene::Solver::Dem ? m.dem : m.continuum;
     if (ts.t.empty()) continue;
     const Split sp = split_series(ts, split_options(&s, ts.t.back()));
