@@ -1,4 +1,4 @@
-// The two fuzzed entry points (issue 13), shared by the libFuzzer targets (fuzz_*.cpp, built with
+// The two fuzzed entry points, shared by the libFuzzer targets (fuzz_*.cpp, built with
 // -DDEMFEM_FUZZ=ON by clang) and by the regression test that replays every saved finding and
 // seed in the default build (tests/fuzz). Each returns normally for any input: a located scene
 // error or a checkpoint error is the expected refusal; anything else (another exception, a

@@ -1173,7 +1173,7 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
       std::string note;
       if (scene.continuum.integrator == "explicit") {
         // Explicit central differences: no stiffness-proportional part (β cuts the stable step
-        // by √(1 + ξ²) − ξ, ξ = βω_max/2: 2–5× on the paper scenes; issue 10). Mass-proportional
+        // by √(1 + ξ²) − ξ, ξ = βω_max/2: 2–5× on the paper scenes). Mass-proportional
         // only, ξ(ω) = α/2ω equal to ξ0 at the excitation frequency (Chopra, Dynamics of Structures
         // §11.4).
         scene.continuum.rayleigh_alpha = 2.0 * p0.xi * w2;

@@ -483,7 +483,7 @@ struct MeshField {
 // The continuum's mesh at rest (reference coordinates, its cells as VTK quads or polygons) with,
 // per point, "continuum <key>", "DEM <key>" (interpolated from the kernel grid; NaN off the soil
 // and outside the granular material) and "continuum - DEM <key>": both methods and their difference
-// on one mesh in ParaView (issue 9 item 3). Written through the checked atomic write.
+// on one mesh in ParaView. Written through the checked atomic write.
 void write_fields_vtu(const fs::path& file, const ContinuumSnapshot& mesh, const Grid& g,
                       const std::vector<MeshField>& fields) {
   const std::size_t np = mesh.x.size();

@@ -159,7 +159,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   if (wall_seconds > 0.0) sum["run_wall_seconds"] = wall_seconds;
   if (steps > 0) sum["steps"] = steps;
   if (scene.soil.dem) sum["particles"] = scene.soil.dem->count;
-  // The initial packing's density and contacts (dem/packing.json, issue 14).
+  // The initial packing's density and contacts (dem/packing.json).
   {
     std::ifstream pj(dem / file::packing);
     if (pj) try {
@@ -412,7 +412,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
           sum["particles_remaining"] = xr.size();
         }
       }
-      // Density at the end of the run (the same window rule as the packing's, issue 14).
+      // Density at the end of the run (the same window rule as the packing's).
       if (scene.soil.dem) {
         const auto m = dem::measure_packing(scene, p);
         sum["packing_final"] = {{"porosity", m.porosity},
@@ -470,7 +470,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
 
   draw_figures(queue, out);
 
-  // ---- snapshot series at the paper's times (output.series; series.hpp, issue 14) ------------
+  // ---- snapshot series at the paper's times (output.series; series.hpp) ------------
   {
     const auto ser_out = write_snapshot_series(scene, run_dir);
     out.figures.insert(out.figures.end(), ser_out.figures.begin(), ser_out.figures.end());

@@ -67,7 +67,7 @@ struct Region {
   // region is then held at that position and the soil keeps its stresses, so that at t = 0 the
   // soil carries the region's weight (as the DEM packing seats an embedded foundation).
   bool seat = false;
-  // In Coulomb contact (issue 9): the region is not meshed; it is a rigid body at rest in the
+  // In Coulomb contact: the region is not meshed; it is a rigid body at rest in the
   // shaking frame whose faces are Problem::contacts with `region` = its index. The soil keeps its
   // own nodes on those faces (no shared nodes); soil_reaction and soil_pressure come from the
   // contact forces. Explicit integrator. With a mode not Fixed it is a moving rigid body (mass and
@@ -114,7 +114,7 @@ struct Patch {
 };
 
 // Zero-thickness Coulomb contact of the soil with a rigid plane at rest in the shaking frame
-// (issue 9, "boundary friction"; explicit integrator only). The soil nodes on the boundary faces
+// ("boundary friction"; explicit integrator only). The soil nodes on the boundary faces
 // whose centre lies on the segment a–b (axis-aligned, as the mesh's faces are) may not cross the
 // plane (unilateral: a node pulled away leaves it) and slide along it against Coulomb friction:
 // sticking while the tangential force needed stays ≤ μ_static N, sliding against μ_dynamic N

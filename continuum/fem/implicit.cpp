@@ -85,8 +85,8 @@ void Implicit::prescribed_rates(Vec& vel, Vec& accel) {
 // on the full local vectors: the constrained dofs' acceleration and velocity (a structure moved by
 // its motion_x/z/rotation, the nodes tied to it) reach the free soil through the consistent mass
 // and β K0 coupling, folded onto the masters by `hom` like the internal force. Multiplying the
-// matrices condensed with the homogeneous constraints instead dropped that coupling, Cᵀ M a_g
-// (issue 10). `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
+// matrices condensed with the homogeneous constraints instead dropped that coupling, Cᵀ M a_g.
+// `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
 // the inertia. The tangent keeps the condensed a₀ M + a₁ (α M + β K0): the prescribed motion does
 // not depend on the free dofs.
 void Implicit::add_dynamic(bool matrix) {

@@ -1,4 +1,4 @@
-// Continuum rows of `demfem study stability` (issue 11 item 2): small problems with a closed form
+// Continuum rows of `demfem study stability`: small problems with a closed form
 // or a bound, each run to completion or to its specific diagnostic.
 #include "demfem/continuum/stability.hpp"
 

@@ -1,4 +1,4 @@
-// Closed-form verification problems shared by the tests and the error-vs-time study (issue 11).
+// Closed-form verification problems shared by the tests and the error-vs-time study.
 #include "demfem/continuum/verification.hpp"
 
 #include <algorithm>

@@ -543,8 +543,8 @@ void Engine::tune_team() {
   ++tu.steps;
   // The window's time without the neighbour rebuilds in it: they come every 10²–10³ steps, and
   // one rebuild of 10⁶ disks (0.27 s) in a window of 8 steps of 17 ms tripled its pace, so that
-  // the probe of one thread after it "won" and ran 8 steps at half speed (bench/RESULTS.md,
-  // twenty-sixth session).
+  // the probe of one thread after it "won" and ran 8 steps at half speed
+  // (bench/RESULTS.md).
   const double elapsed =
       std::max(0.0, std::chrono::duration<double>(now - tu.t0).count() - tu.rebuild_s);
   // A probe behind the current choice's pace (after at least 8 steps' worth of time, or a
@@ -577,7 +577,7 @@ void Engine::tune_team() {
     // A window a quarter slower than the one before (another process took a core the full team
     // uses, say) tries the other choice now instead of after up to 64 windows: a full team that
     // had won for seconds kept running at 0.8–1.3× one thread's pace after `stress-ng --cpu 1`
-    // started (10⁵ disks; bench/RESULTS.md, twenty-second session).
+    // started (10⁵ disks; bench/RESULTS.md).
     const bool slowed = tu.current_per_step > 0.0 && per > 1.25 * tu.current_per_step;
     tu.current_per_step = per;
     if (slowed) tu.until_probe = std::min(tu.until_probe, 1);

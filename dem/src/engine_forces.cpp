@@ -204,7 +204,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   // The owner whose forces are being summed: its sums are added to its arrays when the owner
   // changes. (A branch-free form, the sums of an unchanged owner written to a spill slot, was
   // compiled back into this branch, the slot's stores being dead; forced branch-free it measured
-  // no faster: bench/RESULTS.md, nineteenth session.)
+  // no faster: bench/RESULTS.md.)
   std::size_t cur = i0;
   double fxi = 0.0, fzi = 0.0, ti = 0.0;
   std::uint32_t k = start[i0];
@@ -356,7 +356,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
   // The region's work for thread t0 of a team of ts. A team of one (the adaptive team when the
   // other cores are busy) runs it without a parallel region, its barrier then being a no-op:
   // with the region, a step of 10⁴ disks on one thread took ≈ 10 µs (3–5 %) longer
-  // (bench/RESULTS.md, twenty-first session).
+  // (bench/RESULTS.md).
   const auto region = [&](std::size_t t0, std::size_t ts) {
     for (std::size_t t = t0; t < tcount; t += ts) part_forces(law, t);
 #pragma omp barrier
@@ -504,7 +504,7 @@ void Engine::resume_team_clock() {
   // The window (and its probe's pace) counts the engine's own time only: the caller's time
   // between the calls is added to the window's start. Before, a window that spanned the
   // snapshot of a 10⁵-disk run (0.3 s) read as a slow full team: 35–38 % of the steps then ran
-  // on one thread against 0.5 % without snapshots (bench/RESULTS.md, twenty-fourth session).
+  // on one thread against 0.5 % without snapshots (bench/RESULTS.md).
   tuner_.t0 += team_now() - *tuner_.paused_at;
   tuner_.paused_at.reset();
 }

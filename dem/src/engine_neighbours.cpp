@@ -272,7 +272,7 @@ void Engine::rebuild() {
   // (the list before it), of the same capacity — a capacity rounded up to steps of 1/8, so that
   // a list a little longer than the last still fits — instead of fresh pages. A first touch of a
   // page costs ≈ 11 µs on this project's VMs: 5–6 ms a rebuild of 10⁵ disks (1.5–2.5 % of a
-  // race loop) went into the history's pages (bench/RESULTS.md, twenty-third session).
+  // race loop) went into the history's pages (bench/RESULTS.md).
   std::vector<ContactHistory> new_hist;
   new_hist.reserve(history_capacity(nbr_j_.size()));
 
@@ -345,7 +345,7 @@ void Engine::rebuild() {
     // vector of this thread's own (moved into `result` at the end): the parts' vectors sit side
     // by side in one cache line, and two threads appending to them moved that line between the
     // cores at every particle (the search took twice as long on 2 threads as on one,
-    // bench/RESULTS.md, twenty-second session).
+    // bench/RESULTS.md).
     auto search = [&](std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& result) {
       std::vector<std::uint32_t> out;
       out.swap(result);

@@ -1,5 +1,5 @@
-// Internal to the DEM engine: the vectorised time integration of a range of particles (issue 12
-// item 3), built for several instruction sets like the pair kernel (pair_kernel.hpp) and chosen
+// Internal to the DEM engine: the vectorised time integration of a range of particles,
+// built for several instruction sets like the pair kernel (pair_kernel.hpp) and chosen
 // once at run time.
 //
 // Each particle's update is the scalar one (paper eqs. 2.1, 2.2, 2.16–2.18), operation for

@@ -183,7 +183,7 @@ Box bbox(const scene::Polygon& p) {
 // (every disk overlapping its outline removed, then the bed settles again around the fixed
 // structure). Depositing around a fixed embedded structure, as packings before format 2 did,
 // left a hollow under it: the column beneath compacts while the structure stays (measured on
-// foundation 2-A: the bed under the 98 m base sank to 88 m; issue 9). Structures at the fill's
+// foundation 2-A: the bed under the 98 m base sank to 88 m). Structures at the fill's
 // edge (a retaining wall) stay obstacles during deposition.
 bool carved(const scene::Scene& scene, const scene::Structure& st) {
   const Box fb = bbox(scene.soil.dem->fill), sb = bbox(st.outline);
@@ -264,7 +264,7 @@ Placement place_lattice(const scene::Scene& scene) {
   return out;
 }
 
-// Random sequential placement (issue 14): each disk, in draw order, at the first of up to
+// Random sequential placement: each disk, in draw order, at the first of up to
 // kTries uniformly random positions in the fill and copies of it stacked above (as the lattice
 // uses) that keeps a gap of 2 % of the radii to every placed disk, 5 % of its radius to the fill
 // boundary, walls and structures, and is not above a structure. The column is sized for a

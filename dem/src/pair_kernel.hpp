@@ -1,5 +1,5 @@
 // Internal to the DEM engine: the blocked pair kernel of the paper's law (cundall-rebound without
-// tension), issue 12 item 3. The pair loop runs in three passes over blocks of list entries:
+// tension). The pair loop runs in three passes over blocks of list entries:
 //   1. gather (engine_forces.cpp): for kSize consecutive list entries, the pair (i, j), the entry,
 //      x_i − x_j (computed for the touching test) and its history are written into the block, and
 //      the block count advances only for a touching entry or one with history (branch-free

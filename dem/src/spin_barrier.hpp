@@ -3,7 +3,7 @@
 // `#pragma omp barrier` in libgomp ends every barrier with a futex wake system call by the last
 // thread to arrive, whether or not a thread sleeps: ≈ 1 µs on this project's virtual machines
 // (kernel page-table isolation), three per step with a region per step (the fork, one barrier,
-// the join: bench/RESULTS.md, twenty-second session). Here the waiting threads spin on a
+// the join: bench/RESULTS.md). Here the waiting threads spin on a
 // generation counter first, as libgomp's do, and only then sleep (std::atomic::wait); the last
 // thread's notify makes no system call while nobody sleeps (libstdc++ counts the sleepers).
 #pragma once

@@ -1,4 +1,4 @@
-// The DEM's stable time step (issue 11 item 3).
+// The DEM's stable time step.
 //
 // ---- Derivation
 // ----------------------------------------------------------------------------------- Symplectic

@@ -158,7 +158,7 @@ std::string to_toml(const Scene& s) {
                                  {"damping", d->packing.damping},
                                  {"cache", d->packing.cache},
                                  {"placement", keyword(kPlacementNames, d->packing.placement)}}}});
-    if (d->packing.target_porosity) { // issue 14: as the file gave it (porosity or void ratio)
+    if (d->packing.target_porosity) { //: as the file gave it (porosity or void ratio)
       const double n = *d->packing.target_porosity;
       toml::table t;
       if (d->packing.target_as_void_ratio)
@@ -187,7 +187,7 @@ std::string to_toml(const Scene& s) {
     for (const auto& m : c->models) write_model(m, *soil.get_as<toml::table>("continuum"));
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
-    if (!c->provenance.empty()) { // where each value came from (issue 9)
+    if (!c->provenance.empty()) { // where each value came from
       toml::table prov;
       for (const auto& [k, v] : c->provenance) prov.insert_or_assign(k, v);
       soil.get_as<toml::table>("continuum")->insert("provenance", prov);

@@ -838,7 +838,7 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
     sc.output.figures = r.boolean("figures", sc.output.figures);
     sc.output.checkpoint_interval =
         r.non_negative("checkpoint_interval", sc.output.checkpoint_interval);
-    if (const toml::node* n = r.node("series")) { // snapshot series times [s] (issue 14)
+    if (const toml::node* n = r.node("series")) { // snapshot series times [s]
       const auto* a = n->as_array();
       bool ok = a != nullptr;
       for (std::size_t i = 0; ok && i < a->size(); ++i) {
@@ -913,7 +913,7 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
 
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
               "probe", "load", "output", "variant"});
-  // Semantic checks (issue 13) on a scene that read cleanly: what it asks must be possible.
+  // Semantic checks on a scene that read cleanly: what it asks must be possible.
   if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, vocabulary, diags);
   return sc;
 }

@@ -1,4 +1,4 @@
-// Semantic validation (issue 13): geometry inside the domain, structures clear of walls and of
+// Semantic validation: geometry inside the domain, structures clear of walls and of
 // each other, particles that fit, distributions with weight, and step/memory/output ceilings.
 #include "demfem/scene/validate.hpp"
 
@@ -463,7 +463,7 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                     e.solid_area / (kMaxPackingFraction * e.available_area)));
     return;
   }
-  // Δt above the stable limit (the DEM engine refuses the same step; issue 11).
+  // Δt above the stable limit (the DEM engine refuses the same step).
   if (d.dt > 0.0 && e.dt_limit && d.dt > e.dt_limit->dt)
     add(locate(root, {"soil", "dem", "dt"}), "soil.dem.dt",
         dem_step_refusal(d.dt, *e.dt_limit, d.dt_safety * e.dt_limit->dt));

@@ -1,4 +1,4 @@
-// Seed ensembles of comparisons (issue 9): summary over the members' metrics.json, ensemble.json
+// Seed ensembles of comparisons: summary over the members' metrics.json, ensemble.json
 // and ensemble.html. Report-side code.
 #include "demfem/studies/ensemble.hpp"
 

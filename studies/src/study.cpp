@@ -1,4 +1,4 @@
-// `demfem study stability` (issue 11): stiff and extreme variants of a scene's DEM model.
+// `demfem study stability`: stiff and extreme variants of a scene's DEM model.
 #include "demfem/studies/study.hpp"
 #include "demfem/compare/html.hpp"
 #include "study_runs.hpp"

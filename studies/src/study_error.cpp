@@ -1,4 +1,4 @@
-// `demfem study error-vs-time` (issue 11 item 1): resolution sweeps, each run a separate process.
+// `demfem study error-vs-time`: resolution sweeps, each run a separate process.
 #include "demfem/compare/html.hpp"
 #include "demfem/studies/error_study.hpp"
 #include "study_runs.hpp"

@@ -1,4 +1,4 @@
-// `demfem study error-vs-time` on scenes without a closed form (issue 11 item 1): each solver
+// `demfem study error-vs-time` on scenes without a closed form: each solver
 // swept over its resolution knobs, every run measured with the comparison layer's metric table
 // against the most resolved run of the same solver.
 #include "demfem/studies/error_study.hpp"
@@ -262,7 +262,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
             "(the packing cache key includes K_n), so a K_n point changes the bed as well as the "
             "contact stiffness; each point's porosity is in its results");
     }
-    // Particle size at fixed geometry (issue 11): count × f and every radius / √f keep the
+    // Particle size at fixed geometry: count × f and every radius / √f keep the
     // solid area, so the same domain holds the same bed of smaller disks; in 2D the assembly's
     // stiffness scales with K_n / thickness, not with the radius (e.g. the regular disk array's
     // elastic moduli, Rothenburg & Bathurst 1989), so K_n, K_s and the thickness stay.
@@ -385,7 +385,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
         groups.push_back(std::move(js));
       }
     }
-    // The graded mesh's cells next to the structures (issue 11: mesh_size_near), at the scene's
+    // The graded mesh's cells next to the structures (mesh_size_near), at the scene's
     // refinement, degree and integrator; coarse to fine.
     std::vector<double> nf = o.scene_near_factors;
     std::sort(nf.rbegin(), nf.rend());
@@ -413,7 +413,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
               ? "; × 1 is the scene's own mesh, run again under this knob (its own timing)"
               : ""));
     }
-    // The continuum's time step (issue 11), at the scene's degree and integrator on the sweep's
+    // The continuum's time step, at the scene's degree and integrator on the sweep's
     // coarsest mesh (cheap; the time error at a fixed mesh), smallest step first as reference.
     std::vector<double> tf = o.scene_cont_dt_factors;
     std::sort(tf.rbegin(), tf.rend());

@@ -110,7 +110,7 @@ TEST(Cli, RunUnknownSolverIsBadInput) {
   EXPECT_EQ(r.code, 2);
 }
 
-// `study error-vs-time` on a scene without a closed form (issue 11) measures each solver against
+// `study error-vs-time` on a scene without a closed form measures each solver against
 // its most resolved run; an unknown --solver or --integrators entry is bad input (exit 2) before
 // anything runs.
 TEST(Cli, ErrorVsTimeUnknownSolverExits2) {
@@ -126,7 +126,7 @@ TEST(Cli, ErrorVsTimeUnknownSolverExits2) {
   }
 }
 
-// `demfem calibrate` (issue 9) on a tiny bed: prints the [soil.continuum] block and writes its
+// `demfem calibrate` on a tiny bed: prints the [soil.continuum] block and writes its
 // files; a second call reads the cache; an unknown variant is bad input.
 TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
   const fs::path out = demfem::test::scratch("cli_calibrate");
@@ -178,7 +178,7 @@ TEST(Cli, CalibrateWritesParametersAndUsesTheCache) {
 }
 
 // A DEM run of a scene that calibrates its continuum from the DEM (calibrate = "dem") reads no
-// calibration, so it makes none (issue 12: ≈ 40 s of element tests per bed on the paper's scenes,
+// calibration, so it makes none (≈ 40 s of element tests per bed on the paper's scenes,
 // for nothing): `run --jobs` prepares the packing, the runs log that the continuum is not
 // calibrated yet. The run directory's identity is the scene before calibration, so a directory
 // whose record holds the calibrated continuum (as a continuum run writes it) takes a DEM run of
@@ -284,7 +284,7 @@ TEST(Cli, InterruptWritesCheckpointAndResumeFinishes) {
   fs::remove(scene);
 }
 
-// run --jobs 2 (issue 12): the variants run as separate processes, two at once, with outputs
+// run --jobs 2: the variants run as separate processes, two at once, with outputs
 // byte-identical to one-by-one runs, the largest estimated work (particles × steps) started first
 // (ties in file order); a failing variant makes the whole command fail and is named with its exit
 // code, while the others still finish.

@@ -1,4 +1,4 @@
-// Issue 10/11: an explicit-integrator continuum.dt above the stable step is refused by `demfem
+// An explicit-integrator continuum.dt above the stable step is refused by `demfem
 // check` and by `demfem run --solver continuum` alike: exit 2, the same file:line:col of the dt key
 // (or of the variant's override) and the same message.
 #include <filesystem>

@@ -1,4 +1,4 @@
-// `demfem compare --seeds` (issue 9): one comparison per packing seed, then ensemble.json and
+// `demfem compare --seeds`: one comparison per packing seed, then ensemble.json and
 // ensemble.html summarising each metric over the realisations. On a tiny packed bed against a
 // fixed wall under shaking: the seed reaches the DEM's packing (its at-rest thrust differs between
 // seeds) and not the continuum (identical), the statistics are those of the members' metrics.json,

@@ -1,4 +1,4 @@
-// `demfem study error-vs-time` (issue 11 item 1) end to end: the DEM head-on collision swept in
+// `demfem study error-vs-time` end to end: the DEM head-on collision swept in
 // Δt, every run its own process; the order fitted by the study must match the theory.
 #include <cmath>
 #include <cstdlib>
@@ -166,7 +166,7 @@ probe_interval = 0.005
 }
 } // namespace
 
-// Issue 11: error-vs-time on a scene without a closed form — both solvers, each against its most
+// Error-vs-time on a scene without a closed form — both solvers, each against its most
 // resolved run, measured with the comparison's metric table (wall thrust static value, mean
 // increment and oscillation amplitude; surface), with the fronts and figures of the closed-form
 // studies. The DEM Δt settings share one packing.
@@ -288,7 +288,7 @@ TEST(StudyErrorVsTime, CoulombSceneSkipsTheImplicitKnobWithItsReason) {
   EXPECT_TRUE(listed) << j.at("notes").dump();
 }
 
-// Issue 11: a graded continuum mesh (mesh_size_near > 0) is swept in mesh_size_near at the
+// A graded continuum mesh (mesh_size_near > 0) is swept in mesh_size_near at the
 // scene's refinement; the finest is the continuum's reference (the most dofs).
 TEST(StudyErrorVsTime, GradedMeshSweepsItsNearCellSize) {
   const fs::path out = demfem::test::scratch("evt_near");

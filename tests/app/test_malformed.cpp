@@ -1,4 +1,4 @@
-// The malformed-input suite (issue 13): every scene under tests/malformed/ must be refused by
+// The malformed-input suite: every scene under tests/malformed/ must be refused by
 // `demfem run` with exit 2, a diagnostic located at the line marked "# ERROR" in the file, the
 // message named on its first line ("# expect: …"), and no run directory created. Particle files
 // the scenes name lie in tests/malformed/data; a problem in one is located at the line of the

@@ -1,4 +1,4 @@
-// Issue 13: a run never reports success over missing or stale results. Stop signals checkpoint
+// A run never reports success over missing or stale results. Stop signals checkpoint
 // and resume bit for bit; a used run directory of another scene is refused unless --force; a
 // failed write ends the run with exit 1 naming the file.
 #include <chrono>

@@ -1,4 +1,4 @@
-// `demfem study stability` (issue 11): the DEM rows of the stability matrix on the two-disk
+// `demfem study stability`: the DEM rows of the stability matrix on the two-disk
 // column; the rows at 0.9 and 1.1 × the stable limit verify the time-step guard.
 #include <cstdlib>
 #include <filesystem>

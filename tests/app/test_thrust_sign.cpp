@@ -1,4 +1,4 @@
-// Issue 10: the wall thrust is signed (walls.csv <w>.thrust = F·n, n out of the soil,
+// The wall thrust is signed (walls.csv <w>.thrust = F·n, n out of the soil,
 // scene::thrust_normal): > 0 while the soil presses on the wall, < 0 when a tied continuum is
 // pulled into tension. |F·n| showed that tension as thrust.
 #include <cmath>

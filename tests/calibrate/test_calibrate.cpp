@@ -235,7 +235,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
     EXPECT_GT(a, 0.0);
     EXPECT_GT(b, 0.0);
     EXPECT_NEAR(a / (2.0 * w1) + b * w1 / 2.0, xi0, 1e-9 * xi0);
-    // explicit integrator (issue 10): mass-proportional only, ξ0 at the excitation frequency
+    // explicit integrator: mass-proportional only, ξ0 at the excitation frequency
     // (none here: f1), no β (it would cut the stable step)
     scene::Scene ex = stated.base;
     ex.continuum.integrator = "explicit";

@@ -1,4 +1,4 @@
-// Coarse-graining (issue 9 item 3): closed-form checks of the kernel averaging.
+// Coarse-graining: closed-form checks of the kernel averaging.
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -233,8 +233,8 @@ TEST(CoarseGrain, StrainRangeTellsTheSoilAreaBeyondSmallStrains) {
   EXPECT_DOUBLE_EQ(compare::continuum_strain_range(s, compare::kSmallStrainLimit).area_beyond, 0.0);
 }
 
-// The DEM's surface settlement follows the particles that formed the surface at rest (issue 9's
-// matched surfaces: the continuum's top nodes are material too). Two bins of 1 m, particles of
+// The DEM's surface settlement follows the particles that formed the surface at rest
+// (matched surfaces: the continuum's top nodes are material too). Two bins of 1 m, particles of
 // radius 0.05 m (one mean diameter 0.1 m): in each bin a top pair and a particle 0.3 m below
 // (not surface). At the end the top particles of bin 0 are 0.01 m lower, those of bin 1 0.03 m,
 // the deep ones 0.5 m (they must not count); the end snapshot lists the particles in another

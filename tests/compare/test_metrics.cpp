@@ -67,7 +67,7 @@ scene::Scene shaken_scene() {
 
 } // namespace
 
-// Issue 9: the report listed wall.thrust, wall.force_x and wall.reaction_x (identical), and
+// The report listed wall.thrust, wall.force_x and wall.reaction_x (identical), and
 // wall.force_z and wall.reaction_z (identical). Each physical quantity must appear once.
 TEST(Metrics, NoQuantityTwiceAndNoTwoIdenticalSeries) {
   const auto run = wall_run("demfem_test_metrics_dedup");

@@ -103,7 +103,7 @@ TEST(Plot, WritesPngSvgAndScript) {
 
 // A figure whose gnuplot input cannot be written (here its data file's name is taken by a
 // directory) is a WriteError naming that file and the cause, not a figure drawn from a partial
-// or missing input (issue 13).
+// or missing input.
 TEST(Plot, UnwritableInputIsAClearError) {
   const auto d = tmpdir("plot_unwritable");
   fs::create_directories(d / "f.dat");

@@ -265,7 +265,7 @@ TEST(ReportModels, ReportShowsModelsRunTimesAndStudies) {
       << R"({"study": "stability", "scene": "box-wall/quick", "rows": [{"outcome": "completed"},)"
       << R"( {"outcome": "refused"}]})";
   std::ofstream(root / "study-stability" / "quick" / "study.html") << "<html></html>";
-  // an error-vs-time study of this scene without a closed form (issue 11): its summary names the
+  // an error-vs-time study of this scene without a closed form: its summary names the
   // reference runs, the primary metric and the Pareto front
   fs::create_directories(root / "study-error-vs-time" / "quick");
   std::ofstream(root / "study-error-vs-time" / "quick" / "study.json")

@@ -1,5 +1,5 @@
 // Zero-thickness Coulomb contact of the soil with rigid planes (fem::ContactPlane, explicit
-// integrator; issue 9 "boundary friction"): an elastic block on a frictional base slides with the
+// integrator; "boundary friction"): an elastic block on a frictional base slides with the
 // closed-form relative acceleration a − μ_d g above μ_s g and does not slide below it, it can lift
 // off (unilateral), and a frictionless side wall reproduces the roller it replaces.
 #include <gtest/gtest.h>

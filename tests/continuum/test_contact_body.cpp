@@ -1,5 +1,5 @@
 // Coulomb contact between the soil and a MOVING rigid structure (Region::contact with a DoF not
-// fixed; explicit integrator; issue 9 "boundary friction"): the body is not meshed, its faces are
+// fixed; explicit integrator; "boundary friction"): the body is not meshed, its faces are
 // contact planes that move with it, and the contact forces are solved with its equation of motion
 // (Explicit::contact_body). Closed forms: the weight carried at rest, Coulomb
 // sticking/sliding of a pushed block, lift-off of a footing under a moment (which the tied footing

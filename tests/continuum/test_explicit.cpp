@@ -221,7 +221,7 @@ TEST(ContinuumExplicit, ShakenWallExplicitMatchesImplicit) {
   EXPECT_NEAR(pe, pi, 0.05 * pi);
 }
 
-// Slow loading (issue 10, verification): a rigid rough strip footing pushed slowly into weightless
+// Slow loading (verification): a rigid rough strip footing pushed slowly into weightless
 // undrained clay (φ = 0, cohesion c) with the explicit integrator reaches the Prandtl pressure
 // (2 + π)c (Prandtl 1920) within 5 %, as the implicit, displacement-controlled
 // ContinuumStatic.StripFootingUndrainedBearingCapacity does on the same mesh. Half model (x ≥ 0,

@@ -1,4 +1,4 @@
-// Continuum stability classes of `demfem study stability` (issue 11 item 2): each case either
+// Continuum stability classes of `demfem study stability`: each case either
 // completes within its closed-form bound or stops (or is refused) with its specific diagnostic.
 #include <gtest/gtest.h>
 
@@ -60,7 +60,7 @@ TEST(ContinuumStability, ExplicitStepAboveCriticalIsRefused) {
   EXPECT_GT(c.value, c.bound);
 }
 
-// ν → 0.5 on a scene's own mesh (issue 11: the stability rows on the scene, not only built-in
+// ν → 0.5 on a scene's own mesh (the stability rows on the scene, not only built-in
 // problems): a footing held vertically and embedded 1 m is seated under its weight by the static
 // stage; at ν = 0.499 on Q1 cells the run without B-bar locks: the footing sinks less than with
 // B-bar. Both runs complete their explicit steps, at a stable step well below the scene's own ν's

@@ -170,7 +170,7 @@ TEST(ContinuumStructures, FrictionalInterfaceSlidingLimit) {
   }
 }
 
-// A prescribed-motion structure accelerates the soil through the consistent mass too (issue 10).
+// A prescribed-motion structure accelerates the soil through the consistent mass too.
 // A stiff elastic block (2 m × 1 m, one Q2 cell high; first shear frequency ≈ 120 Hz) rests, free
 // on every side, on a rigid plate moved horizontally by u = A (t − sin(ωt)/ω) (u, v and a all 0
 // at t = 0; a = A ω sin ωt, 1 Hz) with implicit Newmark. The block follows almost rigidly, so the
@@ -220,7 +220,7 @@ TEST(ContinuumStructures, PrescribedMotionAcceleratesTheSoilThroughTheMass) {
   EXPECT_LT(worst, 0.005);
 }
 
-// One linear-solver default (issue 10 review: it was cg-amg in the scene and direct here).
+// One linear-solver default (it was cg-amg in the scene and direct here).
 TEST(ContinuumStructures, LinearSolverDefaultIsTheScenes) {
   EXPECT_EQ(Problem{}.linear_solver, demfem::scene::ContinuumOptions{}.linear_solver);
 }

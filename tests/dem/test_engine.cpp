@@ -501,7 +501,7 @@ TEST(DemConvergence, CollisionErrorFallsWithTimeStep) {
 // Energy budget of a frictional, rebounding settle (particles dropped into a box, impacts above
 // V_0): kinetic + potential + springs + friction + rebound − external work stays constant
 // within 1 % of the work done by gravity, at the default Δt (measured −0.76 %) and at Δt/10
-// (−0.13 %). At the former default (4× larger) it missed by 4.5 %.
+// (−0.13 %). At 4× the default Δt it misses by 4.5 %.
 namespace {
 double budget_error(double dt_factor, EnergyBudget& b) {
   auto c = base_config();
@@ -635,7 +635,7 @@ TEST(DemTimeStep, BlowUpIsDetected) {
 // no rebound rule, no gravity) at the DEFAULT Δt: every contact switches on and off inside a step,
 // tens of thousands of times in 1e5 steps. Energy = kinetic + spring, drift = change between the
 // averages over the first and the last 2000 steps.
-// History: at the former default Δt = 0.4√(m/k) (≈ 5.5 steps per contact) f_n = K_n δ heated the
+// At Δt = 0.4√(m/k) (≈ 5.5 steps per contact) f_n = K_n δ heated the
 // gas × 6.8 to a blow-up; the energy-consistent switch (contact_laws.hpp) made head-on impacts
 // exact but the gas still lost 28 %. At the default Δt = 0.1√(m_min/k) (≈ 22 steps per contact,
 // scene.hpp dt_safety) it keeps its energy to 0.17 %.
@@ -697,7 +697,7 @@ TEST(DemMass, SphereAndDiskConventions) {
   EXPECT_NEAR(1.0 / sph.particles().inv_inertia[0], 0.4 * ms * 0.05 * 0.05, 1e-12 * ms);
 }
 
-// reserve_particles (issue 12, 10⁷ disks): the arrays take the set at the size asked for, with
+// reserve_particles (10⁷ disks): the arrays take the set at the size asked for, with
 // no growth by doubling (without it, 1,000 push_backs leave a capacity of 1,024), and the
 // particles are the same as without it.
 TEST(DemMemory, ReservedParticleArraysDoNotGrowWhileTheSetIsAdded) {
@@ -717,7 +717,7 @@ TEST(DemMemory, ReservedParticleArraysDoNotGrowWhileTheSetIsAdded) {
   EXPECT_EQ(reserved.particles().x, plain.particles().x);
 }
 
-// Particle order (issue 12): the reorder puts the particles of a wide bed in columns across x
+// Particle order: the reorder puts the particles of a wide bed in columns across x
 // (a tall one in rows across z), so every touching pair lies within about two columns of
 // particles in memory. A 400 × 12 lattice (4,800 disks, reordered at the first rebuild) is added
 // row by row, where vertical neighbours are 400 apart; after one step every contact's |i − j| is

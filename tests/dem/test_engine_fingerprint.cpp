@@ -1,6 +1,6 @@
 // The engine fingerprint (dem/pack.hpp): a digest of what this build's DEM does, bit for bit, on a
 // small bed. It enters the packing and calibration cache keys, so a checkout never reuses a cache
-// an engine that rounds differently wrote (the stale-cache failure of issue 12's twelfth session:
+// an engine that rounds differently wrote (a stale-cache failure:
 // a test passed on a machine with old caches and failed on a fresh clone).
 #include <string>
 
@@ -34,7 +34,7 @@ TEST(EngineFingerprint, TheSameBuildGivesTheSameFingerprint) {
 }
 
 TEST(EngineFingerprint, AnEngineThatRoundsDifferentlyGetsOtherCacheKeys) {
-  // The change that made last session's caches stale: the Verlet skin (0.3 → 0.6 r_min) moves
+  // A change that made caches stale: the Verlet skin (0.3 → 0.6 r_min) moves
   // the rebuilds, so the list order and the force sums' round-off.
   const std::uint64_t now = dem::compute_engine_fingerprint();
   const std::uint64_t old_skin =

@@ -1,4 +1,4 @@
-// Embedded structures in a packed bed (issue 9): a foundation inside the fill is carved out of a
+// Embedded structures in a packed bed: a foundation inside the fill is carved out of a
 // bed deposited without it, and one the run holds vertically fixed is lowered onto the bed until
 // the bed carries its weight. Before this, the bed was deposited around the fixed foundation and
 // the column under it settled away: no particle touched the foundation (foundation 2-A). A

@@ -1,4 +1,4 @@
-// Packing density as a scene input (issue 14): [soil.dem.packing] target = { porosity = n } is
+// Packing density as a scene input: [soil.dem.packing] target = { porosity = n } is
 // reached by raised-friction deposition from a random placement, and the packing is
 // deterministic. A 300-disk bed in a 1.5 m box (≈ 10 s). The porosity reached depends weakly and
 // not monotonically on the deposition friction (0.200–0.209 at × 1…4, measured), so the test asks

@@ -1,4 +1,4 @@
-// DEM stability classes (issue 11 item 5): each run either completes within its energy bound
+// DEM stability classes: each run either completes within its energy bound
 // or stops (or is refused) with its specific diagnostic. Small scenes, each well under 10 s.
 // The energy bound of a completed run: the end-of-run |ΔE_total| / (|gravity work|
 // + |external work|) below the default warning level soil.dem.energy_warning = 0.05; the numbers
@@ -76,7 +76,7 @@ std::vector<P> bed24() {
   return v;
 }
 
-// Two-disk column on a floor (issue 11): r = 0.05 m, K_n = 1e6 N/m, dropped 1 mm.
+// Two-disk column on a floor: r = 0.05 m, K_n = 1e6 N/m, dropped 1 mm.
 std::string column_scene(double dt, const std::string& extra = "") {
   return fmt::format(R"([scene]
 name = "column"

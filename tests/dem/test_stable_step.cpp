@@ -1,4 +1,4 @@
-// The DEM's stable time step (issue 11 item 3, dem/stable_step.hpp): closed forms of the pair
+// The DEM's stable time step (dem/stable_step.hpp): closed forms of the pair
 // modes, the coordination margin against the eigenvalues of linear spring networks (Eigen), and
 // the engine's refusal.
 #include <gtest/gtest.h>
@@ -91,8 +91,8 @@ TEST(StableStep, PairModesMatchTheirClosedForms) {
       EXPECT_NEAR(b.omega_pair * b.omega_pair, expect, 1e-12);
       EXPECT_NEAR(omega2_max(2, 1.0, inertia, 1.0, 1.0, ks, {{0, 1, 1.0, 0.0}}), expect, 1e-12);
     }
-  // The issue's number: for k_s = k_n the pair's shear–rotation limit 2/ω_pair = 2√(m/6k) is
-  // 0.41× the former check 2√(m/k); with the coordination margin (C = 4) Δt = √(m/6k).
+  // For k_s = k_n the pair's shear–rotation limit 2/ω_pair = 2√(m/6k) is
+  // 0.41× a lone spring's 2√(m/k); with the coordination margin (C = 4) Δt = √(m/6k).
   const auto b = critical_step(params(1.0, 1.0, 0.5));
   EXPECT_NEAR((2.0 / b.omega_pair) / 2.0, 1.0 / std::sqrt(6.0), 1e-12);
   EXPECT_NEAR(b.dt, 1.0 / std::sqrt(6.0), 1e-12);

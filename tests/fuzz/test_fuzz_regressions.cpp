@@ -1,4 +1,4 @@
-// Replays the fuzzers' inputs in the default build (issue 13): every saved finding under
+// Replays the fuzzers' inputs in the default build: every saved finding under
 // fuzz/regressions/, every case file (the scene fuzzer's seed corpus), and a real run checkpoint
 // with each of its truncations, through the same entry points the libFuzzer targets call. Each
 // must be accepted or refused with the loader's own error, never crash or throw anything else.

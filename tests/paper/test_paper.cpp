@@ -1,4 +1,4 @@
-// Reduced forms of the paper's scenes (issue 4): packing determinism and cache reuse, and the
+// Reduced forms of the paper's scenes: packing determinism and cache reuse, and the
 // qualitative findings that survive a shorter run. Full-resolution runs carry the label `long`.
 #include <cmath>
 #include <cstdlib>
@@ -124,7 +124,7 @@ TEST(CaseFiles, AllPaperScenesLoad) {
     EXPECT_NE(a.structures.at(0).force_x(7.3), 0.0);
     EXPECT_EQ(dem::packing_key(u), dem::packing_key(a));
   }
-  // The loose variants (issue 14) change the packing only: random placement, porosity target
+  // The loose variants change the packing only: random placement, porosity target
   // 0.184; the loading of the row they repeat is unchanged, and their packing is their own.
   for (const auto& [loose, dense] :
        {std::pair{"loose-2-A", "2-A"}, std::pair{"loose-1-B", "1-B"}}) {
@@ -137,7 +137,7 @@ TEST(CaseFiles, AllPaperScenesLoad) {
     EXPECT_DOUBLE_EQ(l.structures.at(0).width, d.structures.at(0).width) << loose;
     EXPECT_NE(dem::packing_key(l), dem::packing_key(d)) << loose;
   }
-  // The kn-scaled variants (issue 14 item 2) change the load amplitude only, × K_n / 1.0e6 (the
+  // The kn-scaled variants change the load amplitude only, × K_n / 1.0e6 (the
   // paper's K_n), and share the row's packing.
   const double kn_scale = rock.base.soil.dem->kn / 1.0e6;
   for (const auto& [scaled, row] :

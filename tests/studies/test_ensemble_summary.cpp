@@ -1,4 +1,4 @@
-// studies::summarise_ensemble (issue 9, `demfem compare --seeds`): per part, which solver's
+// studies::summarise_ensemble (`demfem compare --seeds`): per part, which solver's
 // magnitude is larger in how many realisations, with magnitudes within 0.1 % counted as equal, and
 // what that decides; the statistics over the members; a member without metrics.json is left out
 // with the reason.

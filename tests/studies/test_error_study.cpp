@@ -1,4 +1,4 @@
-// Pieces of the error-vs-time study (issue 11 item 1): the log–log fit, the Pareto front and the
+// Pieces of the error-vs-time study: the log–log fit, the Pareto front and the
 // head-on collision's closed form.
 #include <cmath>
 

@@ -328,8 +328,8 @@ std::vector<std::string> draw_queued(const PlotQueue& queue, unsigned processes)
     const auto one = detail::run_gnuplot_scripts(jobs[g], processes);
     for (std::size_t k = 0; k < jobs[g].size(); ++k) err[n * g / groups + k] = one[k];
     // A group that failed although each of its scripts draws alone means the grouping itself is
-    // broken (as with relative script names until the twenty-fourth session): every figure is then
-    // drawn twice, silently. Say so.
+    // broken (relative script names, say): every figure is then drawn
+    // twice, silently. Say so.
     if (std::all_of(one.begin(), one.end(), [](const std::string& e) { return e.empty(); }))
       spdlog::warn("gnuplot: {} scripts from {} failed when run in one process but each drew "
                    "alone: they were drawn one process each (slower)",
@@ -370,7 +370,7 @@ namespace {
 //   to what the variable holds unless it sets hugetlb itself). A 2,800 × 1,192 strip allocates
 //   its canvas, the decoded panel images and the PNG encoder's rows afresh: 13,000 page faults
 //   with 4 KiB pages, 2,700–3,700 with huge pages, and 7–22 % less gnuplot CPU time per figure on
-//   a virtual machine (bench/RESULTS.md, twenty-first session). Where the kernel offers no huge
+//   a virtual machine (bench/RESULTS.md). Where the kernel offers no huge
 //   pages the setting does nothing; other C libraries ignore the variable.
 // - the PNG encoder module (png_preload.cpp) added to LD_PRELOAD, when it is where the build put
 //   it and DEMFEM_PNG_PRELOAD is not 0: the same pixels, ≈ 30 % less gnuplot time per strip.

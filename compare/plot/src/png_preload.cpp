@@ -2,7 +2,7 @@
 // into the gnuplot processes it starts (LD_PRELOAD), so that gnuplot's pngcairo terminal encodes
 // its PNGs with zlib level 3 and no row filter instead of libpng's defaults (level 6, adaptive
 // filters). The pixels are the same; encoding was ≈ 40 % of a snapshot strip's gnuplot time
-// (bench/RESULTS.md, twenty-fifth session). It wraps png_write_info, which only writers call,
+// (bench/RESULTS.md). It wraps png_write_info, which only writers call,
 // once per image before any image data; everything else in gnuplot is untouched. It links no
 // libpng of its own: the functions are those of the libpng the process already loaded, found
 // with dlsym, and when one is missing the image is written with the defaults.
@@ -12,7 +12,7 @@ namespace {
 using WriteInfo = void (*)(void*, void*);
 using SetLevel = void (*)(void*, int);
 using SetFilter = void (*)(void*, int, int);
-constexpr int kLevel = 3; // zlib level (libpng's default 6: bench/RESULTS.md, twenty-fifth session)
+constexpr int kLevel = 3;          // zlib level (libpng's default 6: bench/RESULTS.md)
 constexpr int kFilterNone = 0x08;  // PNG_FILTER_NONE (png.h)
 constexpr int kFilterTypeBase = 0; // PNG_FILTER_TYPE_BASE
 template <class F> F next(const char* name) {

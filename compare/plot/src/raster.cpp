@@ -15,8 +15,8 @@ namespace demfem::compare::detail {
 namespace {
 // RGBA rows (row 0 at the bottom) as PNG bytes, through libpng: zlib level 1 and no row filter.
 // VTK's writer (level 5, libpng's adaptive filters, which it does not let one change) took 45 % of
-// a wall run's figure work in demfem for the strips' 14 layers (bench/RESULTS.md, twenty-fifth
-// session); these layers are read once, by gnuplot.
+// a wall run's figure work in demfem for the strips' 14 layers (bench/RESULTS.md);
+// these layers are read once, by gnuplot.
 std::string encode_png(const std::vector<unsigned char>& rgba, std::size_t w, std::size_t h) {
   std::string out;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);

@@ -1,4 +1,4 @@
-// `demfem calibrate` (issue 9, item 1): continuum parameters from DEM element tests on specimens
+// `demfem calibrate`: continuum parameters from DEM element tests on specimens
 // made by the scene's own packing procedure and contact parameters, and the state of the scene's
 // deposited bed.
 //

@@ -1,4 +1,4 @@
-// Coarse-graining (issue 9 item 3): DEM particle data → continuum-like fields on a regular grid,
+// Coarse-graining: DEM particle data → continuum-like fields on a regular grid,
 // with the kernel averaging of Goldhirsch (2010) and Weinhart et al. (2012):
 //   density   ρ(x)   = Σ_i m_i φ(x − x_i)
 //   momentum  p(x)   = Σ_i m_i v_i φ(x − x_i)

@@ -1,4 +1,4 @@
-// What the two models of a comparison are, for the report (issue 9 item 2: "whatever still
+// What the two models of a comparison are, for the report ("whatever still
 // differs is listed in the report"): one row per aspect (soil model, surface and mass, initial
 // stress, boundaries, damping, excitation, structure placement, time integration, resolution),
 // with what the DEM does, what the continuum does, the consequence, and whether the two are

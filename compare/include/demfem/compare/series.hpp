@@ -1,4 +1,4 @@
-// Snapshot series (issue 14): the paper shows its results as series of pictures at stated times
+// Snapshot series: the paper shows its results as series of pictures at stated times
 // (Ontake every 5–10 s, Fig. 3.5/3.6; retaining wall every 4 s, Figs. 6.5–6.8). From the run's
 // .vtp output (dem/particles.pvd, force_chains.pvd, boundaries.pvd) and loci.csv, at the
 // scene's output.series times (each from the nearest snapshot), three strips of panels:

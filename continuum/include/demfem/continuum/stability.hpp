@@ -1,4 +1,4 @@
-// Continuum rows of `demfem study stability` (issue 11 item 2): stiff and extreme cases of the
+// Continuum rows of `demfem study stability`: stiff and extreme cases of the
 // plane-strain solver, each on a small problem with a closed form or a bound, so that a row says
 // whether the solver completes within its bound or stops with its specific diagnostic. Shared by
 // the study (app) and tests/continuum.

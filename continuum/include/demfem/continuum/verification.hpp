@@ -1,6 +1,6 @@
 // Closed-form verification problems of the continuum solver that no scene expresses (a flexible
 // strip load on a half-plane), shared by tests/continuum and `demfem study error-vs-time
-// flamant` (issue 11) so that the problem and its closed form exist once.
+// flamant` so that the problem and its closed form exist once.
 #pragma once
 
 #include <cstddef>

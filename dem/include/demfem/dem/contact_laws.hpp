@@ -192,7 +192,7 @@ struct StepStiffness {
 // each seeing the approach the earlier ones left, P = m* max(0, w − K v_n) with w the current
 // approach (sequential impulses, Engine::apply_rebounds), so no contact's approach is driven
 // below K times its own and the loss is booked once. The law reports v_n and K v_n only.
-// Friction cap (a modelling choice, issue 11): the Coulomb limit μ f_n (eq. 2.13) sees the spring
+// Friction cap (a modelling choice): the Coulomb limit μ f_n (eq. 2.13) sees the spring
 // force f_n only, not the rebound impulse P/Δt, so the impulse carries no tangential part. The
 // spring then sees the reduced approach speed K v_n, and the friction acting over the contact is
 // that of the gentle elastic rebound: a disk hitting a floor at 2 m/s normal and 1 m/s tangential

@@ -66,7 +66,7 @@ struct EngineConfig {
   // bed into columns across its longer side and runs along each column (the neighbours of a
   // particle lie within about two columns' particles of it in memory, so the pair loop's partner
   // reads stay in cache: 1.2–1.8× the speed of `morton` at 10⁵ disks, bench/RESULTS.md);
-  // `morton` is the Z-order curve (the order before issue 12's column change).
+  // `morton` is the Z-order curve (an alternative order, kept for comparison).
   enum class ParticleOrder { columns, morton } particle_order = ParticleOrder::columns;
   // Threads (OpenMP) for the force loop and the integration: 0 = OpenMP default. Results are
   // bit-identical between runs at the same count, and equal to round-off across counts.
@@ -77,7 +77,7 @@ struct EngineConfig {
   // team of 1 takes over when the full team is slower (a core shared with another process makes
   // every barrier wait for a descheduled thread). false: always the full team.
   bool adaptive_threads = true;
-  // Pair loop of cundall-rebound without tension (issue 12): `simd` the blocked, vectorised
+  // Pair loop of cundall-rebound without tension: `simd` the blocked, vectorised
   // loop with the widest instruction set the processor has (AVX-512, AVX2 or the baseline;
   // pair_kernel.hpp); `avx2` the same with AVX2 at most; `portable` built for the baseline
   // instruction set only; `scalar` the one-pass loop of the other laws. All give bit-identical

@@ -9,8 +9,8 @@ namespace demfem::dem {
 // them). Each neighbour rebuild allocates the new list's contact history (16 B per entry) and
 // frees the old one: with glibc's defaults the block often came from fresh pages, and on this
 // project's virtual machines a first touch costs ≈ 11 µs per 4 KB page — 1.0–1.7 ms of a 2.5 ms
-// rebuild of 10⁴ disks, against ≈ 70 µs when the freed block is reused (bench/RESULTS.md,
-// twenty-second session). Larger blocks (the arrays of 10⁶–10⁷ particles) still come from and go
+// rebuild of 10⁴ disks, against ≈ 70 µs when the freed block is reused (bench/RESULTS.md).
+// Larger blocks (the arrays of 10⁶–10⁷ particles) still come from and go
 // back to the system. No effect outside glibc.
 void keep_freed_memory_for_reuse();
 

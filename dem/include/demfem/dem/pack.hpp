@@ -19,7 +19,7 @@
 // It stops when kinetic energy < packing.ke_ratio × potential energy released, or at
 // packing.max_time.
 //
-// Target density (packing.target = { porosity = n } or { void_ratio = e }; issue 14): reached by
+// Target density (packing.target = { porosity = n } or { void_ratio = e }): reached by
 // deposition with a raised (or lowered) interparticle friction that is then reset — the standard
 // way to make loose or dense DEM specimens under gravity. Both friction coefficients are scaled
 // by one factor s (μ_s' = s μ_s, μ_D' = s μ_D); after the deposition at s the scene's friction is

@@ -1,4 +1,4 @@
-// The DEM's stable time step (issue 11 item 3): the largest Δt for which the symplectic Euler
+// The DEM's stable time step: the largest Δt for which the symplectic Euler
 // integrator (paper eqs. 2.16–2.18) stays bounded on the linearised contact network, with the
 // pair's reduced mass, the shear–rotation mode of a pair, a margin for coordination, and the
 // dashpots and global damping. One formula for `demfem check` (scene level, from the radius

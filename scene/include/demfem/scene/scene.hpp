@@ -63,7 +63,7 @@ struct RadiusDistribution {
   std::vector<std::pair<double, double>> table; // (radius, relative frequency)
 };
 
-// How packing places the particles before they fall (issue 14): on a hexagonal lattice with
+// How packing places the particles before they fall: on a hexagonal lattice with
 // jitter (dense, nearly ordered beds), or at random sequential positions at a low placement
 // density (disordered beds; with raised deposition friction, loose ones).
 enum class Placement { Lattice, Random };
@@ -75,7 +75,7 @@ struct Packing {
   double max_time = 20.0; // give up depositing after this simulated time [s]
   double damping = 0.0;   // extra global damping ratio during deposition only
   std::string cache;      // directory for reusable packings ("" = <out>/packing)
-  // Target density (issue 14): [soil.dem.packing] target = { porosity = n } or
+  // Target density: [soil.dem.packing] target = { porosity = n } or
   // { void_ratio = e } (2D: void area / solid area, n = e/(1+e)), optional tolerance (default
   // 0.005); target = "none" deposits as is. Reached by raised-friction deposition (pack.hpp).
   std::optional<double> target_porosity;
@@ -107,10 +107,10 @@ struct DemSoil {
   double dt = 0.0;               // 0 = automatic
   // Automatic Δt = dt_safety × the stable limit (dem/stable_step.hpp; disks:
   // √(m_min/max(2k_n, 6k_s))); 0.14 gives 0.099√(m_min/k_n) for k_s ≤ k_n/3, ≈ 22 steps per
-  // contact (the former default 0.05 × 2√(m_min/k_max) = 0.1√(m_min/k_n)).
+  // contact.
   double dt_safety = 0.14;
   double max_overlap = 0.5; // blow-up: overlap beyond this fraction of the radius
-  // Energy-closure watch during a run (issue 11), checked at every probe: |ΔE_total| over the
+  // Energy-closure watch during a run, checked at every probe: |ΔE_total| over the
   // largest energy put in so far (gravity + external work + springs, or the initial kinetic
   // energy). Above energy_warning: one warning naming the step; above energy_limit: the run
   // stops (exit 1) naming step, time and the particle with the most kinetic energy. 0 = off.
@@ -162,7 +162,7 @@ struct ContinuumSoil {
   // ground surface [m]: the continuum soil is the domain polygon below z = surface (e.g. the
   // height of the deposited DEM bed); unset: the whole domain polygon
   std::optional<double> surface;
-  // calibrate = "dem" (issue 9): young, poisson, friction_angle, cohesion, dilation_angle,
+  // calibrate = "dem": young, poisson, friction_angle, cohesion, dilation_angle,
   // dilation_cutoff, modulus_exponent, modulus_reference_stress, density, k0 and surface come
   // from `demfem calibrate` (the app fills them in
   // before the continuum runs, compare::apply_calibration); a value stated in the file wins.
@@ -312,7 +312,7 @@ struct Output {
   bool force_chains = true;
   bool figures = true;
   double checkpoint_interval = 0.0; // [s] (0 = at the end and on interrupt only)
-  // Snapshot series for the figures [s], increasing (issue 14): the times the paper shows as a
+  // Snapshot series for the figures [s], increasing: the times the paper shows as a
   // series; each is drawn from the nearest .vtp snapshot. Empty: six evenly spaced times.
   std::vector<double> series;
 };

@@ -1,4 +1,4 @@
-// A seed ensemble of comparisons (issue 9): the same scene compared in several realisations of the
+// A seed ensemble of comparisons: the same scene compared in several realisations of the
 // DEM bed (scene.seed: the packing's radii and placement), each with the continuum calibrated from
 // its own bed. One realisation cannot size a granular effect whose value depends on which disks
 // carry a structure; the ensemble says, per metric, how far each solver's value spreads over the

@@ -1,4 +1,4 @@
-// `demfem study error-vs-time` (issue 11 item 1): a solver swept over its resolution knobs, each
+// `demfem study error-vs-time`: a solver swept over its resolution knobs, each
 // run a separate `demfem` process (repeated for min/median/max wall time and its peak memory),
 // its error against a closed form, fitted convergence orders, and error against wall time with
 // the Pareto front. Written to study.json, study.md, study.html and log–log figures.
@@ -139,7 +139,7 @@ struct ErrorStudy {
 // run is `demfem study-point flamant …`.
 [[nodiscard]] ErrorStudy flamant_error_study(const ErrorStudyOptions& o);
 
-// Any scene (issue 11: no closed form needed): each solver the scene lists (o.solvers) swept over
+// Any scene (no closed form needed): each solver the scene lists (o.solvers) swept over
 // its knobs — DEM: Δt as a fraction of the critical step on the same packing, K_n scaling with
 // the automatic Δt (each K_n deposits its own packing); continuum: refinement × degree ×
 // integrator — each run measured with the comparison layer's metric table

@@ -1,4 +1,4 @@
-// `demfem study stability SCENE` (issue 11 item 2, DEM part): the scene run under stiff and
+// `demfem study stability SCENE` (DEM part): the scene run under stiff and
 // extreme variants, each row with its outcome (completed, refused at setup with the cause, or
 // stopped with step, time, particle and cause), energy closure, largest overlap ratio and wall
 // time. Written to study.json, study.md and study.html. Scenes with a continuum add its rows
@@ -59,7 +59,7 @@ struct StabilityRow {
   std::string measure;
 };
 
-// The rows of issue 11's table: DEM rows when the scene has [soil.dem], then the continuum rows
+// The rows of table: DEM rows when the scene has [soil.dem], then the continuum rows
 // (options.continuum_rows). Throws scene::SceneError when the scene has neither model.
 [[nodiscard]] std::vector<StabilityRow> stability_study(const scene::Scene& scene,
                                                         const StudyOptions& options);

@@ -1,5 +1,5 @@
 // A whole output file (a gnuplot script or data file, a table) built in memory and written by
-// close() through the checked atomic write (issue 13): "<path>.tmp", flushed to the disk, renamed
+// close() through the checked atomic write: "<path>.tmp", flushed to the disk, renamed
 // over path; a failure (a full disk, a file size limit, an unwritable directory) throws
 // scene::WriteError naming the file and the cause, so no figure is drawn from a partial input.
 // Nothing is written unless close() is called.
