@@ -393,6 +393,17 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     try {
       const auto ck = dem::io::read_checkpoint(dem / file::final_state);
       const auto& p = ck.particles;
+      // Particles that left the scene, and those of them that left while no wall was open
+      // (through a gap the scene did not plan; dem::run warns above 1 % of the count).
+      {
+        std::size_t left = 0, unplanned = 0;
+        for (const auto f : p.flags) {
+          left += (f & dem::kFlagRemoved) ? 1 : 0;
+          unplanned += (f & dem::kFlagLeftUnplanned) ? 1 : 0;
+        }
+        sum["particles_left"] = left;
+        sum["particles_left_unplanned"] = unplanned;
+      }
       // Size segregation (Ontake: "large particles gather at the toe"): mean radius of the leading
       // tenth of the particles still in the model (largest x) over the mean radius of all of them.
       {

@@ -288,11 +288,13 @@ void Engine::rebuild() {
       bz1 = std::max(bz1, bvz_[k]);
     }
     const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
+    const bool any_open = std::any_of(boundaries_.begin(), boundaries_.end(),
+                                      [](const Boundary& b) { return !b.active; });
     for (std::size_t i = 0; i < n; ++i)
       if (!(p_.flags[i] & kFlagRemoved) &&
           (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
            p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
-        p_.flags[i] |= kFlagRemoved;
+        p_.flags[i] |= any_open ? kFlagRemoved : (kFlagRemoved | kFlagLeftUnplanned);
         // what it takes out of the budget (EnergyBudget::left_scene, engine.cpp energy())
         e_left_ += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]) +
                    0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
