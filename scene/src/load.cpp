@@ -822,6 +822,21 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
     sc.events.push_back(std::move(e));
   });
   each("probe", [&](Reader& r) { sc.probes.push_back(read_probe(r)); });
+  // record = ["pressure-profile"] on a structure: its pressure-profile probe (default bins), unless
+  // a [[probe]] already profiles it.
+  for (const auto& st : sc.structures) {
+    if (std::find(st.record.begin(), st.record.end(), "pressure-profile") == st.record.end())
+      continue;
+    const bool probed = std::any_of(sc.probes.begin(), sc.probes.end(), [&](const Probe& p) {
+      return p.kind == ProbeKind::PressureProfile && p.target == st.name;
+    });
+    if (!probed) {
+      Probe p;
+      p.kind = ProbeKind::PressureProfile;
+      p.target = st.name;
+      sc.probes.push_back(std::move(p));
+    }
+  }
 
   if (const auto* t = top.table("load")) {
     Reader r(*t, "load", file, diags, t->source());

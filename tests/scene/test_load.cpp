@@ -499,3 +499,26 @@ TEST(SceneLoad, StepLimitsComeWithTheVocabulary) {
     }
   }
 }
+
+// record = ["pressure-profile"] on a structure profiles it (a pressure-profile probe with the
+// default bins), once: a [[probe]] that already profiles it is not doubled.
+TEST(SceneLoad, StructureRecordPressureProfileAddsItsProbe) {
+  const auto count = [](const Scene& s) {
+    return std::count_if(s.probes.begin(), s.probes.end(), [](const Probe& p) {
+      return p.kind == ProbeKind::PressureProfile && p.target == "wall";
+    });
+  };
+  const auto plain = parse_scene(kValid, "test.toml", demfem::app::vocabulary());
+  EXPECT_EQ(count(plain.base), 0);
+  const auto recorded =
+      parse_scene(mutate("record = [\"thrust\"]", "record = [\"thrust\", \"pressure-profile\"]"),
+                  "test.toml", demfem::app::vocabulary());
+  ASSERT_EQ(count(recorded.base), 1);
+  EXPECT_EQ(recorded.base.probes.back().bins, Probe{}.bins);
+  const auto both =
+      parse_scene(mutate("record = [\"thrust\"]", "record = [\"thrust\", \"pressure-profile\"]") +
+                      "\n[[probe]]\nkind = \"pressure-profile\"\ntarget = \"wall\"\nbins = 7\n",
+                  "test.toml", demfem::app::vocabulary());
+  ASSERT_EQ(count(both.base), 1);
+  EXPECT_EQ(both.base.probes.back().bins, 7);
+}
