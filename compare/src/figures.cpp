@@ -16,6 +16,7 @@
 
 #include "demfem/compare/plot.hpp"
 #include "demfem/compare/series.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/write_file.hpp"
@@ -414,7 +415,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
                                 {"coordination", m.coordination}};
       }
       // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
-      const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
+      const auto* law = scene.soil.dem ? dem::contact::law_choice(*scene.soil.dem) : nullptr;
+      const double kn = law ? scene::value_of(*law, "kn").value_or(1.0) : 1.0;
       std::vector<dem::ContactView> cv;
       for (const auto& [i, j] : dem::overlapping_pairs(p)) {
         dem::ContactView c;

@@ -518,9 +518,11 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
     // Largest overlap ratio δ/r (issue 11 studies): pairs from the positions, boundary contacts
     // from the linear spring force δ = f_n/K_n (eq. 2.6).
     {
-      const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
-      summary.max_overlap_ratio = std::max(summary.max_overlap_ratio,
-                                           e.largest_overlap_ratio(linear ? e.config().kn : 0.0));
+      const bool linear = contact::law_name(e.config().law) != contact::HertzMindlin::name;
+      const auto* law = contact::law_choice(*scene.soil.dem);
+      const double kn = law ? scene::value_of(*law, "kn").value_or(1.0e6) : 1.0e6;
+      summary.max_overlap_ratio =
+          std::max(summary.max_overlap_ratio, e.largest_overlap_ratio(linear ? kn : 0.0));
     }
     if (!pressure_csv.empty()) e.contacts(contacts, false); // the boundary contacts only
     for (auto& [k, w] : pressure_csv) {

@@ -1,0 +1,128 @@
+// The contact registry and the composition of laws from sub-models (dem/contact/): each law's
+// name is its scene keyword, a scene's keys reach the law the engine builds, and laws that share
+// a sub-model compute the same with it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "../scratch.hpp"
+#include "demfem/app/vocabulary.hpp"
+#include "demfem/dem/contact/registry.hpp"
+#include "demfem/dem/engine.hpp"
+#include "demfem/dem/pack.hpp"
+#include "demfem/dem/run.hpp"
+#include "demfem/scene/load.hpp"
+
+using namespace demfem;
+using namespace demfem::dem;
+
+namespace {
+
+std::string scene_with(const std::string& soil_keys) {
+  return R"([scene]
+name = "pair"
+duration = 0.1
+[domain]
+polygon = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
+[soil.dem]
+count = 2
+radius = { equal = 0.05 }
+particles = [[-0.06, 0, 0.05], [0.06, 0, 0.05]]
+)" + soil_keys;
+}
+
+scene::DemSoil soil_of(const std::string& soil_keys) {
+  return *scene::parse_scene(scene_with(soil_keys), "pair.toml", app::vocabulary()).base.soil.dem;
+}
+
+} // namespace
+
+TEST(DemContact, EachLawsNameIsItsKeyword) {
+  const auto slot = contact::law_slot();
+  ASSERT_EQ(slot.keywords(), (std::vector<std::string>{"cundall-rebound", "cundall-dashpot",
+                                                       "linear-restitution", "hertz-mindlin"}));
+  EXPECT_EQ(slot.default_keyword, "cundall-rebound");
+  for (const auto& kw : slot.keywords()) {
+    const auto law = contact::make_law(kw);
+    EXPECT_EQ(contact::law_name(law), kw);
+    EXPECT_EQ(contact::rolling_name(law), "none");
+    EXPECT_EQ(std::visit([](const auto& m) { return m.kHistory; }, law), 0u) << kw;
+  }
+  EXPECT_THROW((void)contact::make_law("jkr"), std::invalid_argument);
+  EXPECT_THROW((void)contact::make_law("cundall-rebound", {{"young", 1.0}, {"no_such_key", 1.0}}),
+               std::invalid_argument);
+}
+
+// The scene's keys reach the engine's law: a Hertz law built from E and ν of the file.
+TEST(DemContact, SceneKeysReachTheEnginesLaw) {
+  const auto law =
+      contact::make_law(soil_of("contact = \"hertz-mindlin\"\nyoung = 2.0e9\npoisson = 0.2\n"));
+  EXPECT_EQ(contact::law_name(law), "hertz-mindlin");
+  const double e_star = 2.0e9 / (2.0 * (1.0 - 0.04)), r = 0.025, delta = 1e-4;
+  const double f = std::visit([&](const auto& m) { return m.elastic_force(delta, r); }, law);
+  EXPECT_NEAR(f, 4.0 / 3.0 * e_star * std::sqrt(r * delta) * delta, 1e-9 * f); // Johnson 4.22
+  const double back = std::visit([&](const auto& m) { return m.overlap(f, r); }, law);
+  EXPECT_NEAR(back, delta, 1e-12);
+  // an unknown law is refused at its key, listing the valid ones
+  try {
+    (void)soil_of("contact = \"jkr\"\n");
+    FAIL() << "expected a SceneError";
+  } catch (const scene::SceneError& e) {
+    EXPECT_EQ(e.diagnostics().at(0).key, "soil.dem.contact");
+    EXPECT_NE(e.diagnostics().at(0).message.find("valid: cundall-rebound, cundall-dashpot"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// cundall-dashpot with η_n = η_s = 0 and cundall-rebound below V_0 share the linear spring and
+// the linear shear spring: the same forces and energies, step by step, over a contact that
+// touches, slides and releases.
+TEST(DemContact, SharedSubModelsComputeTheSame) {
+  const auto a = contact::make_law("cundall-rebound", {{"kn", 2e6}, {"ks", 5e5}});
+  const auto b = contact::make_law("cundall-dashpot", {{"kn", 2e6}, {"ks", 5e5}});
+  ContactHistory ha, hb;
+  double delta = -1e-5;
+  for (int k = 0; k < 200; ++k) {
+    ContactInput in{};
+    in.delta = delta;
+    in.vn = 0.2 * std::cos(0.05 * k); // closes, then opens
+    in.vs = 0.1;
+    in.m_eff = 0.3;
+    in.r_eff = 0.02;
+    in.mu_s = 0.5;
+    in.mu_d = 0.3;
+    in.dt = 1e-4;
+    const auto ra = std::visit([&](const auto& m) { return m.evaluate(in, ha, nullptr); }, a);
+    const auto rb = std::visit([&](const auto& m) { return m.evaluate(in, hb, nullptr); }, b);
+    ASSERT_EQ(ra.fn, rb.fn) << k;
+    ASSERT_EQ(ra.ft, rb.ft) << k;
+    ASSERT_EQ(ra.e_friction, rb.e_friction) << k;
+    ASSERT_EQ(ra.e_normal, rb.e_normal) << k;
+    ASSERT_EQ(ra.touching, rb.touching) << k;
+    ASSERT_EQ(ha.flags, hb.flags) << k;
+    delta += in.vn * in.dt;
+  }
+  EXPECT_EQ(ha.flags, 0); // released
+}
+
+// The report's and the docs' view of the laws: every key of [soil.dem]'s contact slot once, with
+// its unit, default and meaning.
+TEST(DemContact, SchemaListsEveryKeyOnce) {
+  const auto rows = scene::schema(contact::law_slot());
+  std::vector<std::string> keys;
+  for (const auto& r : rows) {
+    keys.push_back(r.key);
+    EXPECT_FALSE(r.meaning.empty()) << r.key;
+  }
+  EXPECT_EQ(keys, (std::vector<std::string>{"contact", "kn", "tension", "tensile_strength", "ks",
+                                            "rebound", "rebound_speed", "eta_n", "eta_s",
+                                            "restitution", "young", "poisson"}));
+  EXPECT_EQ(rows[1].unit, "N/m");
+  EXPECT_EQ(rows[1].fallback, "1e+06");
+}
