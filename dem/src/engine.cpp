@@ -718,7 +718,7 @@ std::size_t Engine::overlapping_pair_count() const {
   return n;
 }
 
-double Engine::largest_overlap_ratio(double kn) const {
+double Engine::largest_overlap_ratio() const {
   double worst = 0.0;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
@@ -735,13 +735,16 @@ double Engine::largest_overlap_ratio(double kn) const {
       if (c > 0.0 && d2 >= c * c * (1.0 + 1e-9)) continue;
       worst = std::max(worst, (rsum - std::sqrt(d2)) / rmin); // δ (eq. 2.3)
     }
-  if (kn > 0.0)
-    for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
-      const auto& h = bnd_hist_[k];
-      const double fn = h.fn;
-      if ((h.flags & kHistActive) && fn > 0.0)
-        worst = std::max(worst, fn / kn / rad[bnd_i_[k]]); // δ = f_n / K_n (eq. 2.6)
-    }
+  std::visit(
+      [&](const auto& law) {
+        for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
+          const auto& h = bnd_hist_[k];
+          const double fn = h.fn, ri = rad[bnd_i_[k]];
+          if ((h.flags & kHistActive) && fn > 0.0) // the law's δ(f_n), R* = r_i at a boundary
+            worst = std::max(worst, law.overlap(fn, ri) / ri);
+        }
+      },
+      config_.law);
   return worst;
 }
 

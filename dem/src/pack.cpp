@@ -694,13 +694,17 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   if (d.packing.damping > 0.0) {
     // Deposition only: global viscous damping (eqs. 2.1, 2.2 with C = D per unit mass/inertia)
     // at ratio ζ = packing.damping of critical for the mean particle on one normal spring:
-    // C = 2ζ√(K_n/m̄) (single-degree-of-freedom oscillator). It caps the fall speed at g/C.
-    double m_mean = 0.0;
-    for (double r : pl.r)
+    // C = 2ζ√(k_n/m̄) (single-degree-of-freedom oscillator), k_n the law's normal stiffness for
+    // two mean particles (K_n for the linear laws, contact::reference_stiffness). It caps the fall
+    // speed at g/C.
+    double m_mean = 0.0, r_mean = 0.0;
+    for (double r : pl.r) {
       m_mean += d.density * 3.14159265358979323846 * r * r * d.thickness; // m = ρπr²t
+      r_mean += r;
+    }
     m_mean /= static_cast<double>(std::max<std::size_t>(pl.r.size(), 1));
-    const auto* law = contact::law_choice(d);
-    const double kn = law ? scene::value_of(*law, "kn").value_or(1.0e6) : 1.0e6;
+    r_mean /= static_cast<double>(std::max<std::size_t>(pl.r.size(), 1));
+    const double kn = contact::reference_stiffness(c.law, r_mean).kn;
     const double extra = 2.0 * d.packing.damping * std::sqrt(kn / m_mean);
     c.damping_c += extra;
     c.damping_d += extra;

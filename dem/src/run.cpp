@@ -515,15 +515,9 @@ RunSummary run(const scene::Scene& scene, const RunOptions& options) {
       }
       wall_csv->append(row);
     }
-    // Largest overlap ratio δ/r (issue 11 studies): pairs from the positions, boundary contacts
-    // from the linear spring force δ = f_n/K_n (eq. 2.6).
-    {
-      const bool linear = contact::law_name(e.config().law) != contact::HertzMindlin::name;
-      const auto* law = contact::law_choice(*scene.soil.dem);
-      const double kn = law ? scene::value_of(*law, "kn").value_or(1.0e6) : 1.0e6;
-      summary.max_overlap_ratio =
-          std::max(summary.max_overlap_ratio, e.largest_overlap_ratio(linear ? kn : 0.0));
-    }
+    // Largest overlap ratio δ/r: pairs from the positions, boundary contacts from the force the
+    // law recorded (Engine::largest_overlap_ratio).
+    summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, e.largest_overlap_ratio());
     if (!pressure_csv.empty()) e.contacts(contacts, false); // the boundary contacts only
     for (auto& [k, w] : pressure_csv) {
       const auto& pr = scene.probes[k];

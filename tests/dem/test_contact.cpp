@@ -126,3 +126,79 @@ TEST(DemContact, SchemaListsEveryKeyOnce) {
   EXPECT_EQ(rows[1].unit, "N/m");
   EXPECT_EQ(rows[1].fallback, "1e+06");
 }
+
+// hertz-mindlin has no K_n: its deposition damping, its run and its overlap check ask the law.
+// The same scene with kn = 1e6 and with an absurd kn = 1e15 (a key hertz-mindlin does not read)
+// deposits the same bed and runs to the same end, bit for bit.
+TEST(DemContact, HertzMindlinNeverReadsKn) {
+  auto text = [](const char* kn) {
+    return fmt::format(R"([scene]
+name = "hertz-bed"
+duration = 0.05
+seed = 3
+[domain]
+polygon = [[0, 0], [0.6, 0], [0.6, 0.8], [0, 0.8]]
+[soil.dem]
+count = 60
+radius = {{ uniform = [0.02, 0.03] }}
+contact = "hertz-mindlin"
+young = 5.0e7
+poisson = 0.3
+kn = {}
+[soil.dem.packing]
+damping = 0.2
+max_time = 0.3
+[output]
+vtk = false
+figures = false
+[[wall]]
+name = "box"
+points = [[0, 0.8], [0, 0], [0.6, 0], [0.6, 0.8]]
+)",
+                       kn);
+  };
+  std::vector<std::string> energy;
+  std::vector<dem::Particles> beds;
+  std::vector<double> overlap;
+  for (const char* kn : {"1.0e6", "1.0e15"}) {
+    const auto file = scene::parse_scene(text(kn), "hertz-bed.toml", app::vocabulary());
+    const auto out = demfem::test::scratch(std::string("hertz-kn-") + kn);
+    beds.push_back(dem::pack(file.base, out).particles);
+    dem::RunOptions o;
+    o.out_dir = out;
+    const auto s = dem::run(file.base, o);
+    ASSERT_TRUE(s.ok) << s.message;
+    overlap.push_back(s.max_overlap_ratio);
+    std::ifstream in(out / "dem" / "energy.csv");
+    energy.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    std::filesystem::remove_all(out);
+  }
+  ASSERT_EQ(beds[0].size(), beds[1].size());
+  for (std::size_t i = 0; i < beds[0].size(); ++i) {
+    ASSERT_EQ(beds[0].x[i], beds[1].x[i]) << i;
+    ASSERT_EQ(beds[0].z[i], beds[1].z[i]) << i;
+  }
+  EXPECT_EQ(energy[0], energy[1]);
+  EXPECT_EQ(overlap[0], overlap[1]);
+  EXPECT_GT(overlap[0], 0.0);
+}
+
+// The overlap check reads a wall contact's overlap from the law: a Hertz disk resting on a floor
+// has δ = (3mg/(4E*√r))^{2/3} (Johnson, Contact Mechanics, eq. 4.22 inverted), which
+// largest_overlap_ratio() returns as δ/r to 1 %.
+TEST(DemContact, OverlapOfAHertzContactFromItsForce) {
+  EngineConfig c;
+  const double young = 1.0e8, poisson = 0.3, r = 0.05;
+  c.law = contact::make_law("hertz-mindlin", {{"young", young}, {"poisson", poisson}});
+  c.damping_c = c.damping_d = 20.0; // comes to rest
+  Engine e(c);
+  e.add_wall({{-1.0, 0.0}, {1.0, 0.0}}, "floor");
+  e.add_particle(0.0, r, r);
+  e.set_dt(e.auto_dt());
+  e.run_steps(20000);
+  const double m = c.density * 3.14159265358979 * r * r * c.thickness;
+  const double e_star = young / (2.0 * (1.0 - poisson * poisson));
+  const double delta = std::cbrt(std::pow(3.0 * m * c.gravity / (4.0 * e_star * std::sqrt(r)), 2));
+  EXPECT_NEAR(e.largest_overlap_ratio(), delta / r, 0.01 * delta / r);
+  EXPECT_NEAR(r - e.particles().z[0], delta, 0.01 * delta); // the geometry agrees
+}

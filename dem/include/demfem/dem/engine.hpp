@@ -333,9 +333,10 @@ public:
   // contact/atom counts. A pass over the neighbour list, no square roots.
   [[nodiscard]] std::size_t overlapping_pair_count() const;
   // The largest overlap ratio δ / min(r_i, r_j) of the contacts touching now (what contacts()
-  // lists): pairs from the positions; boundary contacts from the linear spring, δ = f_n / K_n,
-  // when kn > 0 (pass 0 for a law without a linear spring: pairs only).
-  [[nodiscard]] double largest_overlap_ratio(double kn) const;
+  // lists): pairs from the positions; boundary contacts from the normal force their history
+  // recorded, through the law's inverse of its elastic force (δ = f_n / K_n for the linear
+  // laws; the Hertz overlap for hertz-mindlin).
+  [[nodiscard]] double largest_overlap_ratio() const;
   // Extra history values per contact of the law's sub-models (contact.hpp, ContactHistory).
   [[nodiscard]] std::size_t history_width() const { return xh_; }
   void boundary_views(std::vector<BoundaryView>& out) const;
