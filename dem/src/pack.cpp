@@ -83,7 +83,8 @@ constexpr int kPackingFormat = 2; // bump when the placement or deposition algor
 
 bool carved(const scene::Scene& scene, const scene::Structure& st); // below
 
-// The contact law's part of the key: the law's place in the registry (contact/registry.hpp), the
+// The contact law's part of the key: the law's place in the registry (contact/registry.hpp) and
+// its version when above 1 (Law::kVersion), the
 // keys of the four linear and Hertz laws with the soil's friction and time-step settings in a
 // fixed order, then any other key of the chosen law and rolling model by name (so a new law's or
 // sub-model's keys enter the key; a model that is off enters nothing).
@@ -95,6 +96,10 @@ void law_key(Fnv& f, const scene::DemSoil& d) {
   if (!rolling) rolling = &defaults[1];
   const auto laws = contact::law_slot().keywords();
   f.integer(std::find(laws.begin(), laws.end(), law->keyword) - laws.begin());
+  if (const int v = contact::law_version(law->keyword); v > 1) { // a law whose results changed
+    f.str("law-version");
+    f.integer(v);
+  }
   auto num = [&](const char* key) { f.num(scene::value_of(*law, key).value_or(-1.0)); };
   static constexpr const char* kFixed[] = {
       "kn",    "ks",          "rebound", "rebound_speed", "tensile_strength", "eta_n",

@@ -202,3 +202,30 @@ TEST(DemContact, OverlapOfAHertzContactFromItsForce) {
   EXPECT_NEAR(e.largest_overlap_ratio(), delta / r, 0.01 * delta / r);
   EXPECT_NEAR(r - e.particles().z[0], delta, 0.01 * delta); // the geometry agrees
 }
+
+// linear-restitution: a head-on collision of two equal disks rebounds at the requested
+// coefficient of restitution, within 1 %, at the automatic step (the damping ratio of the
+// clamped dashpot, restitution.hpp), and e(ζ(e)) = e to round-off.
+TEST(DemContact, LinearRestitutionReboundsAtTheRequestedCoefficient) {
+  for (const double e : {0.1, 0.5, 0.9}) {
+    EXPECT_NEAR(contact::Restitution::restitution_of(contact::Restitution::damping_ratio(e)), e,
+                1e-12);
+    EngineConfig c;
+    c.gravity = 0.0;
+    c.materials = {Material{0.5, 0.3}};
+    c.law =
+        contact::make_law("linear-restitution", {{"kn", 1.0e6}, {"ks", 3.0e5}, {"restitution", e}});
+    Engine en(c);
+    const double r = 0.05, v = 0.5, gap = 0.002;
+    en.add_particle(-r - gap / 2, 0.0, r, v, 0.0);
+    en.add_particle(r + gap / 2, 0.0, r, -v, 0.0);
+    en.set_dt(en.auto_dt());
+    en.run_steps(static_cast<long long>(0.05 / en.dt())); // the contact lasts ≈ 0.01 s
+    const auto& p = en.particles();
+    const double rebound = (p.vx[1] - p.vx[0]) / (2.0 * v);
+    std::printf("e = %.2f: rebound %.5f (ζ = %.4f)\n", e, rebound,
+                contact::Restitution::damping_ratio(e));
+    EXPECT_NEAR(rebound, e, 0.01 * e);
+    EXPECT_GT(p.x[1] - p.x[0], 2.0 * r); // apart
+  }
+}

@@ -124,6 +124,18 @@ StepStiffness reference_stiffness(const AnyContactLaw& law, double r) {
   return std::visit([r](const auto& m) { return m.law.step_stiffness(r, 1.0); }, law);
 }
 
+namespace {
+template <class... L> int version_of(std::string_view keyword, List<L...>) {
+  int v = 0;
+  ((keyword == L::name ? (v = L::kVersion, true) : false) || ...);
+  return v;
+}
+} // namespace
+
+int law_version(std::string_view keyword) {
+  return version_of(keyword, Laws{});
+}
+
 std::string_view law_name(const AnyContactLaw& law) {
   return std::visit([](const auto& m) -> std::string_view { return m.law.name; }, law);
 }

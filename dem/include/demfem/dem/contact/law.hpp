@@ -30,6 +30,8 @@ template <class N, class D, class T> struct Law {
   N normal;
   D damping;
   T tangential;
+  // Raised when a law's results change (a fix): packings deposited with it are made again.
+  static constexpr int kVersion = 1;
 
   static std::vector<scene::ParamBlock> blocks() {
     std::vector<scene::ParamBlock> b = N::blocks();

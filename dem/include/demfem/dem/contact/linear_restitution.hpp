@@ -12,6 +12,7 @@ namespace demfem::dem::contact {
 
 struct LinearRestitution : Law<LinearSpring, Restitution, LinearShear> {
   static constexpr const char* name = "linear-restitution";
+  static constexpr int kVersion = 2; // 2: ζ of the clamped dashpot (restitution.hpp)
   static constexpr const char* summary =
       "linear springs K_n, K_s with dashpots damped to the coefficient of restitution e of a "
       "head-on collision, Coulomb friction μ_s/μ_D";

@@ -71,6 +71,9 @@ using Values = std::vector<std::pair<std::string, double>>;
 // K_n, K_s; Hertz–Mindlin's tangents at kReferenceOverlap·r), for estimates and global damping.
 [[nodiscard]] StepStiffness reference_stiffness(const AnyContactLaw& law, double r);
 
+// A law's version (Law::kVersion; 0 for an unknown keyword).
+[[nodiscard]] int law_version(std::string_view keyword);
+
 // The keyword of the law and of the rolling model in a law.
 [[nodiscard]] std::string_view law_name(const AnyContactLaw& law);
 [[nodiscard]] std::string_view rolling_name(const AnyContactLaw& law);
