@@ -12,7 +12,7 @@
 //   damping D:     kDashpot, on_first_touch(in, r, v_n of the spring), normal(f_el, in, N),
 //                  shear(in, flags, T) (when kDashpot), step_xi(k_n, k_s, m*)
 //   tangential T:  release(h, r), update(in, f_el, h, r), energy(in, h), step_ks(r_min)
-//   rolling R:     kActive, kHistory, evaluate(in, h, extra, r), release(h, extra, r),
+//   rolling R:     kActive, kHistory, evaluate(in, h, extra, r), release(in, h, extra, r),
 //                  add_step(stiffness, r_min, m_min), flip_owner(extra)
 // and each: blocks() (its parameter blocks with their defaults) and from(choice) (built from the
 // scene's values, at set-up).
@@ -132,7 +132,7 @@ template <class L, class R> struct ContactModel {
       if (r.touching)
         rolling.evaluate(in, h, extra, r);
       else
-        rolling.release(h, extra, r);
+        rolling.release(in, h, extra, r);
       return r;
     } else {
       (void)extra;
