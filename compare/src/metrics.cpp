@@ -11,11 +11,16 @@
 #include "demfem/compare/coarse_grain.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/compare/report.hpp"
+#include "demfem/output/contract.hpp"
 
 namespace fs = std::filesystem;
 
 namespace demfem::compare {
 namespace {
+
+namespace col = output::col;
+namespace dir = output::dir;
+namespace file = output::file;
 
 // "wall.thrust [N]" → {"wall", "thrust", "N"}; false when the column is not "<name>.<q> [unit]".
 bool split_column(const std::string& col, std::string& owner, std::string& q, std::string& unit) {
@@ -37,7 +42,7 @@ struct Csv {
 void read_into(const fs::path& path, Csv& out) {
   if (!fs::exists(path)) return;
   const CsvTable t = read_csv(path);
-  const int tc = t.find("time");
+  const int tc = t.find(col::time.name);
   if (tc < 0) return;
   const auto time = t.column(t.columns[static_cast<std::size_t>(tc)]);
   for (std::size_t c = 0; c < t.columns.size(); ++c) {
@@ -68,28 +73,27 @@ double mean_in(const TimeSeries& s, double a, double b, std::size_t* n_out = nul
 
 // One quantity of a structure, from "<owner>.<q>" columns of the two solvers.
 struct StructQ {
-  const char* q;        // column quantity
-  const char* quantity; // plain words after the owner's name
-  const char* unit;
+  output::Column column; // its column (output/contract.hpp): name and unit
+  const char* quantity;  // plain words after the owner's name
   const char* meaning;
 };
 
 // The registry: the structure and wall quantities both solvers write (structures.csv, walls.csv;
-// dem/src/run.cpp and continuum/src/run.cpp write the same columns). Each appears once.
+// the run-directory contract, output/contract.hpp). Each appears once.
 constexpr StructQ kWallQ[] = {
-    {"thrust", "thrust", "N",
+    {col::thrust, "thrust",
      "normal soil force on the wall, F·n with n the wall chord's normal out of the soil: > 0 "
      "pressing, < 0 pulling (walls.csv)"},
-    {"reaction_z", "vertical soil force", "N",
+    {col::reaction_z, "vertical soil force",
      "vertical soil force on the wall (wall friction for a vertical wall; walls.csv)"},
 };
 constexpr StructQ kBodyQ[] = {
-    {"settlement", "settlement", "m", "downward displacement of the structure's pivot"},
-    {"rotation", "rotation", "rad", "rotation about the pivot, counter-clockwise positive"},
-    {"moment", "soil moment", "N·m", "moment of the soil's forces about the pivot"},
-    {"displacement_x", "horizontal displacement", "m", "horizontal displacement of the pivot"},
-    {"force_x", "horizontal soil force", "N", "horizontal soil force on the structure"},
-    {"force_z", "vertical soil force", "N", "vertical soil force on the structure"},
+    {col::settlement, "settlement", "downward displacement of the structure's pivot"},
+    {col::rotation, "rotation", "rotation about the pivot, counter-clockwise positive"},
+    {col::moment, "soil moment", "moment of the soil's forces about the pivot"},
+    {col::displacement_x, "horizontal displacement", "horizontal displacement of the pivot"},
+    {col::force_x, "horizontal soil force", "horizontal soil force on the structure"},
+    {col::force_z, "vertical soil force", "vertical soil force on the structure"},
 };
 
 } // namespace
@@ -293,16 +297,16 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
   MetricSet set;
   const bool want_dem = sides != Sides::Continuum, want_cont = sides != Sides::Dem;
   Csv dem, cont;
-  for (const char* f : {"structures.csv", "walls.csv"}) {
-    if (want_dem) read_into(run_dir / "dem" / f, dem);
-    if (want_cont) read_into(run_dir / "continuum" / f, cont);
+  for (const auto f : {file::structures, file::walls}) {
+    if (want_dem) read_into(run_dir / dir::dem / f, dem);
+    if (want_cont) read_into(run_dir / dir::continuum / f, cont);
   }
   // Owners that have a thrust (walls): from the scene, else from the walls.csv columns.
   std::vector<std::string> walls, bodies;
   for (const auto& [k, s] : (want_dem ? dem : cont).cols) {
     std::string owner, q, unit;
     split_column(k + " []", owner, q, unit);
-    auto& list = q == "thrust" ? walls : bodies;
+    auto& list = q == col::thrust.name ? walls : bodies;
     if (std::find(list.begin(), list.end(), owner) == list.end()) list.push_back(owner);
   }
   auto is_wall = [&](const std::string& o) {
@@ -316,12 +320,12 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
   };
   auto add = [&](const std::string& owner, const StructQ& sq, const std::string& dem_file,
                  const std::string& cont_file) {
-    const std::string key = owner + "." + sq.q;
+    const std::string key = output::key(owner, sq.column);
     if ((want_dem && !dem.cols.count(key)) || (want_cont && !cont.cols.count(key))) return;
     MetricSeries m;
     m.def.key = key;
     m.def.quantity = owner + " " + sq.quantity;
-    m.def.unit = sq.unit;
+    m.def.unit = sq.column.unit;
     m.def.dem_source = "dem/" + dem_file + ": " + key;
     m.def.continuum_source = "continuum/" + cont_file + ": " + key;
     m.def.meaning = sq.meaning;
@@ -329,10 +333,10 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
     if (want_cont) m.continuum = cont.cols.at(key);
     if ((!want_dem || all_zero(m.dem)) && (!want_cont || all_zero(m.continuum))) {
       const auto* s = structure(owner);
-      const std::string q = sq.q;
-      if (s && ((q == "settlement" && s->dof_z == scene::DofMode::Fixed) ||
-                (q == "rotation" && s->dof_rotation == scene::DofMode::Fixed) ||
-                (q == "displacement_x" && s->dof_x == scene::DofMode::Fixed)))
+      const std::string_view q = sq.column.name;
+      if (s && ((q == col::settlement.name && s->dof_z == scene::DofMode::Fixed) ||
+                (q == col::rotation.name && s->dof_rotation == scene::DofMode::Fixed) ||
+                (q == col::displacement_x.name && s->dof_x == scene::DofMode::Fixed)))
         m.note = "0 in both: the scene fixes this degree of freedom";
       else
         m.note = "0 in both";
@@ -342,19 +346,19 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
     set.series.push_back(std::move(m));
   };
   for (const auto& w : walls) {
-    for (const auto& sq : kWallQ) add(w, sq, "walls.csv", "walls.csv");
-    // The same physical quantities under other names (dem/src/run.cpp, continuum/src/run.cpp).
-    set.aliases.push_back({w + ".reaction_x [N]", w + ".thrust",
+    for (const auto& sq : kWallQ) add(w, sq, std::string(file::walls), std::string(file::walls));
+    // The same physical quantities under other names (output/contract.hpp).
+    set.aliases.push_back({output::heading(w, col::reaction_x), output::key(w, col::thrust),
                            "the horizontal soil force: equal to the thrust on a vertical wall"});
-    set.aliases.push_back({w + ".force_x [N]", w + ".thrust",
+    set.aliases.push_back({output::heading(w, col::force_x), output::key(w, col::thrust),
                            "structures.csv's horizontal soil force: walls.csv's reaction_x"});
-    set.aliases.push_back({w + ".force_z [N]", w + ".reaction_z",
+    set.aliases.push_back({output::heading(w, col::force_z), output::key(w, col::reaction_z),
                            "structures.csv's vertical soil force: walls.csv's reaction_z"});
     // A wall's motion (settlement, rotation, displacement) is compared when it can move.
     for (const auto& sq : kBodyQ) {
-      const std::string q = sq.q;
-      if (q == "force_x" || q == "force_z") continue;
-      add(w, sq, "structures.csv", "structures.csv");
+      const std::string_view q = sq.column.name;
+      if (q == col::force_x.name || q == col::force_z.name) continue;
+      add(w, sq, std::string(file::structures), std::string(file::structures));
     }
   }
   for (const auto& b : bodies) {
@@ -362,22 +366,25 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
     // A structure whose DEM soil forces are 0 throughout while the continuum's are not: the
     // particles never touch it (e.g. a packing that leaves a gap under it).
     bool dem_zero = true, cont_zero = true, any = false;
-    for (const char* q : {".force_x", ".force_z", ".moment"})
-      if (sides == Sides::Both && dem.cols.count(b + q) && cont.cols.count(b + q)) {
+    for (const auto& c : {col::force_x, col::force_z, col::moment}) {
+      const std::string k = output::key(b, c);
+      if (sides == Sides::Both && dem.cols.count(k) && cont.cols.count(k)) {
         any = true;
-        dem_zero = dem_zero && all_zero(dem.cols.at(b + q));
-        cont_zero = cont_zero && all_zero(cont.cols.at(b + q));
+        dem_zero = dem_zero && all_zero(dem.cols.at(k));
+        cont_zero = cont_zero && all_zero(cont.cols.at(k));
       }
+    }
     if (any && dem_zero && !cont_zero)
       set.warnings.push_back(fmt::format(
           "The DEM's soil force and moment on '{}' are 0 throughout the run: no particle touches "
           "it, so its DEM motion is that of a body loaded without soil and its comparison with "
           "the continuum (where the soil is tied to it) is not a comparison of two soil models.",
           b));
-    for (const auto& sq : kBodyQ) add(b, sq, "structures.csv", "structures.csv");
-    if ((want_dem ? dem : cont).cols.count(b + ".applied_moment"))
+    for (const auto& sq : kBodyQ)
+      add(b, sq, std::string(file::structures), std::string(file::structures));
+    if ((want_dem ? dem : cont).cols.count(output::key(b, col::applied_moment)))
       set.aliases.push_back(
-          {b + ".applied_moment [N·m]", "(input)",
+          {output::heading(b, col::applied_moment), "(input)",
            "the applied load's moment: the same history in both by construction"});
   }
   // The continuum's last snapshot, when the surface below has read it (the small-strain check).
@@ -385,7 +392,7 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
   // Surface elevation: the DEM's surface-profile probe (highest particle top per x bin) against
   // the continuum's top boundary moved by its displacement (from the .vtu snapshots).
   {
-    const fs::path sf = run_dir / "dem" / "surface.csv";
+    const fs::path sf = run_dir / dir::dem / file::surface;
     // A continuum run alone bins its surface as the scene's surface-profile probe would.
     std::size_t probe_bins = 0;
     if (scene)
@@ -394,7 +401,7 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
           probe_bins = static_cast<std::size_t>(p.bins);
     if ((want_dem && fs::exists(sf)) || (!want_dem && probe_bins > 0)) {
       const CsvTable t = want_dem ? read_csv(sf) : CsvTable{};
-      const auto time = want_dem ? t.column("time") : std::vector<double>{};
+      const auto time = want_dem ? t.column(col::time.name) : std::vector<double>{};
       const std::size_t nb = !want_dem              ? probe_bins
                              : t.columns.size() > 0 ? t.columns.size() - 1
                                                     : 0;
@@ -406,8 +413,9 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
           x1 = std::max(x1, q.x);
         }
       }
-      const auto snaps = want_cont ? read_pvd_entries(run_dir / "continuum" / "continuum.pvd")
-                                   : decltype(read_pvd_entries(run_dir)){};
+      const auto snaps = want_cont
+                             ? read_pvd_entries(run_dir / dir::continuum / file::continuum_pvd)
+                             : decltype(read_pvd_entries(run_dir)){};
       if (nb > 0 && (!want_cont || !snaps.empty())) {
         MetricSeries m;
         m.def.key = "surface.elevation";
@@ -464,7 +472,7 @@ MetricSet collect(const fs::path& run_dir, const scene::Scene* scene, Sides side
   // corners and a 0.8 m rise of its surface (cases/README.md, "The continuum beyond small
   // strains").
   if (want_cont) {
-    const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
+    const auto snaps = read_pvd_entries(run_dir / dir::continuum / file::continuum_pvd);
     if (!snaps.empty()) {
       try {
         if (!last_snapshot) last_snapshot = read_continuum_vtu(snaps.back().file);

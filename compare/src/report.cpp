@@ -1,5 +1,6 @@
 #include "demfem/compare/report.hpp"
-#include "html.hpp"
+#include "demfem/compare/html.hpp"
+#include "demfem/output/contract.hpp"
 #include "report_sections.hpp"
 
 #include <algorithm>
@@ -48,7 +49,7 @@ std::map<std::string, Named> collect(const fs::path& dir) {
   std::sort(files.begin(), files.end());
   for (const auto& f : files) {
     const CsvTable t = read_csv(f);
-    const int tc = t.find("time");
+    const int tc = t.find(output::col::time.name);
     if (tc < 0) continue;
     const auto time = t.column(t.columns[static_cast<std::size_t>(tc)]);
     for (std::size_t c = 0; c < t.columns.size(); ++c) {
@@ -109,20 +110,7 @@ std::string safe_name(const std::string& s) {
 
 // "<wall>.bin<k> [Pa]" columns form a pressure profile, compared as a profile, not as 14 series.
 bool is_profile_bin(const std::string& name, std::string* wall = nullptr, int* bin = nullptr) {
-  const auto p = name.find(".bin");
-  if (p == std::string::npos) return false;
-  std::size_t q = p + 4;
-  int k = 0;
-  bool digits = false;
-  while (q < name.size() && std::isdigit(static_cast<unsigned char>(name[q]))) {
-    k = 10 * k + (name[q] - '0');
-    ++q;
-    digits = true;
-  }
-  if (!digits || (q < name.size() && name[q] != ' ')) return false;
-  if (wall) *wall = name.substr(0, p);
-  if (bin) *bin = k;
-  return true;
+  return output::is_bin_heading(name, wall, bin);
 }
 
 double mean_over(const std::vector<double>& t, const std::vector<double>& y, double a, double b) {
@@ -192,7 +180,7 @@ namespace {
 // particle becomes the highest.
 std::vector<double> followed_dem_settlement(const fs::path& run_dir, double t_rest, double t_end,
                                             double x0, double x1, std::size_t bins) {
-  const auto dps = read_pvd_entries(run_dir / "dem" / "particles.pvd");
+  const auto dps = read_pvd_entries(run_dir / output::dir::dem / output::file::particles_pvd);
   auto near = [&](double at) -> std::optional<std::size_t> {
     const std::size_t k = nearest_entry(dps, at);
     if (k < dps.size() && std::abs(dps[k].time - at) <= 0.05 * (t_end - t_rest)) return k;
@@ -232,8 +220,8 @@ std::string subsidence_summary(double t_rest, double t_end, const ProfileExtreme
 
 ReportResult write_report(const fs::path& run_dir, const ReportOptions& options) {
   ReportResult res;
-  res.dem_series = collect(run_dir / "dem").size();
-  res.continuum_series = collect(run_dir / "continuum").size();
+  res.dem_series = collect(run_dir / output::dir::dem).size();
+  res.continuum_series = collect(run_dir / output::dir::continuum).size();
   const fs::path figdir = run_dir / "compare"; // the report's own folder: rewritten whole
   fs::remove_all(figdir);
   fs::create_directories(figdir);
@@ -393,11 +381,12 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
 
   // ---- surface subsidence profile: end − rest, both solvers ------------------------------------
   {
-    const fs::path sf = run_dir / "dem" / "surface.csv";
-    const auto snaps = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
+    const fs::path sf = run_dir / output::dir::dem / output::file::surface;
+    const auto snaps =
+        read_pvd_entries(run_dir / output::dir::continuum / output::file::continuum_pvd);
     if (fs::exists(sf) && !snaps.empty()) {
       const CsvTable t = read_csv(sf);
-      const auto time = t.column("time");
+      const auto time = t.column(output::col::time.name);
       const std::size_t nb = t.columns.size() > 1 ? t.columns.size() - 1 : 0;
       double x0 = 0.0, x1 = 1.0;
       if (options.scene && !options.scene->domain.empty()) {
@@ -711,9 +700,9 @@ ReportResult write_report(const fs::path& run_dir, const ReportOptions& options)
     // above, each once.
     std::string files;
     for (const fs::path& f :
-         dem ? std::vector<fs::path>{run_dir / "summary.json", sd / "packing.json",
-                                     sd / "energy_budget.json", run_dir / "run_dem.json"}
-             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / "log.txt"})
+         dem ? std::vector<fs::path>{run_dir / "summary.json", sd / output::file::packing,
+                                     sd / output::file::energy_budget, run_dir / "run_dem.json"}
+             : std::vector<fs::path>{run_dir / "run_continuum.json", sd / output::file::log})
       if (fs::exists(f))
         files += fmt::format("{}<a href=\"{}\">{}</a>", files.empty() ? "" : ", ",
                              html_escape(fs::relative(f, run_dir).generic_string()),

@@ -14,11 +14,16 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "constitutive/k0.hpp"
+#include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/dem/contact/registry.hpp"
+#include "demfem/output/contract.hpp"
 #include "demfem/scene/params.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
+namespace cst = demfem::continuum::constitutive;
 using nlohmann::json;
 
 namespace demfem::compare {
@@ -101,27 +106,48 @@ std::string contact_law(const scene::DemSoil& d) {
 }
 
 // E as the report states it: "30 MPa", or "30 MPa × (p/1.08 MPa)^0.25" for a stress-dependent
-// modulus (scene.hpp, ContinuumSoil::modulus_exponent).
+// modulus (continuum/constitutive/elastic.hpp).
 std::string modulus_text(const scene::ContinuumSoil& c) {
-  if (!c.stress_dependent_modulus()) return pa(c.young);
-  return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(c.young),
-                     pa(*c.modulus_reference_stress), g3(c.modulus_exponent));
+  const auto& el = cst::elastic_block(c);
+  if (!el.stress_dependent()) return pa(el.young);
+  return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(el.young),
+                     pa(el.modulus_reference_stress), g3(el.modulus_exponent));
 }
 
-// Soil model of the continuum (continuum/src/run.cpp: elastic or Mohr–Coulomb, mohr_coulomb.cpp).
+// The continuum soil's model is `keyword` (continuum/constitutive/registry.hpp)?
+bool soil_is(const scene::ContinuumSoil& c, const char* keyword) {
+  return cst::soil_model(c).keyword == keyword;
+}
+bool mohr_coulomb(const scene::ContinuumSoil& c) {
+  return soil_is(c, cst::MohrCoulomb::keyword);
+}
+
+// Soil model of the continuum (continuum/constitutive/: elastic, Mohr–Coulomb, or another
+// registered model, told by its summary and its keys).
 std::string continuum_model(const scene::ContinuumSoil& c) {
   const bool cal = calibrated(c, "young") || calibrated(c, "friction_angle");
-  if (c.model == scene::ContinuumModel::Elastic)
+  const auto& el = cst::elastic_block(c);
+  const auto& st = cst::strength_block(c);
+  if (soil_is(c, cst::Elastic::keyword))
     return fmt::format("linear elastic, E = {}, ν = {}{}; never yields", modulus_text(c),
-                       g3(c.poisson), cal ? " (calibrated)" : "");
+                       g3(el.poisson), cal ? " (calibrated)" : "");
+  if (!mohr_coulomb(c)) {
+    const auto& choice = cst::soil_model(c);
+    const auto* entry = cst::model_slot().find(choice.keyword);
+    std::string keys;
+    for (const auto& p : scene::describe(choice)) keys += (keys.empty() ? "" : ", ") + p.text();
+    return fmt::format("{}: {}{}", entry ? entry->summary : choice.keyword, keys,
+                       cal ? " (calibrated from DEM element tests)" : "");
+  }
   return fmt::format(
       "Mohr–Coulomb, perfectly plastic, non-associated: E = {}, ν = {}, φ = {}, c = {}, "
       "ψ = {}{}{}{}",
-      modulus_text(c), g3(c.poisson), deg(c.friction_angle), pa(c.cohesion), deg(c.dilation_angle),
-      c.dilation_cutoff && c.dilation_angle > 0.0
-          ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(*c.dilation_cutoff))
-          : std::string(c.dilation_angle > 0.0 ? " without limit" : ""),
-      c.tension_cutoff > 0.0 ? ", tension cut-off " + pa(c.tension_cutoff) : "",
+      modulus_text(c), g3(el.poisson), deg(st.friction_angle), pa(st.cohesion),
+      deg(st.dilation_angle),
+      !std::isnan(st.dilation_cutoff) && st.dilation_angle > 0.0
+          ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(st.dilation_cutoff))
+          : std::string(st.dilation_angle > 0.0 ? " without limit" : ""),
+      st.tension_cutoff > 0.0 ? ", tension cut-off " + pa(st.tension_cutoff) : "",
       cal ? " (calibrated from DEM element tests)" : "");
 }
 
@@ -274,7 +300,7 @@ ModelFacts read_model_facts(const fs::path& run_dir) {
   f.dem = read_solver_run(run_dir, "dem");
   f.continuum = read_solver_run(run_dir, "continuum");
   json p;
-  if (parse_file(run_dir / "dem" / "packing.json", p)) {
+  if (parse_file(run_dir / output::dir::dem / output::file::packing, p)) {
     f.packing = true;
     f.packing_porosity = num_or(p, "porosity");
     for (const auto& [k, v] : p.items())
@@ -340,7 +366,7 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
   const auto& d = *s.soil.dem;
   const auto& c = *s.soil.continuum;
   const auto& co = s.continuum;
-  const bool mc = c.model == scene::ContinuumModel::MohrCoulomb;
+  const bool mc = mohr_coulomb(c);
   const double g = s.load.gravity;
   const Box dom = box_of(s, false), mesh = box_of(s, true);
   const double tol = 1e-6 * std::max(1.0, std::max(mesh.x1 - mesh.x0, mesh.z1 - mesh.z0));
@@ -355,10 +381,10 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
           "and it changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up "
           "to its dilatancy cut-off; where it is pulled to the yield surface's apex, zero "
           "stress for a cohesionless soil, without limit) — it cannot densify.",
-          c.stress_dependent_modulus()
-              ? "follows the initial confinement as p^" + g3(c.modulus_exponent)
+          cst::elastic_block(c).stress_dependent()
+              ? "follows the initial confinement as p^" + g3(cst::elastic_block(c).modulus_exponent)
               : "is the same at every depth");
-    else
+    else if (soil_is(c, cst::Elastic::keyword))
       r.consequence = "The continuum never yields or slides: every permanent deformation and all "
                       "sliding at failure are DEM-only.";
     if (calibrated(c, "young") || calibrated(c, "friction_angle"))
@@ -425,7 +451,7 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
 
   // 3. initial stress
   {
-    const double k0 = c.k0 >= 0.0 ? c.k0 : 1.0 - std::sin(c.friction_angle); // Jaky (1944)
+    const double k0 = cst::soil_k0(c);
     const std::string src = calibrated(c, "k0") ? "calibrated: the DEM bed's"
                             : given(c, "k0")    ? "stated in the scene"
                             : c.k0 >= 0.0       ? "set"
@@ -878,25 +904,31 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
         prov = "default";
       rows.push_back({"continuum", std::string("soil.continuum.") + key, v, prov});
     };
-    rows.push_back({"continuum", "soil.continuum.model",
-                    scene::keyword(scene::kContinuumModelNames, c.model), "scene (" + file + ")"});
-    add("young", pa(c.young));
-    if (c.modulus_exponent != 0.0) {
-      add("modulus_exponent", g3(c.modulus_exponent));
-      if (c.modulus_reference_stress)
-        add("modulus_reference_stress", pa(*c.modulus_reference_stress));
+    rows.push_back(
+        {"continuum", "soil.continuum.model", cst::soil_model(c).keyword, "scene (" + file + ")"});
+    const auto& el = cst::elastic_block(c);
+    const auto& st = cst::strength_block(c);
+    add("young", pa(el.young));
+    if (el.modulus_exponent != 0.0) {
+      add("modulus_exponent", g3(el.modulus_exponent));
+      if (!std::isnan(el.modulus_reference_stress))
+        add("modulus_reference_stress", pa(el.modulus_reference_stress));
     }
-    add("poisson", fmt::format("{:.3f}", c.poisson));
-    if (c.model == scene::ContinuumModel::MohrCoulomb) {
-      add("friction_angle", deg(c.friction_angle));
-      add("cohesion", pa(c.cohesion));
-      add("dilation_angle", deg(c.dilation_angle));
-      if (c.dilation_cutoff) add("dilation_cutoff", g3(*c.dilation_cutoff));
+    add("poisson", fmt::format("{:.3f}", el.poisson));
+    if (mohr_coulomb(c)) {
+      add("friction_angle", deg(st.friction_angle));
+      add("cohesion", pa(st.cohesion));
+      add("dilation_angle", deg(st.dilation_angle));
+      if (!std::isnan(st.dilation_cutoff)) add("dilation_cutoff", g3(st.dilation_cutoff));
+    } else if (!soil_is(c, cst::Elastic::keyword)) { // another model: the keys of its blocks
+      for (const auto& p : scene::describe(cst::soil_model(c)))
+        if (p.key != "young" && p.key != "poisson" && p.key.rfind("modulus_", 0) != 0)
+          add(p.key.c_str(), p.value);
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
     add("k0", c.k0 >= 0.0
                   ? fmt::format("{:.3f}", c.k0)
-                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", 1.0 - std::sin(c.friction_angle)));
+                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::jaky_k0(st.friction_angle)));
     add("surface", c.surface ? g4(*c.surface) + " m" : std::string("(none: the domain's top)"));
     for (const auto& [name, dz] : c.structure_offsets) {
       const std::string key = "structure." + name + ".base";

@@ -1,4 +1,5 @@
-// Shared by the continuum tests: the acceleration of a sampled motion, a fixed rigid wall.
+// Shared by the continuum tests: soil models, the acceleration of a sampled motion, a fixed rigid
+// wall.
 #pragma once
 
 #include <algorithm>
@@ -9,6 +10,25 @@
 #include "fem.hpp"
 
 namespace demfem::test {
+
+// An elastic soil, and a Mohr–Coulomb one (angles [rad]), for fem::Problem::soil.
+inline continuum::constitutive::Material elastic_soil(double young, double poisson) {
+  namespace cst = continuum::constitutive;
+  return cst::Material(cst::Elastic(cst::Hooke{young, poisson}));
+}
+inline continuum::constitutive::Material mohr_coulomb_soil(double young, double poisson,
+                                                           double friction, double cohesion,
+                                                           double dilation = 0.0) {
+  namespace cst = continuum::constitutive;
+  cst::Elastic::Parameters e;
+  e.young = young;
+  e.poisson = poisson;
+  cst::MohrCoulomb::Parameters p;
+  p.friction_angle = friction;
+  p.cohesion = cohesion;
+  p.dilation_angle = dilation;
+  return cst::Material(cst::MohrCoulomb(e, p));
+}
 
 // Least-squares fit of q(t) = c0 + c1 t + c2 t² to samples; returns 2 c2 (the acceleration).
 inline double fitted_acceleration(const std::vector<std::pair<double, double>>& s) {
@@ -60,12 +80,7 @@ inline demfem::continuum::fem::Problem undrained_half_space(double B, double c, 
   pb.mesh.dx = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
   pb.mesh.dz = demfem::continuum::graded(1.0 * B, 0.0625 * B, 5.0 * B, growth);
   std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
-  pb.soil.young = 1.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = 0.0;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = c;
+  pb.soil = mohr_coulomb_soil(1.0e7, 0.3, 0.0, c);
   pb.gravity = 0.0;
   return pb;
 }

@@ -25,9 +25,7 @@ constexpr double kG = 9.81;
 // An elastic soil (E, ν 0.3, ρ 2000 kg/m³) under gravity, explicit, direct solver for the K0 state.
 Problem elastic_explicit(double young) {
   Problem pb;
-  pb.soil.young = young;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(young, 0.3);
   pb.density = 2000.0;
   pb.gravity = kG;
   pb.linear_solver = "direct";

@@ -1,7 +1,7 @@
 // Coulomb contact between the soil and a MOVING rigid structure (Region::contact with a DoF not
 // fixed; explicit integrator; issue 9 "boundary friction"): the body is not meshed, its faces are
 // contact planes that move with it, and the contact forces are solved with its equation of motion
-// (Model::Impl::explicit_contact_body). Closed forms: the weight carried at rest, Coulomb
+// (Explicit::contact_body). Closed forms: the weight carried at rest, Coulomb
 // sticking/sliding of a pushed block, lift-off of a footing under a moment (which the tied footing
 // cannot do), exact momentum of body + soil through an impact, and the pure-rotation DoF mode.
 #include <gtest/gtest.h>
@@ -32,9 +32,7 @@ constexpr double kMuS = 0.5, kMuD = 0.2;   // the block's face
 // contact: the block is unmeshed and in Coulomb contact through its base; otherwise tied
 Problem layer_with_block(bool contact, bool gravity = true) {
   Problem pb;
-  pb.soil.young = 2.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(2.0e7, 0.3);
   pb.density = 2000.0;
   pb.gravity = gravity ? kG : 0.0;
   pb.linear_solver = "direct";

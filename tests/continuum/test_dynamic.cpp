@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "fem.hpp"
+#include "helpers.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -23,9 +24,7 @@ TEST(ContinuumDynamic, ShearColumnFirstFrequency) {
   pb.mesh.refinement = 1;
   pb.mesh.periodic_x = true;
   pb.fix_z_everywhere = true;
-  pb.soil.young = E;
-  pb.soil.poisson = nu;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(E, nu);
   pb.density = rho;
   pb.gravity = 0.0;
   Model m(pb);
@@ -73,9 +72,7 @@ TEST(ContinuumDynamic, LysmerBaseAbsorbsShearPulse) {
     pb.mesh.dz = std::vector<double>(static_cast<std::size_t>(H / 0.5), 0.5);
     pb.mesh.periodic_x = true;
     pb.fix_z_everywhere = true;
-    pb.soil.young = E;
-    pb.soil.poisson = nu;
-    pb.soil.plastic = false;
+    pb.soil = demfem::test::elastic_soil(E, nu);
     pb.density = rho;
     pb.gravity = 0.0;
     pb.bottom = absorbing ? Bc::Free : Bc::Fixed;

@@ -35,9 +35,7 @@ Problem shear_column(const char* integrator) {
   pb.mesh.refinement = 1;
   pb.mesh.periodic_x = true;
   pb.fix_z_everywhere = true;
-  pb.soil.young = 3.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(3.0e7, 0.3);
   pb.density = 1700.0;
   pb.gravity = 0.0;
   pb.integrator = integrator;
@@ -69,7 +67,7 @@ TEST(ContinuumExplicit, StableStepFromElementBound) {
   Problem pb = shear_column("explicit");
   Model m(pb);
   const double dt = m.stable_time_step();
-  const double E = pb.soil.young, nu = pb.soil.poisson;
+  const double E = pb.soil.elasticity().hooke.young, nu = pb.soil.elasticity().hooke.poisson;
   const double cp = std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / pb.density);
   const double h = 0.5;         // cells of 1 m refined once
   const double dt_bar = h / cp; // 2/ω with ω = 2c_p/h (Q1 bar, lumped)
@@ -115,7 +113,7 @@ TEST(ContinuumExplicit, ShearColumnResonanceMatchesClosedFormAndImplicit) {
   double f[2] = {0, 0};
   const char* names[2] = {"explicit", "implicit"};
   Problem pb0 = shear_column("explicit");
-  const double G = pb0.soil.shear_modulus();
+  const double G = pb0.soil.elasticity().hooke.shear_modulus();
   const double f_exact = std::sqrt(G / pb0.density) / (4 * H); // V_s/(4H)
   const double T = 1.0 / f_exact;
   for (int k = 0; k < 2; ++k) {
@@ -142,12 +140,7 @@ Problem wall_problem(const char* integrator, double amplitude, int refinement) {
   pb.mesh.dz = uniform(H, 4);
   pb.mesh.refinement = refinement;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
-  pb.soil.young = 3.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = 30.0 * kPi / 180.0;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = 0.0;
+  pb.soil = demfem::test::mohr_coulomb_soil(3.0e7, 0.3, 30.0 * kPi / 180.0, 0.0);
   pb.density = 2170.0;
   pb.gravity = 9.81;
   pb.linear_solver = "direct";
@@ -250,7 +243,6 @@ TEST(ContinuumExplicit, SlowlyLoadedFootingReachesPrandtl) {
   f.outline = {{0, 0}, {0.5 * B, 0}, {0.5 * B, tf}, {0, tf}};
   f.material.young = 1e12;
   f.material.poisson = 0.2;
-  f.material.plastic = false;
   f.rigid = true;
   f.dead_weight = false;
   f.pivot = {0, 0};

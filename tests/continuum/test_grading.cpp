@@ -1,4 +1,4 @@
-// Graded coarse grids (continuum.mesh_size_near, mesh_grading; continuum/src/mesh_grading.hpp).
+// Graded coarse grids (continuum.mesh_size_near, mesh_grading; continuum/run/mesh_grading.hpp).
 #include <gtest/gtest.h>
 
 #include <algorithm>

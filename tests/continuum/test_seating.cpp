@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "fem.hpp"
+#include "helpers.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -26,9 +27,7 @@ Problem block_problem(bool seat, const std::string& integrator) {
   pb.mesh.dz = std::vector<double>(6, 1.0);
   pb.mesh.refinement = 0;
   pb.mesh.domain = {{0, 0}, {kWidth, 0}, {kWidth, kHeight}, {0, kHeight}};
-  pb.soil.young = 3.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(3.0e7, 0.3);
   pb.density = kRhoSoil;
   pb.gravity = kG;
   pb.integrator = integrator;
@@ -37,7 +36,6 @@ Problem block_problem(bool seat, const std::string& integrator) {
   r.outline = {{kBx0, kBz0}, {kBx1, kBz0}, {kBx1, kHeight}, {kBx0, kHeight}};
   r.material.young = 1e12;
   r.material.poisson = 0.2;
-  r.material.plastic = false;
   r.density = kRhoBlock;
   r.rigid = true;
   r.pivot = {0.5 * (kBx0 + kBx1), kBz0}; // base centre, as the rocking foundation

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "constitutive/k0.hpp"
 #include "demfem/continuum/verification.hpp"
 #include "fem.hpp"
 #include "helpers.hpp"
@@ -24,13 +25,7 @@ std::vector<double> uniform(double length, int n) {
 
 using demfem::continuum::graded;
 
-mc::Parameters elastic(double E, double nu) {
-  mc::Parameters p;
-  p.young = E;
-  p.poisson = nu;
-  p.plastic = false;
-  return p;
-}
+using demfem::test::elastic_soil;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -46,7 +41,7 @@ TEST(ContinuumStatic, GravityColumn) {
   pb.mesh.dx = {1.0};
   pb.mesh.dz = uniform(H, 10);
   pb.mesh.refinement = 1;
-  pb.soil = elastic(3.0e7, nu);
+  pb.soil = elastic_soil(3.0e7, nu);
   pb.density = rho;
   pb.gravity = g;
   Model m(pb);
@@ -68,7 +63,7 @@ TEST(ContinuumStatic, GravityColumn) {
 
 // Flamant strip load on an elastic half-plane (Poulos & Davis 1974, strip of half-width b):
 // settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E. The problem and its closed
-// form live in continuum/src/verification.cpp (shared with `demfem study error-vs-time flamant`).
+// form live in continuum/run/verification.cpp (shared with `demfem study error-vs-time flamant`).
 TEST(ContinuumStatic, FlamantStripLoad) {
   double prev_err = 0.0;
   for (int r = 0; r <= 2; ++r) {
@@ -151,12 +146,7 @@ TEST(ContinuumStatic, RankineActiveThrust) {
   const double H = 5.0, phi = 30.0 * kPi / 180.0, rho = 1700.0, g = 9.81;
   pb.mesh.dx = uniform(H, 10);
   pb.mesh.dz = uniform(H, 10);
-  pb.soil.young = 3.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = true;
-  pb.soil.friction = phi;
-  pb.soil.dilation = 0.0;
-  pb.soil.cohesion = 0.0;
+  pb.soil = demfem::test::mohr_coulomb_soil(3.0e7, 0.3, phi, 0.0);
   pb.density = rho;
   pb.gravity = g;
   pb.bottom = Bc::Roller;
@@ -169,7 +159,7 @@ TEST(ContinuumStatic, RankineActiveThrust) {
   pb.patches.push_back(wall);
   Model m(pb);
   const auto t0 = std::chrono::steady_clock::now();
-  ASSERT_TRUE(m.initialise_gravity(true, 1.0 - std::sin(phi), 1).converged);
+  ASSERT_TRUE(m.initialise_gravity(true, constitutive::jaky_k0(phi), 1).converged);
   const double at_rest = m.reaction(0).fx;
   const int steps = 20;
   int newton = 0;
@@ -205,7 +195,7 @@ TEST(ContinuumStatic, StripFootingRockingStiffness) {
   pb.mesh.dx.assign(half.rbegin(), half.rend());
   pb.mesh.dx.insert(pb.mesh.dx.end(), half.begin(), half.end());
   pb.mesh.dz.assign(half.rbegin(), half.rend());
-  pb.soil = elastic(E, nu);
+  pb.soil = elastic_soil(E, nu);
   pb.gravity = 0.0;
   Patch footing;
   footing.name = "footing";
@@ -227,7 +217,7 @@ TEST(ContinuumStatic, StripFootingRockingStiffness) {
   EXPECT_NEAR(K, exact, 0.05 * exact);
 }
 
-// Stress-dependent modulus (Problem::soil_modulus): a laterally confined column whose E follows
+// Stress-dependent modulus (constitutive/elastic.hpp): a laterally confined column whose E follows
 // (p/p_ref)^n of the K0 stresses, loaded by a surface pressure q, settles by
 // ∫ q / (M_ref f(s)) ds over the depth s, M_ref = E(1 − ν)/((1 + ν)(1 − 2ν)) the constrained
 // modulus and f(s) = (max(c s, p_min)/p_ref)^n, c s = ρ g s (1 + K0)/2 the in-plane mean stress
@@ -242,12 +232,15 @@ TEST(ContinuumStatic, ColumnWithStressDependentModulusSettlesAsTheIntegralOfItsC
     pb.mesh.dx = {1.0};
     pb.mesh.dz = uniform(H, 20);
     pb.mesh.refinement = 1;
-    pb.soil = elastic(E, nu);
+    constitutive::Elastic::Parameters soil;
+    soil.young = E;
+    soil.poisson = nu;
+    soil.modulus_exponent = n;
+    soil.modulus_reference_stress = 5.0e4;
+    soil.modulus_min_stress = 2.0e3;
+    pb.soil = constitutive::Material(constitutive::Elastic(soil));
     pb.density = rho;
     pb.gravity = g;
-    pb.soil_modulus.exponent = n;
-    pb.soil_modulus.reference_stress = 5.0e4;
-    pb.soil_modulus.min_stress = 2.0e3;
     pb.tractions.push_back({{0.0, H}, {1.0, H}, q});
     Model m(pb);
     EXPECT_TRUE(m.initialise_gravity(true, k0, 1).converged);

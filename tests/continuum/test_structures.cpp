@@ -7,6 +7,7 @@
 
 #include "demfem/scene/scene.hpp"
 #include "fem.hpp"
+#include "helpers.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -22,7 +23,6 @@ Region rigid_region(const std::string& name, std::vector<Point> outline, Point p
   r.outline = std::move(outline);
   r.material.young = 1e12;
   r.material.poisson = 0.2;
-  r.material.plastic = false;
   r.rigid = true;
   r.pivot = pivot;
   r.load_point = pivot;
@@ -41,9 +41,7 @@ TEST(ContinuumStructures, FixedRigidWallAtRestThrust) {
   pb.mesh.dz = uniform(H, 8);
   pb.mesh.refinement = 1;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
-  pb.soil.young = 3.0e7;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(3.0e7, 0.3);
   pb.density = rho;
   pb.gravity = g;
   Region wall = rigid_region("wall", {{W, 0}, {W + t, 0}, {W + t, H}, {W, H}}, {W + 0.5 * t, 0});
@@ -89,9 +87,7 @@ TEST(ContinuumStructures, FreeAndPrescribedRigidFooting) {
     pb.mesh.dz.push_back(1.0);
     pb.mesh.domain = {{-0.5 * L, 0}, {0.5 * L, 0}, {0.5 * L, D}, {-0.5 * L, D}};
     pb.mesh.refinement = 1;
-    pb.soil.young = 3.0e7;
-    pb.soil.poisson = 0.3;
-    pb.soil.plastic = false;
+    pb.soil = demfem::test::elastic_soil(3.0e7, 0.3);
     pb.gravity = 0.0;
     Region f = rigid_region(
         "footing", {{-0.5 * B, D}, {0.5 * B, D}, {0.5 * B, D + 1}, {-0.5 * B, D + 1}}, {0, D});
@@ -142,10 +138,8 @@ TEST(ContinuumStructures, FrictionalInterfaceSlidingLimit) {
     pb.mesh.dz = {t, hb};
     pb.mesh.domain = {{0, -t}, {B, -t}, {B, 0}, {0, 0}};
     pb.mesh.refinement = 0;
-    pb.soil.young = 1.0e8;
-    pb.soil.poisson = 0.3;
-    pb.soil.plastic = false; // only the interface layer can yield
-    pb.density = 1.0;        // weightless layer: σn = N/B
+    pb.soil = demfem::test::elastic_soil(1.0e8, 0.3); // only the interface layer can yield
+    pb.density = 1.0;                                 // weightless layer: σn = N/B
     pb.gravity = g;
     pb.left = pb.right = Bc::Roller; // lateral confinement (a free cohesionless end cannot stand)
     if (frictional) pb.interface_friction = std::asin(std::tan(delta));
@@ -195,9 +189,7 @@ TEST(ContinuumStructures, PrescribedMotionAcceleratesTheSoilThroughTheMass) {
   pb.mesh.dz = {tp, H};
   pb.mesh.refinement = 0;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
-  pb.soil.young = 1.0e9;
-  pb.soil.poisson = 0.3;
-  pb.soil.plastic = false;
+  pb.soil = demfem::test::elastic_soil(1.0e9, 0.3);
   pb.density = rho;
   pb.gravity = 0.0;
   pb.left = pb.right = pb.bottom = pb.top = Bc::Free;

@@ -890,7 +890,7 @@ TEST(DemPairKernel, StaysClosedTestImpliesTheLaws) {
   EXPECT_GT(left_to_the_law, 0u); // and the kernel's margin
 }
 
-// The probes' cheap forms (run.cpp, every probe interval): pair_contact_count, the boundary
+// The probes' cheap forms (run/probe_source.cpp): pair_contact_count, the boundary
 // contacts alone, and largest_overlap_ratio give what the full contact list gives.
 TEST(DemContacts, ProbeFormsAgreeWithTheContactList) {
   dem::EngineConfig c;
@@ -975,4 +975,28 @@ TEST(DemIntegrate, SameBitsWithEveryInstructionSet) {
       EXPECT_EQ(e0.left_scene, en.left_scene);
     }
   }
+}
+
+// Probes with intervals of their own: their schedules go into the checkpoint (run state version
+// 2), and a resumed run equals the straight one.
+TEST(DemResume, ProbesWithTheirOwnIntervalsResumeBitForBit) {
+  auto scene = [](double duration) {
+    auto sc = resume_scene(duration);
+    for (auto& p : sc.probes) {
+      if (p.kind == scene::ProbeKind::Energy) p.interval = 0.03;
+      if (p.kind == scene::ProbeKind::PressureProfile) p.interval = 0.02;
+    }
+    return sc;
+  };
+  dem::RunOptions a;
+  a.out_dir = scratch("straight4");
+  a.threads = 1;
+  ASSERT_TRUE(dem::run(scene(0.3), a).ok);
+  dem::RunOptions b = a;
+  b.out_dir = scratch("split4");
+  ASSERT_TRUE(dem::run(scene(0.1537), b).ok);
+  b.resume = true;
+  const auto s2 = dem::run(scene(0.3), b);
+  ASSERT_TRUE(s2.ok) << s2.message;
+  expect_same_outputs(a.out_dir, b.out_dir);
 }
