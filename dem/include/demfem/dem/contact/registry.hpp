@@ -16,6 +16,7 @@
 #include "demfem/dem/contact/hertz_mindlin.hpp"
 #include "demfem/dem/contact/law.hpp"
 #include "demfem/dem/contact/linear_restitution.hpp"
+#include "demfem/dem/contact/rolling_spring.hpp"
 #include "demfem/scene/params.hpp"
 #include "demfem/scene/scene.hpp"
 
@@ -27,7 +28,7 @@ template <class... T> struct List {};
 // [soil.dem] contact = "…" (the first is the default)
 using Laws = List<CundallRebound, CundallDashpot, LinearRestitution, HertzMindlin>;
 // [soil.dem] rolling = "…" (the first is the default)
-using RollingModels = List<NoRolling>;
+using RollingModels = List<NoRolling, RollingSpring>;
 // ----------------------------------------------------------------------------------------------
 
 namespace detail {
