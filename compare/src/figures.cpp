@@ -432,7 +432,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
               c.j = static_cast<std::int64_t>(j);
               const double delta =
                   p.radius[i] + p.radius[j] - std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
-              c.fn = m.elastic_force(delta, p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]));
+              c.fn =
+                  m.elastic_force(delta, p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]));
               cv.push_back(c);
             }
           },
