@@ -109,9 +109,10 @@ TEST(SceneLoad, ValidSceneResolves) {
   EXPECT_EQ(s.soil.dem->count, 100);
   EXPECT_DOUBLE_EQ(s.soil.dem->radius.min, 0.04);
   EXPECT_DOUBLE_EQ(s.soil.dem->radius.max, 0.075);
-  EXPECT_EQ(s.soil.dem->law, ContactLaw::CundallRebound);
-  EXPECT_DOUBLE_EQ(s.soil.dem->rebound, 0.1); // default K (paper §2.1.2)
-  EXPECT_EQ(s.soil.dem->fill.size(), 4u);     // defaults to the domain
+  ASSERT_NE(s.soil.dem->model("contact"), nullptr);
+  EXPECT_EQ(s.soil.dem->model("contact")->keyword, "cundall-rebound");
+  EXPECT_EQ(value_of(*s.soil.dem->model("contact"), "rebound"), 0.1); // default K (§2.1.2)
+  EXPECT_EQ(s.soil.dem->fill.size(), 4u);                             // defaults to the domain
   ASSERT_TRUE(s.soil.continuum);
   EXPECT_NEAR(cst::strength_block(*s.soil.continuum).friction_angle,
               30.0 * std::numbers::pi / 180.0, 1e-12);

@@ -52,11 +52,9 @@ std::string EnergyWatch::check(Engine& e, const EnergyBudget& b, RunSummary& sum
     if (auto stop = closure(e, b.total() - ls_.e0, t); !stop.empty()) return stop;
   }
   leaving(e, summary);
-  // Largest overlap ratio δ/r: pairs from the positions, boundary contacts from the linear
-  // spring force δ = f_n/K_n (eq. 2.6).
-  const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
-  summary.max_overlap_ratio =
-      std::max(summary.max_overlap_ratio, e.largest_overlap_ratio(linear ? e.config().kn : 0.0));
+  // Largest overlap ratio δ/r: pairs from the positions, boundary contacts from the force the
+  // law recorded (Engine::largest_overlap_ratio).
+  summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, e.largest_overlap_ratio());
   return {};
 }
 
