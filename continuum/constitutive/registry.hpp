@@ -14,13 +14,14 @@
 #include <variant>
 
 #include "elastic.hpp"
+#include "hypoplastic.hpp"
 #include "mohr_coulomb.hpp"
 #include "seam.hpp"
 
 namespace demfem::continuum::constitutive {
 
 // The registered models.
-using Registry = ModelList<Elastic, MohrCoulomb>;
+using Registry = ModelList<Elastic, MohrCoulomb, Hypoplastic>;
 
 using Parameters = Registry::Parameters; // one registered model's parameter block
 
@@ -39,7 +40,7 @@ public:
   // The parameter block of the model named `keyword`, with its defaults; throws
   // std::invalid_argument naming the registered keywords.
   [[nodiscard]] static Parameters parameters(std::string_view keyword);
-  // "elastic, mohr-coulomb"
+  // "elastic, mohr-coulomb, hypoplastic"
   [[nodiscard]] static std::string keywords();
 
   [[nodiscard]] const char* keyword() const {

@@ -218,6 +218,9 @@ void read_block(constitutive::MohrCoulomb::Parameters& b, const scene::Continuum
   b.tension_cutoff = s.tension_cutoff;
   b.dilation_cutoff = s.dilation_cutoff;
 }
+// The scene has no hypoplastic keys yet (its model list names elastic and mohr-coulomb only):
+// the block keeps its defaults.
+void read_block(constitutive::Hypoplastic::Parameters&, const scene::ContinuumSoil&) {}
 
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
 // procedures. Returns false with `message` when the scene cannot be meshed.
