@@ -457,8 +457,9 @@ TEST(HypoplasticIntegration, TangentIsTheDerivative) {
   EXPECT_LT(err[1], err[0] / 30.0) << err[0] << " " << err[1];
 }
 
-// The driver with a Mohr–Coulomb plane-strain point (the calibration's round trip): drained
-// biaxial compression reaches σ1/σ3 = (1 + sin φ)/(1 − sin φ) with ψ's dilation rate.
+// The driver with a Mohr–Coulomb plane-strain point (the calibration's round trip): an elastic
+// oedometric leg under stress control (σzz reached linearly, εzz = Δσzz/(λ + 2G)), then drained
+// biaxial compression, which reaches σ1/σ3 = (1 + sin φ)/(1 − sin φ) with ψ's dilation rate.
 TEST(ElementTest, MohrCoulombBiaxial) {
   MohrCoulomb::Parameters P;
   P.young = 5e7;
@@ -466,6 +467,13 @@ TEST(ElementTest, MohrCoulombBiaxial) {
   P.friction_angle = 30.0 * kDeg;
   P.dilation_angle = 10.0 * kDeg;
   const Material m(P);
+  ElementTest o(m, placed(m, 1e5));
+  o.run(Leg::strain({0, 0, 0, 0}, 10).stress(kZZ, -1.2e5));
+  const Hooke el{5e7, 0.3};
+  EXPECT_NEAR(o.history()[5].stress[kZZ], -1.1e5, 1e-3);
+  EXPECT_NEAR(o.now().strain[kZZ], -2e4 / (el.lame() + 2 * el.shear_modulus()), 1e-12);
+  EXPECT_NEAR(o.now().stress[kXX], -1e5 - 2e4 * el.lame() / (el.lame() + 2 * el.shear_modulus()),
+              1e-3);
   ElementTest t(m, placed(m, 1e5));
   t.run(Leg::strain({0, -0.02, 0, 0}, 200).stress(kXX, -1e5));
   const Sample& s = t.now();
