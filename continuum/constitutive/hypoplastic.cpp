@@ -30,17 +30,37 @@ namespace {
 // The stress at which the rate law is evaluated: the point's stress shifted isotropically to a
 // mean stress of at least p_min, its principal stresses kept below −10⁻³ of the mean stress (the
 // factor F is undefined where two principal stresses vanish).
+// The largest principal stress (the in-plane pair's larger one or yy).
+double largest_principal(const Tensor& t) {
+  const double d = 0.5 * (t.xx - t.zz);
+  return std::max(0.5 * (t.xx + t.zz) + std::sqrt(d * d + t.xz * t.xz), t.yy);
+}
+
 Tensor evaluation_stress(const Constants& k, const Tensor& t) {
   const double p = -trace(t) / 3.0;
-  Principal pr = principal(t);
   const double pe = std::max(p, k.p_min);
   const double shift = pe - p;
   const double cap = -1e-3 * pe;
-  if (shift == 0.0 && pr.a <= cap && pr.b <= cap && pr.y <= cap) return t;
+  if (shift == 0.0 && largest_principal(t) <= cap) return t;
+  Principal pr = principal(t);
   pr.a = std::min(pr.a - shift, cap);
   pr.b = std::min(pr.b - shift, cap);
   pr.y = std::min(pr.y - shift, cap);
   return from_principal(pr);
+}
+
+// x^e, by multiplication or roots for the exponents parameter sets often use (1, ½, ¼, integers
+// up to 8), else std::pow.
+double power(double x, double e) {
+  if (e == 1.0) return x;
+  if (e == 0.5) return std::sqrt(x);
+  if (e == 0.25) return std::sqrt(std::sqrt(x));
+  if (e >= 2.0 && e <= 8.0 && e == std::floor(e)) {
+    double r = x;
+    for (int k = 1; k < static_cast<int>(e); ++k) r *= x;
+    return r;
+  }
+  return std::pow(x, e);
 }
 
 // tr(A³) of a tensor with y principal: the in-plane block's plus yy³.
@@ -63,8 +83,8 @@ PointState advanced(const Constants& k, const PointState& y, const Change& c, do
 
 // A granular point carries no tension: principal stresses above zero are set to zero.
 bool cut_tension(Tensor& t) {
+  if (largest_principal(t) <= 0.0) return false;
   Principal pr = principal(t);
-  if (pr.a <= 0.0 && pr.b <= 0.0 && pr.y <= 0.0) return false;
   pr.a = std::min(pr.a, 0.0);
   pr.b = std::min(pr.b, 0.0);
   pr.y = std::min(pr.y, 0.0);
@@ -94,7 +114,7 @@ Change rate(const Constants& k, const PointState& y, const Tensor& d) {
                    tanpsi / (2.0 * std::sqrt(2.0));
   // limit void ratios e_i, e_c, e_d at 3p = −tr T (Bauer 1996)
   const double x = -tr / k.h_s;
-  const double xn = std::pow(x, k.n);
+  const double xn = power(x, k.n);
   const double bf = std::exp(-xn);
   const double ei = k.e_i0 * bf, ec = k.e_c0 * bf, ed = k.e_d0 * bf;
   // f_b = (h_s/n) (e_i0/e_c0)^β (1 + e_i)/e_i (3p/h_s)^(1−n) / [3 + a² − a√3 ((e_i0 − e_d0)/
@@ -103,8 +123,8 @@ Change rate(const Constants& k, const PointState& y, const Tensor& d) {
   const double fb = k.fb0 * (1.0 + ei) / ei * (x / xn);
   // the factors read e within [e_d, e_i], the model's admissible range
   const double ef = std::clamp(y.e, ed, ei);
-  const double fe = std::pow(ec / ef, k.beta);                // f_e = (e_c/e)^β
-  const double fd = std::pow((ef - ed) / (ec - ed), k.alpha); // f_d = ((e − e_d)/(e_c − e_d))^α
+  const double fe = power(ec / ef, k.beta);                // f_e = (e_c/e)^β
+  const double fd = power((ef - ed) / (ec - ed), k.alpha); // f_d = ((e − e_d)/(e_c − e_d))^α
   // L = f_b f_e / (T̂:T̂) (F² I + a² T̂⊗T̂), N = f_d f_b f_e a F / (T̂:T̂) (T̂ + T̂*)
   // (von Wolffersdorff 1996)
   const double c = fb * fe / ThTh;
@@ -126,12 +146,12 @@ Change rate(const Constants& k, const PointState& y, const Tensor& d) {
   const double rho = std::min(dl / k.R, 1.0);
   const Tensor dh = dl > 0.0 ? (1.0 / dl) * y.delta : Tensor{};
   const double hd = dot(dh, d);
-  const double rc = std::pow(rho, k.chi);
+  const double rc = power(rho, k.chi);
   const Tensor Ld = L(d);
   const double mix = rc * k.m_T + (1.0 - rc) * k.m_R;
   if (hd > 0.0) {
     out.stress = mix * Ld + (rc * (1.0 - k.m_T) * hd) * L(dh) + (rc * hd) * N;
-    out.delta = d - (std::pow(rho, k.beta_r) * hd) * dh;
+    out.delta = d - (power(rho, k.beta_r) * hd) * dh;
   } else {
     out.stress = mix * Ld + (rc * (k.m_R - k.m_T) * hd) * L(dh);
     out.delta = d;

@@ -2,8 +2,9 @@
 // intergranular strain of Niemunis & Herle (1997). A rate-type law without an elastic range of
 // its own: the stress rate is T̊ = L:D + N‖D‖ (its stiffness depends on the stress and the void
 // ratio e), and the intergranular strain δ, a strain memory of radius R, raises the stiffness
-// after a reversal of the strain path (m_R) and switches the non-linear term off inside the
-// memory. The void ratio follows ė = (1 + e) tr D, so that a point compacts under cyclic shear.
+// after a reversal of the strain path (m_R) and scales the non-linear term by ρ^χ (ρ = ‖δ‖/R:
+// nearly off inside the memory). The void ratio follows ė = (1 + e) tr D, so that a point compacts
+// under cyclic shear.
 //
 // Integrated by explicit sub-stepping with local error control (the modified Euler scheme with
 // error estimate of Sloan 1987 and Sloan, Abbo & Sheng 2001): a sub-step whose estimated relative
@@ -198,7 +199,8 @@ struct Hypoplastic {
     i.substep = 0.0;
   }
   // Integrates Δε (εyy = 0) from the committed state; the tangent is numerical (seam.hpp
-  // numerical_tangent: six more integrations). Returns Elastic (the model has no surfaces).
+  // numerical_tangent: six more integrations, along the update's own sub-steps). Returns Elastic
+  // (the model has no surfaces).
   Return update(const PointStress& c0, const Internal& i0, const Voigt& deps, PointStress& s,
                 Internal& i, VoigtMatrix* tangent, bool predictor) const;
   // No plastic strain in hypoplasticity.
