@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/malloc_tuning.hpp"
@@ -57,7 +58,7 @@ int main(int argc, char** argv) {
   const long zn = argc > 4 ? std::atol(argv[4]) : 10;
   scene::Scene sc;
   try {
-    sc = scene::load_scene_file(argv[1]).base;
+    sc = scene::load_scene_file(argv[1], demfem::app::vocabulary()).base;
   } catch (const scene::SceneError& err) {
     std::fprintf(stderr, "%s\n", err.what());
     return 2;

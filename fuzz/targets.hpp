@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "../dem/src/state_bytes.hpp"
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/scene/load.hpp"
@@ -28,7 +29,7 @@ namespace demfem::fuzz {
 inline bool scene_input(std::span<const std::uint8_t> data) {
   const std::string_view text(reinterpret_cast<const char*>(data.data()), data.size());
   try {
-    const auto f = scene::parse_scene(text, "fuzz.toml");
+    const auto f = scene::parse_scene(text, "fuzz.toml", demfem::app::vocabulary());
     (void)scene::to_toml(f.base);
     for (const auto& v : f.variants) (void)scene::to_toml(v);
     return true;
@@ -40,8 +41,8 @@ inline bool scene_input(std::span<const std::uint8_t> data) {
 // The engine a checkpoint's run state is restored into: the settle-box scene's walls and
 // structures (as `demfem run` builds it before a resume).
 inline dem::Engine settle_box_engine() {
-  static const auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  static const auto file = scene::load_scene_file(
+      DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml", demfem::app::vocabulary());
   const auto& sc = file.base;
   dem::Engine e(dem::make_config(sc));
   for (const auto& w : sc.walls) e.add_wall(w);

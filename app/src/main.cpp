@@ -26,6 +26,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/ensemble.hpp"
 #include "demfem/compare/error_study.hpp"
@@ -125,7 +126,7 @@ struct RunArgs {
 scene::SceneFile load_or_report(const std::string& path, int& rc) {
   try {
     rc = kOk;
-    return scene::load_scene_file(path);
+    return scene::load_scene_file(path, app::vocabulary());
   } catch (const scene::SceneError& e) {
     fmt::print(stderr, "{}\n", e.what());
     fmt::print(stderr, "demfem: {} problem(s) in {}\n", e.diagnostics().size(), path);
@@ -583,32 +584,6 @@ std::string reproduce_command(const scene::Scene& s, const fs::path& out, const 
   if (a.seed >= 0) c += fmt::format(" --seed {}", a.seed);
   return c;
 }
-
-#ifdef DEMFEM_WITH_CONTINUUM
-// The continuum's explicit stable step for the scene check (scene::set_continuum_step_limit):
-// with calibrate = "dem", from the cached calibration (unknown until it exists: the run, which
-// calibrates first, refuses the same step at the same key).
-std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene& s) {
-  scene::Scene r = s;
-  if (r.soil.continuum && r.soil.continuum->calibrate_dem) {
-    const compare::CalibrateOptions o;
-    const fs::path f = compare::calibration_cache_dir(r, o) /
-                       ("calibration-" + compare::calibration_key(r, o) + ".json");
-    std::error_code ec;
-    if (!fs::exists(f, ec)) return std::nullopt;
-    try {
-      compare::apply_calibration(r, compare::load_or_calibrate(r, o));
-    } catch (const std::exception&) {
-      return std::nullopt;
-    }
-  }
-  try {
-    return app::continuum_module().stable_step(r, {});
-  } catch (const std::exception&) { // a scene the continuum cannot mesh: the run says why
-    return std::nullopt;
-  }
-}
-#endif
 
 // What the solvers, figures and report write into a run directory (what --force clears).
 constexpr const char* kRunOutputs[] = {"dem",          "continuum",         "figures",
@@ -1618,13 +1593,6 @@ int main(int argc, char** argv) {
                        dem::engine_fingerprint());
   });
   app.require_subcommand(1);
-  // Loading a scene checks soil.dem.dt against the DEM's stable limit (issue 11): `check` and
-  // `run` refuse the same step, at the key's file:line:col.
-  scene::set_dem_step_limit(&dem::scene_step_limit);
-#ifdef DEMFEM_WITH_CONTINUUM
-  // … and an explicit-integrator continuum.dt against the continuum's stable step (issue 10).
-  scene::set_continuum_step_limit(&continuum_step_limit);
-#endif
 
   RunArgs ra;
   auto* run = app.add_subcommand("run", "Run one solver on a scene (or some of its variants).");

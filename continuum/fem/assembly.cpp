@@ -1,9 +1,10 @@
-// Assembly: B-bar strain rows, mass and stiffness matrices, residual and tangent.
+// Assembly: B-bar strain rows and strains, body forces (Core); the implicit system: mass and
+// elastic stiffness matrices, residual and tangent (Implicit). The tractions: Core::add_tractions.
 #include "impl.hpp"
 
 namespace demfem::continuum::fem {
 
-void Model::Impl::cell_b(const FEValues<2>& fv, CellB& b) const {
+void Core::cell_b(const FEValues<2>& fv, CellB& b) const {
   b.n = fe.n_dofs_per_cell();
   b.nq = nq();
   b.rows.resize(std::size_t(b.n) * b.nq);
@@ -60,37 +61,37 @@ void Model::Impl::cell_b(const FEValues<2>& fv, CellB& b) const {
   }
 }
 
-void Model::Impl::cell_strain(const CellB& b, const dealii::Vector<double>& local,
-                              std::vector<constitutive::Voigt>& eps) {
+void Core::cell_strain(const CellB& b, const dealii::Vector<double>& local,
+                       std::vector<constitutive::Voigt>& eps) {
   eps.assign(b.nq, constitutive::Voigt{{0.0, 0.0, 0.0}});
   for (unsigned q = 0; q < b.nq; ++q)
     for (unsigned i = 0; i < b.n; ++i)
       for (int k = 0; k < 3; ++k) eps[q][k] += local[i] * b(i, q)[k];
 }
 
-void Model::Impl::assemble_mass_and_elastic() {
-  FEValues<2> fv(mapping, fe, quad,
+void Implicit::assemble_mass_and_elastic() {
+  FEValues<2> fv(core.mapping, core.fe, core.quad,
                  update_values | update_gradients | update_quadrature_points | update_JxW_values);
-  const unsigned n = fe.n_dofs_per_cell();
+  const unsigned n = core.fe.n_dofs_per_cell();
   FullMatrix<double> cm(n, n), ck(n, n);
   std::vector<types::global_dof_index> ld(n);
   CellB cb;
   M = 0;
   K0 = 0;
-  for (const auto& cell : dof.active_cell_iterators()) {
+  for (const auto& cell : core.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     fv.reinit(cell);
     cm = 0;
     ck = 0;
-    const auto C = models[cell->material_id()].elastic_tangent();
-    const double r = rho[cell->material_id()];
-    cell_b(fv, cb);
-    for (unsigned q = 0; q < nq(); ++q) {
+    const auto C = core.models[cell->material_id()].elastic_tangent();
+    const double r = core.rho[cell->material_id()];
+    core.cell_b(fv, cb);
+    for (unsigned q = 0; q < core.nq(); ++q) {
       for (unsigned i = 0; i < n; ++i) {
-        const unsigned ci = fe.system_to_component_index(i).first;
+        const unsigned ci = core.fe.system_to_component_index(i).first;
         const auto& Bi = cb(i, q);
         for (unsigned j = 0; j < n; ++j) {
-          const unsigned cj = fe.system_to_component_index(j).first;
+          const unsigned cj = core.fe.system_to_component_index(j).first;
           if (ci == cj) cm(i, j) += r * fv.shape_value(i, q) * fv.shape_value(j, q) * fv.JxW(q);
           const auto& Bj = cb(j, q);
           double s = 0;
@@ -101,40 +102,40 @@ void Model::Impl::assemble_mass_and_elastic() {
       }
     }
     cell->get_dof_indices(ld);
-    hom.distribute_local_to_global(cm, ld, M);
-    hom.distribute_local_to_global(ck, ld, K0);
+    core.hom.distribute_local_to_global(cm, ld, M);
+    core.hom.distribute_local_to_global(ck, ld, K0);
   }
   M.compress(VectorOperation::add);
   K0.compress(VectorOperation::add);
   // Lysmer & Kuhlemeyer (1969) viscous boundary: t = −ρ(c_p (v·n) n + c_s (v − (v·n) n)),
   // c_p = √((λ + 2G)/ρ), c_s = √(G/ρ) of the adjacent cell's elastic constants
   has_cabs = false;
-  if (!pb.absorbing) return;
+  if (!core.pb.absorbing) return;
   has_cabs = true;
   Cabs.reinit(M);
   Cabs = 0;
-  FEFaceValues<2> ffv(mapping, fe, face_quad,
+  FEFaceValues<2> ffv(core.mapping, core.fe, core.face_quad,
                       update_values | update_normal_vectors | update_JxW_values);
-  for (const auto& cell : dof.active_cell_iterators()) {
+  for (const auto& cell : core.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     cm = 0;
     bool any = false;
     for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
       if (!cell->face(f)->at_boundary()) continue;
       const auto bid = cell->face(f)->boundary_id();
-      if (bid > 3 || !pb.absorbing_sides[bid]) continue;
+      if (bid > 3 || !core.pb.absorbing_sides[bid]) continue;
       any = true;
       ffv.reinit(cell, f);
-      const constitutive::Hooke& P = models[cell->material_id()].elasticity().hooke;
-      const double r = rho[cell->material_id()];
+      const constitutive::Hooke& P = core.models[cell->material_id()].elasticity().hooke;
+      const double r = core.rho[cell->material_id()];
       const double G = P.shear_modulus(), lam = P.lame();
       const double cp = std::sqrt((lam + 2 * G) / r), cs = std::sqrt(G / r);
       for (unsigned q = 0; q < ffv.n_quadrature_points; ++q) {
         const auto nrm = ffv.normal_vector(q);
         for (unsigned i = 0; i < n; ++i) {
-          const unsigned ci = fe.system_to_component_index(i).first;
+          const unsigned ci = core.fe.system_to_component_index(i).first;
           for (unsigned j = 0; j < n; ++j) {
-            const unsigned cj = fe.system_to_component_index(j).first;
+            const unsigned cj = core.fe.system_to_component_index(j).first;
             // C_ij = ∫ N_i N_j ρ (c_p n_ci n_cj + c_s (δ_ci,cj − n_ci n_cj)) dΓ
             const double coef =
                 r * (cp * nrm[ci] * nrm[cj] + cs * ((ci == cj ? 1.0 : 0.0) - nrm[ci] * nrm[cj]));
@@ -145,12 +146,12 @@ void Model::Impl::assemble_mass_and_elastic() {
     }
     if (!any) continue;
     cell->get_dof_indices(ld);
-    hom.distribute_local_to_global(cm, ld, Cabs);
+    core.hom.distribute_local_to_global(cm, ld, Cabs);
   }
   Cabs.compress(VectorOperation::add);
 }
 
-void Model::Impl::region_force(std::size_t r, double x, double z, double& bx, double& bz) const {
+void Core::region_force(std::size_t r, double x, double z, double& bx, double& bz) const {
   const Region& reg = pb.regions[r];
   const RegionGeom& g = geom[r + 1];
   const double Fx = reg.force_x(t), Fz = reg.force_z(t);
@@ -159,7 +160,7 @@ void Model::Impl::region_force(std::size_t r, double x, double z, double& bx, do
   bz = Fz / g.area + Mt * (x - g.xc) / g.J;
 }
 
-std::string Model::Impl::return_counts() const {
+std::string Implicit::return_counts() const {
   std::string s;
   for (std::size_t k = 0; k < returns.size(); ++k)
     if (returns[k] > 0)
@@ -167,18 +168,19 @@ std::string Model::Impl::return_counts() const {
   return s;
 }
 
-void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
-  update_ghost();
-  FEValues<2> fv(mapping, fe, quad,
+void Implicit::assemble(bool matrix, const AffineConstraints<double>& cons, bool dynamic) {
+  const Problem& pb = core.pb;
+  core.update_ghost();
+  FEValues<2> fv(core.mapping, core.fe, core.quad,
                  update_values | update_gradients | update_quadrature_points | update_JxW_values);
-  FEFaceValues<2> ffv(mapping, fe, face_quad,
+  FEFaceValues<2> ffv(core.mapping, core.fe, core.face_quad,
                       update_values | update_quadrature_points | update_normal_vectors |
                           update_JxW_values);
-  const unsigned n = fe.n_dofs_per_cell();
+  const unsigned n = core.fe.n_dofs_per_cell();
   FullMatrix<double> ck(n, n);
   dealii::Vector<double> cr(n), cf(n), crhs(n);
   std::vector<types::global_dof_index> ld(n);
-  std::vector<constitutive::Voigt> eps(nq());
+  std::vector<constitutive::Voigt> eps(core.nq());
   dealii::Vector<double> local(n);
   CellB cb;
   returns.fill(0);
@@ -186,23 +188,22 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
   rhs = 0;
   res = 0;
   f_internal = 0;
-  const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
-  const double shake = pb.shaking_component >= 0 && dynamic ? pb.shaking(t) : 0.0;
-  for (const auto& cell : dof.active_cell_iterators()) {
+  const double shake = pb.shaking_component >= 0 && dynamic ? pb.shaking(core.t) : 0.0;
+  for (const auto& cell : core.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     fv.reinit(cell);
-    cell_b(fv, cb);
-    cell->get_dof_values(u_ghost, local);
-    cell_strain(cb, local, eps);
+    core.cell_b(fv, cb);
+    cell->get_dof_values(core.u_ghost, local);
+    core.cell_strain(cb, local, eps);
     ck = 0;
     cr = 0;
     cf = 0;
     const auto id = cell->material_id();
-    const constitutive::Material& model = model_of(cell->active_cell_index(), id);
-    const std::size_t base = cell->active_cell_index() * nq();
-    for (unsigned q = 0; q < nq(); ++q) {
-      const QpState& c0 = committed[base + q];
-      QpState& s = trial[base + q];
+    const constitutive::Material& model = core.model_of(cell->active_cell_index(), id);
+    const std::size_t base = cell->active_cell_index() * core.nq();
+    for (unsigned q = 0; q < core.nq(); ++q) {
+      const QpState& c0 = core.committed[base + q];
+      QpState& s = core.trial[base + q];
       const constitutive::Voigt& e = eps[q];
       const constitutive::Voigt de{{e[0] - c0.eps[0], e[1] - c0.eps[1], e[2] - c0.eps[2]}};
       constitutive::VoigtMatrix tangent{};
@@ -213,18 +214,19 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
       // body force: gravity along −z, base shaking ρ·a(t) (soil), structure loads
       const auto xq = fv.quadrature_point(q);
       const bool weight = id == 0 || pb.regions[id - 1].dead_weight;
-      double b[2] = {0.0, weight ? -rho[id] * pb.gravity * gfactor * weight_factor(id) : 0.0};
+      double b[2] = {
+          0.0, weight ? -core.rho[id] * pb.gravity * core.gfactor * core.weight_factor(id) : 0.0};
       // base shaking loads the soil only, as the DEM loads its particles only
-      if (pb.shaking_component >= 0 && id == 0) b[pb.shaking_component] += rho[id] * shake;
+      if (pb.shaking_component >= 0 && id == 0) b[pb.shaking_component] += core.rho[id] * shake;
       if (id > 0) {
         double bx = 0, bz = 0;
-        region_force(id - 1, xq[0], xq[1], bx, bz);
-        b[0] += bx * lambda;
-        b[1] += bz * lambda;
+        core.region_force(id - 1, xq[0], xq[1], bx, bz);
+        b[0] += bx * core.lambda;
+        b[1] += bz * core.lambda;
       }
       const double w = fv.JxW(q);
       for (unsigned i = 0; i < n; ++i) {
-        const unsigned ci = fe.system_to_component_index(i).first;
+        const unsigned ci = core.fe.system_to_component_index(i).first;
         const auto& Bi = cb(i, q);
         cf(i) += (Bi[0] * s.stress[0] + Bi[1] * s.stress[1] + Bi[2] * s.stress[2]) * w;
         cr(i) -= fv.shape_value(i, q) * b[ci] * w;
@@ -239,20 +241,8 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
       }
     }
     // strip tractions: t = −p n on the selected boundary faces
-    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f) {
-      if (!cell->face(f)->at_boundary()) continue;
-      const auto fc = cell->face(f)->center();
-      for (const Traction& tr : pb.tractions) {
-        if (!on_segment(tr.a, tr.b, fc[0], fc[1], tol)) continue;
-        ffv.reinit(cell, f);
-        for (unsigned q = 0; q < ffv.n_quadrature_points; ++q)
-          for (unsigned i = 0; i < n; ++i) {
-            const unsigned ci = fe.system_to_component_index(i).first;
-            cr(i) -= ffv.shape_value(i, q) * (-tr.pressure * lambda * ffv.normal_vector(q)[ci]) *
-                     ffv.JxW(q);
-          }
-      }
-    }
+    for (unsigned f = 0; f < GeometryInfo<2>::faces_per_cell; ++f)
+      core.add_tractions(cell, f, ffv, [&](unsigned i, double fi) { cr(i) -= fi; });
     cell->get_dof_indices(ld);
     for (unsigned i = 0; i < n; ++i) {
       cr(i) += cf(i);
@@ -267,12 +257,13 @@ void Model::Impl::assemble(bool matrix, const AffineConstraints<double>& cons, b
   }
   // seating a contact body: its dead weight W = ρ A g on its master (seat_master; the nodes on
   // its faces follow the master, so the soil's reactions on them sum to W at equilibrium)
-  for (std::size_t r = 0; r < seat_master.size(); ++r) {
-    const types::global_dof_index i = seat_master[r];
-    if (i == numbers::invalid_dof_index || !owned.is_element(i) || !pb.regions[r].dead_weight)
+  for (std::size_t r = 0; r < core.seat_master.size(); ++r) {
+    const types::global_dof_index i = core.seat_master[r];
+    if (i == numbers::invalid_dof_index || !core.owned.is_element(i) || !pb.regions[r].dead_weight)
       continue;
     const auto id = static_cast<types::material_id>(r + 1);
-    const double W = rho[id] * geom[id].area * pb.gravity * gfactor * weight_factor(id);
+    const double W =
+        core.rho[id] * core.geom[id].area * pb.gravity * core.gfactor * core.weight_factor(id);
     const std::vector<types::global_dof_index> at{i};
     res.add(at, std::vector<double>{W}); // f_ext = (0, −W): res = f_int − f_ext
     dealii::Vector<double> load(1);

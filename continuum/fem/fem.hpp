@@ -1,6 +1,6 @@
 // Internal interface of the deal.II/PETSc plane-strain solver. No deal.II type appears here and
-// the header is C++17/C++20-neutral: fem.cpp compiles with deal.II's flags (C++17), run.cpp and
-// the tests with the project's (C++20).
+// the header is C++17/C++20-neutral: the solver (fem/*.cpp) compiles with deal.II's flags (C++17),
+// run.cpp and the tests with the project's (C++20).
 //
 // Coordinates: x horizontal, z vertical (up); deal.II's point[0] = x, point[1] = z.
 // Stresses are tension-positive (continuum convention); soil compression is negative.
@@ -72,7 +72,7 @@ struct Region {
   // own nodes on those faces (no shared nodes); soil_reaction and soil_pressure come from the
   // contact forces. Explicit integrator. With a mode not Fixed it is a moving rigid body (mass and
   // polar moment from the outline × density, dead weight, its loads and modes as a tied body's)
-  // whose faces move with it: the contact is solved with its motion (explicit_contact_body).
+  // whose faces move with it: the contact is solved with its motion (Explicit::contact_body).
   bool contact = false;
 };
 

@@ -3,9 +3,19 @@
 
 namespace demfem::continuum::fem {
 
-void Model::Impl::newmark_va(Vec& vel, Vec& accel) const {
-  const double b = pb.newmark_beta, g = pb.newmark_gamma;
-  accel = u;
+void Implicit::size() {
+  DynamicSparsityPattern dsp(core.relevant);
+  DoFTools::make_sparsity_pattern(core.dof, dsp, core.hom, false);
+  SparsityTools::distribute_sparsity_pattern(dsp, core.owned, core.comm, core.relevant);
+  K.reinit(core.owned, core.owned, dsp, core.comm);
+  M.reinit(core.owned, core.owned, dsp, core.comm);
+  K0.reinit(core.owned, core.owned, dsp, core.comm);
+  for (Vec* w : {&rhs, &res, &f_internal, &du, &u_n, &v_n, &a_n}) w->reinit(core.owned, core.comm);
+}
+
+void Implicit::newmark_va(Vec& vel, Vec& accel) const {
+  const double b = core.pb.newmark_beta, g = core.pb.newmark_gamma;
+  accel = core.u;
   accel -= u_n;
   accel *= 1.0 / (b * dt_ * dt_);
   accel.add(-1.0 / (b * dt_), v_n);
@@ -22,28 +32,28 @@ void Model::Impl::newmark_va(Vec& vel, Vec& accel) const {
 // a = (g′(t + Δt/2) − g′(t − Δt/2))/Δt (an acceleration averaged over one step, so a kink of g,
 // e.g. a ramp's start, is one step's impulse rather than a spike), g′ by central differences with
 // h = 1e-4 Δt; the slaves of a rigid body follow their masters' rates through the same relations.
-void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
-  if (lines.empty() || !(dt_ > 0.0)) return;
-  if (!(rate_t == t && rate_dt == dt_)) {
-    const double t0 = t, h = 1e-4 * dt_;
+void Implicit::prescribed_rates(Vec& vel, Vec& accel) {
+  if (core.lines.empty() || !(dt_ > 0.0)) return;
+  if (!(rate_t == core.t && rate_dt == dt_)) {
+    const double t0 = core.t, h = 1e-4 * dt_;
     const auto rate = [&](const std::function<double()>& g, double at) {
-      t = at + h;
+      core.t = at + h;
       const double gp = g();
-      t = at - h;
+      core.t = at - h;
       const double gm = g();
       return (gp - gm) / (2.0 * h);
     };
     rate_v.clear();
     rate_a.clear();
-    rate_v.reinit(relevant);
-    rate_a.reinit(relevant);
-    for (types::global_dof_index i : relevant) {
-      if (!hom.is_constrained(i)) continue;
+    rate_v.reinit(core.relevant);
+    rate_a.reinit(core.relevant);
+    for (types::global_dof_index i : core.relevant) {
+      if (!core.hom.is_constrained(i)) continue;
       rate_v.add_line(i);
       rate_a.add_line(i);
-      const auto it = lines.find(i);
-      if (it == lines.end()) { // box/periodic: homogeneous, as in hom
-        if (const auto* entries = hom.get_constraint_entries(i))
+      const auto it = core.lines.find(i);
+      if (it == core.lines.end()) { // box/periodic: homogeneous, as in hom
+        if (const auto* entries = core.hom.get_constraint_entries(i))
           for (const auto& e : *entries) {
             rate_v.add_entry(i, e.first, e.second);
             rate_a.add_entry(i, e.first, e.second);
@@ -61,10 +71,10 @@ void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
                    dt_);
       }
     }
-    t = t0;
+    core.t = t0;
     rate_v.close();
     rate_a.close();
-    rate_t = t;
+    rate_t = core.t;
     rate_dt = dt_;
   }
   rate_v.distribute(vel);
@@ -79,45 +89,46 @@ void Model::Impl::prescribed_rates(Vec& vel, Vec& accel) {
 // (issue 10). `res` then holds f_int + M a + C v − f_ext at every dof, so Model::reaction includes
 // the inertia. The tangent keeps the condensed a₀ M + a₁ (α M + β K0): the prescribed motion does
 // not depend on the free dofs.
-void Model::Impl::add_dynamic(bool matrix) {
-  Vec vel(owned, comm), accel(owned, comm), tmp(owned, comm);
+void Implicit::add_dynamic(bool matrix) {
+  const Problem& pb = core.pb;
+  Vec vel(core.owned, core.comm), accel(core.owned, core.comm), tmp(core.owned, core.comm);
   newmark_va(vel, accel);
   prescribed_rates(vel, accel);
   tmp = accel;
   tmp.add(pb.rayleigh_alpha, vel);
-  Vec xg(owned, relevant, comm), vg(owned, relevant, comm);
+  Vec xg(core.owned, core.relevant, core.comm), vg(core.owned, core.relevant, core.comm);
   xg = tmp; // a + α v
   vg = vel;
   const bool beta = pb.rayleigh_beta != 0.0;
-  FEValues<2> fv(mapping, fe, quad,
+  FEValues<2> fv(core.mapping, core.fe, core.quad,
                  update_values | update_gradients | update_quadrature_points | update_JxW_values);
-  const unsigned n = fe.n_dofs_per_cell();
+  const unsigned n = core.fe.n_dofs_per_cell();
   std::vector<types::global_dof_index> ld(n);
   dealii::Vector<double> xe(n), ve(n), fe_(n), crhs(n);
   std::vector<constitutive::Voigt> epsv;
   CellB cb;
-  for (const auto& cell : dof.active_cell_iterators()) {
+  for (const auto& cell : core.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     fv.reinit(cell);
     cell->get_dof_values(xg, xe);
     const auto id = cell->material_id();
-    const double r = rho[id];
+    const double r = core.rho[id];
     fe_ = 0;
-    for (unsigned q = 0; q < nq(); ++q) {
+    for (unsigned q = 0; q < core.nq(); ++q) {
       double xq[2] = {0.0, 0.0}; // (a + α v) at the point
       for (unsigned j = 0; j < n; ++j)
-        xq[fe.system_to_component_index(j).first] += fv.shape_value(j, q) * xe(j);
+        xq[core.fe.system_to_component_index(j).first] += fv.shape_value(j, q) * xe(j);
       const double w = r * fv.JxW(q);
       // consistent mass: (M x)_i = ∫ ρ N_i x_{c(i)} dA
       for (unsigned i = 0; i < n; ++i)
-        fe_(i) += fv.shape_value(i, q) * xq[fe.system_to_component_index(i).first] * w;
+        fe_(i) += fv.shape_value(i, q) * xq[core.fe.system_to_component_index(i).first] * w;
     }
     if (beta) { // β K0 v = β ∫ Bᵀ D ε(v) dA (B-bar rows, elastic D)
       cell->get_dof_values(vg, ve);
-      cell_b(fv, cb);
-      cell_strain(cb, ve, epsv);
-      const auto D = models[id].elastic_tangent();
-      for (unsigned q = 0; q < nq(); ++q) {
+      core.cell_b(fv, cb);
+      core.cell_strain(cb, ve, epsv);
+      const auto D = core.models[id].elastic_tangent();
+      for (unsigned q = 0; q < core.nq(); ++q) {
         double sig[3] = {0, 0, 0};
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) sig[a] += D[a][b] * epsv[q][b];
@@ -131,15 +142,15 @@ void Model::Impl::add_dynamic(bool matrix) {
     cell->get_dof_indices(ld);
     res.add(ld, fe_);
     for (unsigned i = 0; i < n; ++i) crhs(i) = -fe_(i);
-    hom.distribute_local_to_global(crhs, ld, rhs);
+    core.hom.distribute_local_to_global(crhs, ld, rhs);
   }
   res.compress(VectorOperation::add);
   rhs.compress(VectorOperation::add);
   if (has_cabs) { // Lysmer dashpots: on unconstrained boundary components only (condensed)
-    Vec cv(owned, comm);
+    Vec cv(core.owned, core.comm);
     Cabs.vmult(cv, vel);
     res += cv;
-    hom.set_zero(cv);
+    core.hom.set_zero(cv);
     rhs -= cv;
   }
   if (matrix) {
@@ -151,14 +162,14 @@ void Model::Impl::add_dynamic(bool matrix) {
   }
 }
 
-int Model::Impl::solve_linear(bool symmetric) {
+int Implicit::solve_linear(bool symmetric) {
   // Krylov solves to 1e-8 of the Newton residual: enough for Newton to reach its tolerance
   // (an inexact Newton step, Eisenstat & Walker 1996), far cheaper than 1e-12
   SolverControl control(2000, std::max(1e-300, 1e-8 * rhs.l2_norm()));
-  const std::string& s = pb.linear_solver;
+  const std::string& s = core.pb.linear_solver;
   du = 0;
   if (s == "direct") {
-    PETScWrappers::SparseDirectMUMPS solver(control, comm);
+    PETScWrappers::SparseDirectMUMPS solver(control, core.comm);
     solver.solve(K, du, rhs);
     return 1;
   }
@@ -167,52 +178,53 @@ int Model::Impl::solve_linear(bool symmetric) {
   data.strong_threshold = 0.5;
   PETScWrappers::PreconditionBoomerAMG amg(K, data);
   if (s == "cg-amg" && symmetric) {
-    PETScWrappers::SolverCG solver(control, comm);
+    PETScWrappers::SolverCG solver(control, core.comm);
     solver.solve(K, du, rhs, amg);
   } else {
     // restart 100: the yielding backfill's non-symmetric tangent stalls GMRES(30)
-    PETScWrappers::SolverGMRES solver(control, comm,
+    PETScWrappers::SolverGMRES solver(control, core.comm,
                                       PETScWrappers::SolverGMRES::AdditionalData(100));
     solver.solve(K, du, rhs, amg);
   }
   return static_cast<int>(control.last_step());
 }
 
-bool Model::Impl::symmetric_tangent() const {
+bool Implicit::symmetric_tangent() const {
   // the soil's and, when there is one, the frictional interface layer's (interface_friction < 0:
   // tied, no layer)
-  return models[0].symmetric_tangent() &&
-         (pb.interface_friction < 0.0 || iface_model.symmetric_tangent());
+  return core.models[0].symmetric_tangent() &&
+         (core.pb.interface_friction < 0.0 || core.iface_model.symmetric_tangent());
 }
 
-double Model::Impl::free_norm(const Vec& r) const {
+double Implicit::free_norm(const Vec& r) const {
   Vec tmp(r);
-  hom.set_zero(tmp);
+  core.hom.set_zero(tmp);
   return tmp.l2_norm();
 }
 
-StepStats Model::Impl::newton(bool dynamic) {
+StepStats Implicit::newton(bool dynamic) {
+  const Problem& pb = core.pb;
   StepStats st;
   // predictor: prescribed patch values through inhomogeneous constraints
   inh.clear();
-  inh.reinit(relevant);
-  update_ghost();
-  for (types::global_dof_index i : relevant) {
-    if (!hom.is_constrained(i)) continue;
+  inh.reinit(core.relevant);
+  core.update_ghost();
+  for (types::global_dof_index i : core.relevant) {
+    if (!core.hom.is_constrained(i)) continue;
     inh.add_line(i);
-    auto it = lines.find(i);
-    if (it == lines.end()) { // box/periodic: homogeneous, already resolved in hom
-      const auto* entries = hom.get_constraint_entries(i);
+    auto it = core.lines.find(i);
+    if (it == core.lines.end()) { // box/periodic: homogeneous, already resolved in hom
+      const auto* entries = core.hom.get_constraint_entries(i);
       if (entries)
         for (const auto& e : *entries) inh.add_entry(i, e.first, e.second);
       continue;
     }
     // raw line (chains resolved by close()): du_i = Σ c du_j + target − (u_i − Σ c u_j)
     double g = it->second.target ? it->second.target() : 0.0;
-    g -= u_ghost(i);
+    g -= core.u_ghost(i);
     for (const auto& e : it->second.entries) {
       inh.add_entry(i, e.first, e.second);
-      g += e.second * u_ghost(e.first);
+      g += e.second * core.u_ghost(e.first);
     }
     if (it->second.target) inh.set_inhomogeneity(i, g);
   }
@@ -222,7 +234,7 @@ StepStats Model::Impl::newton(bool dynamic) {
   int nondescent = 0;
   std::ostringstream trace;
   for (int it = 0; it <= pb.newton_max_iterations; ++it) {
-    const AffineConstraints<double>& cons = it == 0 ? inh : hom;
+    const AffineConstraints<double>& cons = it == 0 ? inh : core.hom;
     predictor_tangent = it == 0;
     assemble(true, cons, dynamic);
     predictor_tangent = false;
@@ -236,26 +248,26 @@ StepStats Model::Impl::newton(bool dynamic) {
       st.converged = true;
       st.newton_iterations = it;
       if (pb.newton_trace)
-        log << "newton t=" << t << " λ=" << lambda << "\n" << trace.str() << "\n";
+        core.log << "newton t=" << core.t << " λ=" << core.lambda << "\n" << trace.str() << "\n";
       return st;
     }
     if (it == pb.newton_max_iterations) break;
     try {
       st.linear_iterations += solve_linear(sym);
     } catch (const std::exception& e) { // e.g. the Krylov solver did not converge: cut the step
-      log << "linear solver failed: " << std::string(e.what()).substr(0, 160) << "\n";
+      core.log << "linear solver failed: " << std::string(e.what()).substr(0, 160) << "\n";
       break;
     }
     cons.distribute(du);
     if (!std::isfinite(du.l2_norm())) break;
     if (pb.tangent_check && it > 0) { // directional derivative of R along du vs K du = −R
-      const Vec u0(u), r0(rhs);
+      const Vec u0(core.u), r0(rhs);
       double rel[3];
       int k = 0;
       auto rhs_at = [&](double s) { // rhs at u0 + s du
-        u = u0;
-        u.add(s, du);
-        assemble(false, hom, dynamic);
+        core.u = u0;
+        core.u.add(s, du);
+        assemble(false, core.hom, dynamic);
         if (dynamic) add_dynamic(false);
         return Vec(rhs);
       };
@@ -269,21 +281,21 @@ StepStats Model::Impl::newton(bool dynamic) {
         rp += r0;
         rel[k++] = rp.l2_norm() / r0.l2_norm();
       }
-      log << "tangent check t=" << t << " λ=" << lambda << " it=" << it
-          << ": |dR[du] + R|/|R| = " << rel[0] << " " << rel[1] << " " << rel[2]
-          << " (h = 1e-3, 1e-5, 1e-7 of the Newton step)\n";
-      u = u0;
-      assemble(true, hom, dynamic);
+      core.log << "tangent check t=" << core.t << " λ=" << core.lambda << " it=" << it
+               << ": |dR[du] + R|/|R| = " << rel[0] << " " << rel[1] << " " << rel[2]
+               << " (h = 1e-3, 1e-5, 1e-7 of the Newton step)\n";
+      core.u = u0;
+      assemble(true, core.hom, dynamic);
       if (dynamic) add_dynamic(true);
     }
     // backtracking line search on the free residual norm
-    const Vec u0(u);
+    const Vec u0(core.u);
     double alpha = 1.0, best = 0.0, best_alpha = 1.0;
     for (int ls = 0; ls < 4; ++ls) {
-      u = u0;
-      u.add(alpha, du);
+      core.u = u0;
+      core.u.add(alpha, du);
       if (it == 0) break; // the predictor carries the prescribed jump: take it whole
-      assemble(false, hom, dynamic);
+      assemble(false, core.hom, dynamic);
       if (dynamic) add_dynamic(false);
       const double rl = rhs.l2_norm();
       if (ls == 0 || rl < best) {
@@ -297,11 +309,11 @@ StepStats Model::Impl::newton(bool dynamic) {
       // no descent along the Newton direction. Non-smooth returns (points flipping between
       // the apex and the cone) can stall Newton just above the tolerance: accept a stalled
       // state below the stagnation tolerance (logged), else give up and let the caller cut.
-      u = u0;
+      core.u = u0;
       if (rn <= stagnation_tolerance * ref) {
-        assemble(false, hom, dynamic);
+        assemble(false, core.hom, dynamic);
         if (dynamic) add_dynamic(false);
-        log << "accepted stalled Newton at |R|/ref=" << rn / ref << "\n";
+        core.log << "accepted stalled Newton at |R|/ref=" << rn / ref << "\n";
         st.converged = true;
         st.newton_iterations = it;
         return st;
@@ -309,85 +321,104 @@ StepStats Model::Impl::newton(bool dynamic) {
       // non-monotone escape: take the full Newton step anyway (a kink of the return map, not a
       // wrong direction, usually blocks descent); give up after `max_nondescent` such steps
       if (++nondescent > max_nondescent) break;
-      u.add(1.0, du);
+      core.u.add(1.0, du);
       trace << " α=1 (no descent)\n";
       continue;
     }
     if (it > 0 && alpha != best_alpha) {
-      u = u0;
-      u.add(best_alpha, du);
+      core.u = u0;
+      core.u.add(best_alpha, du);
     }
     trace << " α=" << best_alpha << "\n";
   }
-  log << "newton failed: λ=" << lambda << " g=" << gfactor << " structures' weight=" << sfactor
-      << " t=" << t << " residual=" << st.residual << "\n"
-      << trace.str();
+  core.log << "newton failed: λ=" << core.lambda << " g=" << core.gfactor
+           << " structures' weight=" << core.sfactor << " t=" << core.t
+           << " residual=" << st.residual << "\n"
+           << trace.str();
   st.converged = false;
   st.newton_iterations = pb.newton_max_iterations;
   return st;
 }
 
-StepStats Model::Impl::halves(const StepStats& a, StepStats b) {
+StepStats Implicit::halves(const StepStats& a, StepStats b) {
   b.cuts += a.cuts + 1;
   b.newton_iterations += a.newton_iterations;
   b.linear_iterations += a.linear_iterations;
   return b;
 }
 
-StepStats Model::Impl::static_to(double lam, double gf, int depth, double sf) {
-  const Vec u_save(u);
-  const double lam0 = lambda, gf0 = gfactor, sf0 = sfactor;
-  lambda = lam;
-  gfactor = gf;
-  sfactor = sf;
+StepStats Implicit::static_to(double lam, double gf, int depth, double sf) {
+  const Vec u_save(core.u);
+  const double lam0 = core.lambda, gf0 = core.gfactor, sf0 = core.sfactor;
+  core.lambda = lam;
+  core.gfactor = gf;
+  core.sfactor = sf;
   StepStats st = newton(false);
   if (st.converged) {
-    commit();
-    log << "static step λ=" << lam << " g=" << gf << " newton=" << st.newton_iterations
-        << " linear=" << st.linear_iterations << " residual=" << st.residual << "\n";
+    core.commit();
+    core.log << "static step λ=" << lam << " g=" << gf << " newton=" << st.newton_iterations
+             << " linear=" << st.linear_iterations << " residual=" << st.residual << "\n";
     return st;
   }
-  u = u_save;
-  lambda = lam0;
-  gfactor = gf0;
-  sfactor = sf0;
-  trial = committed;
+  core.u = u_save;
+  core.lambda = lam0;
+  core.gfactor = gf0;
+  core.sfactor = sf0;
+  core.trial = core.committed;
   if (depth >= 8) return st;
-  log << "step cut at λ=" << lam << "\n";
+  core.log << "step cut at λ=" << lam << "\n";
   StepStats a = static_to(0.5 * (lam0 + lam), 0.5 * (gf0 + gf), depth + 1, 0.5 * (sf0 + sf));
   if (!a.converged) return a;
   return halves(a, static_to(lam, gf, depth + 1, sf));
 }
 
-StepStats Model::Impl::dynamic_to(double dt, int depth) {
-  const Vec u0(u), v0(v), a0(a_n);
-  const double t0 = t;
+StepStats Implicit::dynamic_to(double dt, int depth) {
+  const Vec u0(core.u), v0(core.v), a0(a_n);
+  const double t0 = core.t;
   dt_ = dt;
-  u_n = u;
-  v_n = v;
-  lambda = 1.0;
-  t += dt;
+  u_n = core.u;
+  v_n = core.v;
+  core.lambda = 1.0;
+  core.t += dt;
   // predictor u = u_n + dt v_n + dt²(½ − β) a_n (Newmark 1959)
-  u.add(dt, v_n);
-  u.add(dt * dt * (0.5 - pb.newmark_beta), a_n);
+  core.u.add(dt, v_n);
+  core.u.add(dt * dt * (0.5 - core.pb.newmark_beta), a_n);
   StepStats st = newton(true);
   if (st.converged) {
-    newmark_va(v, acc);
-    prescribed_rates(v, acc);
-    a_n = acc;
-    commit();
+    newmark_va(core.v, core.acc);
+    prescribed_rates(core.v, core.acc);
+    a_n = core.acc;
+    core.commit();
     return st;
   }
-  u = u0;
-  v = v0;
+  core.u = u0;
+  core.v = v0;
   a_n = a0;
-  t = t0;
-  trial = committed;
+  core.t = t0;
+  core.trial = core.committed;
   if (depth >= 5) return st;
-  log << "dynamic step cut at t=" << t0 << " dt=" << dt << "\n";
+  core.log << "dynamic step cut at t=" << t0 << " dt=" << dt << "\n";
   StepStats a = dynamic_to(0.5 * dt, depth + 1);
   if (!a.converged) return a;
   return halves(a, dynamic_to(0.5 * dt, depth + 1));
+}
+
+void Implicit::start_dynamics(double dt) {
+  // initial acceleration: M a0 = fext − f_internal(u0), condensed with the constraints (assemble
+  // leaves −R condensed in rhs: a rigid body's rows carry the resultant over all its dofs; the
+  // raw residual with the constrained rows zeroed kept only its master nodes' share, a spurious
+  // initial acceleration of bodies the soil holds in equilibrium, e.g. a seated foundation)
+  assemble(false, core.hom, false);
+  v_n = core.v;
+  K = 0;
+  K.add(1.0, M);
+  solve_linear(true);
+  core.hom.distribute(du);
+  a_n = du;
+  dt_ = dt; // the prescribed motion's rates at t (prescribed_rates)
+  prescribed_rates(core.v, a_n);
+  v_n = core.v;
+  core.dyn_init = true;
 }
 
 StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
@@ -419,7 +450,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
     // include the settlement under the structure's own weight)
     m.gfactor = 1.0;
     m.sfactor = 0.0;
-    total = m.static_to(m.lambda, 1.0, 0, 0.0);
+    total = m.im.static_to(m.lambda, 1.0, 0, 0.0);
     // Seating (Region::seat): a structure held vertically but embedded in the soil starts resting
     // on it, as the DEM packing seats it (lowered until the bed carries its weight): its vertical
     // DoF is freed, its weight applied statically with the soil's own model, and the DoF fixed
@@ -446,7 +477,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
         uz0.push_back(region_motion(r).uz);
       }
       m.reconstrain();
-      const StepStats st = m.static_to(m.lambda, 1.0, 0, 1.0);
+      const StepStats st = m.im.static_to(m.lambda, 1.0, 0, 1.0);
       total.newton_iterations += st.newton_iterations;
       total.linear_iterations += st.linear_iterations;
       total.cuts += st.cuts;
@@ -479,7 +510,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
       // (reconstrain put the held dofs back at 0: the seated displacements are restored first)
       if (contact_seated) {
         m.u = u_seated;
-        m.assemble(false, m.hom, false);
+        m.im.assemble(false, m.hom, false);
       }
       for (Seating& s : m.seated) {
         if (m.pb.regions[s.region].contact) s.soil_fz = soil_reaction(s.region).fz;
@@ -494,7 +525,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   } else {
     steps = std::max(1, steps);
     for (int k = 1; k <= steps; ++k) {
-      StepStats st = m.static_to(m.lambda, double(k) / steps);
+      StepStats st = m.im.static_to(m.lambda, double(k) / steps);
       total.newton_iterations += st.newton_iterations;
       total.linear_iterations += st.linear_iterations;
       total.converged = st.converged;
@@ -511,7 +542,7 @@ StepStats Model::initialise_gravity(bool use_k0, double k0, int steps) {
   return total;
 }
 
-void Model::Impl::set_stiffness_from_stress() {
+void Core::set_stiffness_from_stress() {
   if (!models[0].stiffness_from_stress()) return;
   stiffness_set = true;
   for (const auto& cell : dof.active_cell_iterators()) {
@@ -527,7 +558,7 @@ const std::vector<Seating>& Model::seating() const {
 }
 
 StepStats Model::static_step(double lambda) {
-  return impl_->static_to(lambda, impl_->gfactor);
+  return impl_->im.static_to(lambda, impl_->gfactor);
 }
 
 void Model::set_displacement(const std::function<Point(Point)>& f) {
@@ -548,34 +579,18 @@ void Model::set_displacement(const std::function<Point(Point)>& f) {
   m.hom.distribute(m.u);
   m.dyn_init = false;
   // make the committed strains consistent with u
-  m.assemble(false, m.hom, false);
+  m.im.assemble(false, m.hom, false);
   m.commit();
 }
 
 StepStats Model::dynamic_step(double dt) {
   Impl& m = *impl_;
-  if (m.is_explicit()) return m.explicit_advance(dt);
+  if (m.is_explicit()) return m.ex.advance(dt);
   if (!m.pb.contacts.empty())
     throw std::runtime_error("Coulomb contact planes (continuum.interface = \"coulomb\") need the "
                              "explicit integrator (continuum.integrator = \"explicit\")");
-  if (!m.dyn_init) {
-    // initial acceleration: M a0 = fext − f_internal(u0), condensed with the constraints (assemble
-    // leaves −R condensed in rhs: a rigid body's rows carry the resultant over all its dofs; the
-    // raw residual with the constrained rows zeroed kept only its master nodes' share, a spurious
-    // initial acceleration of bodies the soil holds in equilibrium, e.g. a seated foundation)
-    m.assemble(false, m.hom, false);
-    m.v_n = m.v;
-    m.K = 0;
-    m.K.add(1.0, m.M);
-    m.solve_linear(true);
-    m.hom.distribute(m.du);
-    m.a_n = m.du;
-    m.dt_ = dt; // the prescribed motion's rates at t (prescribed_rates)
-    m.prescribed_rates(m.v, m.a_n);
-    m.v_n = m.v;
-    m.dyn_init = true;
-  }
-  return m.dynamic_to(dt, 0);
+  if (!m.dyn_init) m.im.start_dynamics(dt);
+  return m.im.dynamic_to(dt, 0);
 }
 
 } // namespace demfem::continuum::fem

@@ -1,4 +1,4 @@
-// Mesh, degrees of freedom and constraints of the plane-strain model (see fem_impl.hpp).
+// Mesh, degrees of freedom, materials and constraints of the plane-strain model (core.hpp).
 #include "impl.hpp"
 
 namespace demfem::continuum::fem {
@@ -33,15 +33,32 @@ void ensure_mpi() {
   static MpiScope scope(argc, argv);
 }
 
-Model::Impl::Impl(const Problem& p, bool mesh_only)
+Core::Core(const Problem& p, bool mesh_only)
     : pb(p), fe(FE_Q<2>(static_cast<unsigned>(p.degree)), 2),
       quad(static_cast<unsigned>(p.degree) + 1), face_quad(static_cast<unsigned>(p.degree) + 1) {
   build_mesh();
   setup_dofs_and_materials();
-  if (!mesh_only) setup();
+  if (mesh_only) return;
+  region_geometry();
+  build_constraints();
+  // every point stress-free, in its cell's model
+  committed.assign(tria.n_active_cells() * nq(), QpState{});
+  for (const auto& cell : tria.active_cell_iterators()) {
+    QpState s;
+    static_cast<constitutive::State&>(s) =
+        model_of(cell->active_cell_index(), cell->material_id()).initial_state();
+    std::fill_n(committed.begin() + std::ptrdiff_t(cell->active_cell_index() * nq()), nq(), s);
+  }
+  trial = committed;
 }
 
-void Model::Impl::build_mesh() {
+Model::Impl::Impl(const Problem& p, bool mesh_only) : Core(p, mesh_only) {
+  if (mesh_only) return;
+  im.size();
+  im.assemble_mass_and_elastic();
+}
+
+void Core::build_mesh() {
   const Mesh& m = pb.mesh;
   const std::size_t nx = m.dx.size(), nz = m.dz.size();
   Table<2, types::material_id> ids(nx, nz);
@@ -88,7 +105,7 @@ void Model::Impl::build_mesh() {
   tria.refine_global(static_cast<unsigned>(std::max(0, m.refinement)));
 }
 
-void Model::Impl::setup_dofs_and_materials() {
+void Core::setup_dofs_and_materials() {
   dof.reinit(tria);
   dof.distribute_dofs(fe);
   owned = dof.locally_owned_dofs();
@@ -118,8 +135,8 @@ void Model::Impl::setup_dofs_and_materials() {
   }
 }
 
-void Model::Impl::setup() {
-  // region geometry (all cells: every rank holds the whole shared mesh)
+void Core::region_geometry() {
+  // all cells: every rank holds the whole shared mesh
   geom.assign(pb.regions.size() + 1, RegionGeom{});
   {
     FEValues<2> fv(mapping, fe, quad, update_quadrature_points | update_JxW_values);
@@ -174,34 +191,23 @@ void Model::Impl::setup() {
       g.zc += z0;
     }
   }
-
-  build_constraints();
-  // every point stress-free, in its cell's model
-  committed.assign(tria.n_active_cells() * nq(), QpState{});
-  for (const auto& cell : tria.active_cell_iterators()) {
-    QpState s;
-    static_cast<constitutive::State&>(s) =
-        model_of(cell->active_cell_index(), cell->material_id()).initial_state();
-    std::fill_n(committed.begin() + std::ptrdiff_t(cell->active_cell_index() * nq()), nq(), s);
-  }
-  trial = committed;
-  assemble_mass_and_elastic();
 }
 
 void Model::Impl::reconstrain() {
   // the same dofs and partition: the state vectors keep their values
   const Vec u_save(u), v_save(v);
   build_constraints();
+  im.size();
   u = u_save;
   v = v_save;
   hom.distribute(u);
   hom.distribute(v);
-  assemble_mass_and_elastic();
+  im.assemble_mass_and_elastic();
   dyn_init = false;
-  ex.ready = false;
+  ex.state.ready = false;
 }
 
-void Model::Impl::build_constraints() {
+void Core::build_constraints() {
   // rigid regions: masters (2 dofs at the node nearest the pivot, 1 at the node farthest from
   // it along the better-conditioned direction) and slaves
   lines.clear();
@@ -488,19 +494,11 @@ void Model::Impl::build_constraints() {
     }
   }
   hom.close();
-
-  DynamicSparsityPattern dsp(relevant);
-  DoFTools::make_sparsity_pattern(dof, dsp, hom, false);
-  SparsityTools::distribute_sparsity_pattern(dsp, owned, comm, relevant);
-  K.reinit(owned, owned, dsp, comm);
-  M.reinit(owned, owned, dsp, comm);
-  K0.reinit(owned, owned, dsp, comm);
-  for (Vec* w : {&u, &rhs, &res, &f_internal, &du, &v, &acc, &u_n, &v_n, &a_n})
-    w->reinit(owned, comm);
+  for (Vec* w : {&u, &v, &acc}) w->reinit(owned, comm);
   u_ghost.reinit(owned, relevant, comm);
 }
 
-std::vector<std::vector<Model::Impl::ContactNode>> Model::Impl::contact_nodes() const {
+std::vector<std::vector<Core::ContactNode>> Core::contact_nodes() const {
   std::vector<std::vector<ContactNode>> out(pb.contacts.size());
   if (pb.contacts.empty()) return out;
   const double tol = 1e-7 * std::max(xmax - xmin, zmax - zmin);
@@ -545,7 +543,7 @@ std::vector<std::vector<Model::Impl::ContactNode>> Model::Impl::contact_nodes() 
   return out;
 }
 
-double Model::Impl::top_at(double x) const {
+double Core::top_at(double x) const {
   const auto& poly = pb.mesh.domain;
   if (poly.empty()) return zmax;
   double top = zmin;

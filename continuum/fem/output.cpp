@@ -1,4 +1,4 @@
-// Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output.
+// Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output (either integrator).
 #include "impl.hpp"
 
 #include <sstream>
@@ -56,7 +56,7 @@ Reaction Model::reaction(std::size_t patch) const {
   const Patch& p = m.pb.patches.at(patch);
   for (const auto& [i, cp] : m.patch_dofs.at(patch)) {
     if (!m.owned.is_element(i)) continue;
-    const double f = m.res(i);
+    const double f = m.im.res(i);
     if (cp.first == 0)
       r.fx += f;
     else
@@ -274,7 +274,7 @@ std::vector<double> Model::soil_pressure(std::size_t region, double z0, double z
 Model::RegionMotion Model::region_motion(std::size_t region) const {
   Impl& m = *impl_;
   if (m.pb.regions.at(region).contact) { // unmeshed: its generalised coordinates (rest: zero)
-    for (const auto& b : m.ex.bodies)
+    for (const auto& b : m.ex.state.bodies)
       if (b.contact && b.region == region) return RegionMotion{b.q[0], b.q[1], b.q[2]};
     return RegionMotion{};
   }
@@ -328,7 +328,7 @@ double Model::elastic_energy() const {
   std::vector<constitutive::Voigt> eps;
   Impl::CellB cb;
   double e = 0;
-  const bool lumped = m.is_explicit() && m.ex.ready;
+  const bool lumped = m.is_explicit() && m.ex.state.ready;
   for (const auto& cell : m.dof.active_cell_iterators()) {
     if (!cell->is_locally_owned()) continue;
     fv.reinit(cell);
@@ -350,9 +350,10 @@ double Model::elastic_energy() const {
   }
   if (lumped) // the replicated nodal vectors: each rank adds its owned dofs
     for (const auto i : m.owned)
-      if (m.ex.kind[i] != 3) e += 0.5 * m.ex.mass[i] * m.ex.v[i] * m.ex.v[i];
+      if (m.ex.state.kind[i] != 3)
+        e += 0.5 * m.ex.state.mass[i] * m.ex.state.v[i] * m.ex.state.v[i];
   if (lumped) // moving contact bodies (unmeshed): ½ q̇ᵀ M_q q̇
-    for (const auto& b : m.ex.bodies)
+    for (const auto& b : m.ex.state.bodies)
       if (b.contact)
         for (int a = 0; a < 3; ++a)
           for (int c = 0; c < 3; ++c) e += 0.5 * b.qv[a] * b.M[a][c] * b.qv[c];

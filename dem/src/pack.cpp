@@ -21,6 +21,7 @@
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/key_hash.hpp"
 #include "demfem/dem/stable_step.hpp"
+#include "demfem/dem/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/write_file.hpp"
 
@@ -983,7 +984,7 @@ points = [[0.8, 0], [0.8, 1.2]]
 } // namespace
 
 std::uint64_t compute_engine_fingerprint(const std::function<void(EngineConfig&)>& tweak) {
-  const auto file = scene::parse_scene(kFingerprintScene, "<engine fingerprint>");
+  const auto file = scene::parse_scene(kFingerprintScene, "<engine fingerprint>", vocabulary());
   const scene::Scene& scene = file.base;
   const Placement pl = place(scene);
   const Trial t = deposit(scene, pl, 1.0, {}, std::chrono::steady_clock::now(), 0, tweak);

@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/reader.hpp"
 
 namespace demfem::scene {
 
@@ -169,6 +170,7 @@ std::string to_toml(const Scene& s) {
       soil.get_as<toml::table>("dem")->get_as<toml::table>("packing")->insert("target", "none");
     }
     if (d->sphere_mass) soil.get_as<toml::table>("dem")->insert("particle_mass", "sphere");
+    for (const auto& m : d->models) write_model(m, *soil.get_as<toml::table>("dem"));
     if (!d->particles_file.empty()) {
       soil.get_as<toml::table>("dem")->insert("particles_file", d->particles_file);
     } else if (!d->particles.empty()) {

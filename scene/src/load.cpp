@@ -16,6 +16,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/particles_file.hpp"
+#include "demfem/scene/reader.hpp"
 #include "validate_internal.hpp"
 
 namespace demfem::scene {
@@ -61,256 +62,6 @@ const Scene& SceneFile::select(const std::string& variant) const {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-// Walks one TOML table, reading typed values, recording every problem with its source position,
-// and remembering which keys were read so that the rest can be reported as unknown.
-class Reader {
-public:
-  Reader(const toml::table& table, std::string path, std::string file,
-         std::vector<Diagnostic>& diags, const toml::source_region& where)
-      : t_(table), path_(std::move(path)), file_(std::move(file)), diags_(diags), where_(where) {}
-
-  ~Reader() = default;
-  Reader(const Reader&) = delete;
-  Reader& operator=(const Reader&) = delete;
-
-  [[nodiscard]] std::string key_path(std::string_view key) const {
-    return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
-  }
-
-  void error_at(const toml::source_region& src, const std::string& key, const std::string& msg) {
-    Diagnostic d;
-    d.file = src.path ? std::string(*src.path) : file_;
-    if (d.file.empty()) d.file = file_;
-    d.line = static_cast<int>(src.begin.line);
-    d.column = static_cast<int>(src.begin.column);
-    d.key = key;
-    d.message = msg;
-    diags_.push_back(std::move(d));
-  }
-  void error(std::string_view key, const std::string& msg) {
-    const toml::node* n = t_.get(key);
-    error_at(n ? n->source() : where_, key_path(key), msg);
-  }
-  void error_here(const std::string& msg) { error_at(where_, path_, msg); }
-
-  [[nodiscard]] bool has(std::string_view key) const { return t_.contains(key); }
-  const toml::node* node(std::string_view key) {
-    used_.insert(std::string(key));
-    return t_.get(key);
-  }
-
-  // A finite number (integers accepted). Missing: default, or an error if required.
-  std::optional<double> opt_number(std::string_view key) {
-    const toml::node* n = node(key);
-    if (!n) return std::nullopt;
-    if (!n->is_number()) {
-      error(key, fmt::format("expected a number, got {}", type_name(*n)));
-      return std::nullopt;
-    }
-    const double v = n->value<double>().value_or(0.0);
-    if (!std::isfinite(v)) {
-      error(key, fmt::format("must be a finite number, got {}", v));
-      return std::nullopt;
-    }
-    return v;
-  }
-  double number(std::string_view key, double def) { return opt_number(key).value_or(def); }
-  double required_number(std::string_view key) {
-    if (!has(key)) {
-      error_here(fmt::format("missing required key '{}' (a number)", key));
-      return 0.0;
-    }
-    return number(key, 0.0);
-  }
-  double positive(std::string_view key, double def, bool required = false) {
-    if (required && !has(key)) return required_number(key);
-    const auto v = opt_number(key);
-    if (v && !(*v > 0.0)) error(key, fmt::format("must be > 0, got {}", *v));
-    return v.value_or(def);
-  }
-  double non_negative(std::string_view key, double def) {
-    const auto v = opt_number(key);
-    if (v && *v < 0.0) error(key, fmt::format("must be ≥ 0, got {}", *v));
-    return v.value_or(def);
-  }
-  double in_range(std::string_view key, double def, double lo, double hi, bool open_hi = false) {
-    const auto v = opt_number(key);
-    if (v && (*v < lo || (open_hi ? *v >= hi : *v > hi)))
-      error(key, fmt::format("must be in [{}, {}{}, got {}", lo, hi, open_hi ? ")" : "]", *v));
-    return v.value_or(def);
-  }
-  int integer(std::string_view key, int def, int lo, int hi) {
-    const toml::node* n = node(key);
-    if (!n) return def;
-    if (!n->is_integer()) {
-      error(key, fmt::format("expected an integer, got {}", type_name(*n)));
-      return def;
-    }
-    const auto v = n->value<int64_t>().value_or(def);
-    if (v < lo || v > hi) {
-      error(key, fmt::format("must be an integer in [{}, {}], got {}", lo, hi, v));
-      return def;
-    }
-    return static_cast<int>(v);
-  }
-  bool boolean(std::string_view key, bool def) {
-    const toml::node* n = node(key);
-    if (!n) return def;
-    if (!n->is_boolean()) {
-      error(key, fmt::format("expected true or false, got {}", type_name(*n)));
-      return def;
-    }
-    return n->value<bool>().value_or(def);
-  }
-  std::optional<std::string> opt_string(std::string_view key) {
-    const toml::node* n = node(key);
-    if (!n) return std::nullopt;
-    if (!n->is_string()) {
-      error(key, fmt::format("expected a string, got {}", type_name(*n)));
-      return std::nullopt;
-    }
-    return n->value<std::string>();
-  }
-  std::string string(std::string_view key, const std::string& def) {
-    return opt_string(key).value_or(def);
-  }
-  template <std::size_t N>
-  std::optional<std::size_t> keyword(std::string_view key,
-                                     const std::array<const char*, N>& names) {
-    const auto s = opt_string(key);
-    if (!s) return std::nullopt;
-    for (std::size_t i = 0; i < N; ++i)
-      if (*s == names[i]) return i;
-    error(key, fmt::format("unknown keyword '{}'; valid: {}", *s, fmt::join(names, ", ")));
-    return std::nullopt;
-  }
-
-  std::optional<Vec2> point(std::string_view key) {
-    const toml::node* n = node(key);
-    if (!n) return std::nullopt;
-    return as_point(*n, key_path(key));
-  }
-  std::optional<Vec2> as_point(const toml::node& n, const std::string& kp) {
-    const auto* a = n.as_array();
-    if (!a || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number()) {
-      error_at(n.source(), kp,
-               fmt::format("expected a point [x, z] of two numbers, got {}", type_name(n)));
-      return std::nullopt;
-    }
-    Vec2 p{(*a)[0].value<double>().value_or(0.0), (*a)[1].value<double>().value_or(0.0)};
-    if (!std::isfinite(p.x) || !std::isfinite(p.z)) {
-      error_at(n.source(), kp, "point coordinates must be finite numbers");
-      return std::nullopt;
-    }
-    return p;
-  }
-  // A list of points. Missing → empty without error.
-  std::vector<Vec2> points(std::string_view key, std::size_t min_count) {
-    const toml::node* n = node(key);
-    if (!n) return {};
-    const auto* a = n->as_array();
-    if (!a) {
-      error(key, fmt::format("expected a list of points [[x, z], …], got {}", type_name(*n)));
-      return {};
-    }
-    std::vector<Vec2> out;
-    for (std::size_t i = 0; i < a->size(); ++i)
-      if (auto p = as_point((*a)[i], fmt::format("{}[{}]", key_path(key), i))) out.push_back(*p);
-    if (out.size() < min_count && out.size() == a->size())
-      error(key, fmt::format("needs at least {} points, got {}", min_count, out.size()));
-    return out;
-  }
-  Polygon polygon(std::string_view key, bool required) {
-    if (!has(key)) {
-      node(key);
-      if (required)
-        error_here(fmt::format("missing required key '{}' (a polygon [[x, z], …])", key));
-      return {};
-    }
-    Polygon p = points(key, 3);
-    if (p.size() < 3) {
-      if (p.empty() && node(key)->as_array() && node(key)->as_array()->empty())
-        error(key, "empty polygon; give at least 3 points [[x, z], …]");
-      return {};
-    }
-    if (self_intersects(p)) {
-      error(key, "polygon is self-intersecting; list its corners in order around the boundary");
-      return {};
-    }
-    const double area = signed_area(p);
-    if (std::abs(area) <= 0.0) {
-      error(key, "polygon has zero area (collinear points)");
-      return {};
-    }
-    if (area < 0.0) std::reverse(p.begin(), p.end()); // store counter-clockwise
-    return p;
-  }
-
-  // Sub-table reader; nullptr table → std::nullopt.
-  const toml::table* table(std::string_view key) {
-    const toml::node* n = node(key);
-    if (!n) return nullptr;
-    if (!n->is_table()) {
-      error(key, fmt::format("expected a table, got {}", type_name(*n)));
-      return nullptr;
-    }
-    return n->as_table();
-  }
-  const toml::array* array_of_tables(std::string_view key) {
-    const toml::node* n = node(key);
-    if (!n) return nullptr;
-    if (!n->is_array_of_tables() && !(n->is_array() && n->as_array()->empty())) {
-      error(key, fmt::format("expected an array of tables ([[{}]]), got {}", key, type_name(*n)));
-      return nullptr;
-    }
-    return n->as_array();
-  }
-
-  void mark_used(std::string_view key) { used_.insert(std::string(key)); }
-
-  // Report keys that were never read.
-  void finish(const std::vector<std::string>& valid) {
-    for (auto&& [k, v] : t_) {
-      const std::string ks(k.str());
-      if (used_.count(ks)) continue;
-      error_at(k.source(), key_path(ks),
-               fmt::format("unknown key; valid keys here: {}", fmt::join(valid, ", ")));
-    }
-  }
-
-  [[nodiscard]] const std::string& path() const { return path_; }
-  [[nodiscard]] const std::string& file() const { return file_; }
-  [[nodiscard]] std::vector<Diagnostic>& diags() { return diags_; }
-  [[nodiscard]] const toml::table& raw() const { return t_; }
-
-  static std::string type_name(const toml::node& n) {
-    switch (n.type()) {
-    case toml::node_type::table:
-      return "a table";
-    case toml::node_type::array:
-      return "an array";
-    case toml::node_type::string:
-      return fmt::format("the string \"{}\"", n.value<std::string>().value_or(""));
-    case toml::node_type::integer:
-      return fmt::format("the integer {}", n.value<int64_t>().value_or(0));
-    case toml::node_type::floating_point:
-      return fmt::format("the number {}", n.value<double>().value_or(0));
-    case toml::node_type::boolean:
-      return n.value<bool>().value_or(false) ? "true" : "false";
-    default:
-      return "a date/time";
-    }
-  }
-
-private:
-  const toml::table& t_;
-  std::string path_;
-  std::string file_;
-  std::vector<Diagnostic>& diags_;
-  toml::source_region where_;
-  std::set<std::string> used_;
-};
 
 // ---- time functions ----------------------------------------------------------------------------
 std::optional<TimeFunction> read_time_function(Reader& parent, std::string_view key);
@@ -469,7 +220,7 @@ RadiusDistribution read_radius(Reader& parent) {
   return d;
 }
 
-DemSoil read_dem_soil(Reader& r) {
+DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   DemSoil s;
   s.count = r.integer("count", 0, 1, 100'000'000);
   if (!r.has("count") && !r.has("particles_file"))
@@ -478,6 +229,8 @@ DemSoil read_dem_soil(Reader& r) {
   s.density = r.positive("density", s.density);
   s.thickness = r.positive("thickness", s.thickness);
   s.law = read_enum(r, "contact", kContactLawNames, s.law);
+  std::vector<std::string> slot_keys; // the models' keys (params.hpp), for finish()
+  for (const auto& slot : vocabulary.dem) s.models.push_back(read_model(r, slot, slot_keys));
   s.kn = r.positive("kn", s.kn);
   s.ks = r.positive("ks", s.ks);
   s.mu_static = r.non_negative("mu_static", s.mu_static);
@@ -591,36 +344,38 @@ DemSoil read_dem_soil(Reader& r) {
       r.error("particle_mass",
               fmt::format("unknown mass convention '{}'; valid: disk, sphere", *pm));
   }
-  r.finish({"count",
-            "radius",
-            "density",
-            "thickness",
-            "contact",
-            "kn",
-            "ks",
-            "mu_static",
-            "mu_dynamic",
-            "rebound",
-            "rebound_speed",
-            "tension",
-            "tensile_strength",
-            "eta_n",
-            "eta_s",
-            "restitution",
-            "young",
-            "poisson",
-            "damping_c",
-            "damping_d",
-            "dt",
-            "dt_safety",
-            "max_overlap",
-            "energy_warning",
-            "energy_limit",
-            "fill",
-            "packing",
-            "particles",
-            "particles_file",
-            "particle_mass"});
+  std::vector<std::string> valid{"count",
+                                 "radius",
+                                 "density",
+                                 "thickness",
+                                 "contact",
+                                 "kn",
+                                 "ks",
+                                 "mu_static",
+                                 "mu_dynamic",
+                                 "rebound",
+                                 "rebound_speed",
+                                 "tension",
+                                 "tensile_strength",
+                                 "eta_n",
+                                 "eta_s",
+                                 "restitution",
+                                 "young",
+                                 "poisson",
+                                 "damping_c",
+                                 "damping_d",
+                                 "dt",
+                                 "dt_safety",
+                                 "max_overlap",
+                                 "energy_warning",
+                                 "energy_limit",
+                                 "fill",
+                                 "packing",
+                                 "particles",
+                                 "particles_file",
+                                 "particle_mass"};
+  valid.insert(valid.end(), slot_keys.begin(), slot_keys.end());
+  r.finish(valid);
   return s;
 }
 
@@ -904,7 +659,8 @@ Probe read_probe(Reader& r) {
   return p;
 }
 
-Scene resolve(const toml::table& root, const std::string& file, std::vector<Diagnostic>& diags) {
+Scene resolve(const toml::table& root, const std::string& file, const Vocabulary& vocabulary,
+              std::vector<Diagnostic>& diags) {
   const std::size_t diags_before = diags.size();
   Scene sc;
   sc.source_file = file;
@@ -952,7 +708,7 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
     Reader r(*t, "soil", file, diags, t->source());
     if (const auto* d = r.table("dem")) {
       Reader rd(*d, "soil.dem", file, diags, d->source());
-      sc.soil.dem = read_dem_soil(rd);
+      sc.soil.dem = read_dem_soil(rd, vocabulary);
     }
     if (const auto* c = r.table("continuum")) {
       Reader rc(*c, "soil.continuum", file, diags, c->source());
@@ -1081,7 +837,7 @@ Scene resolve(const toml::table& root, const std::string& file, std::vector<Diag
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
               "probe", "load", "output", "variant"});
   // Semantic checks (issue 13) on a scene that read cleanly: what it asks must be possible.
-  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, diags);
+  if (diags.size() == diags_before) detail::validate_semantics(sc, root, file, vocabulary, diags);
   return sc;
 }
 
@@ -1218,13 +974,14 @@ const Group* Scene::group(const std::string& n) const {
   return nullptr;
 }
 
-SceneFile parse_scene(std::string_view text, const std::string& source_name) {
+SceneFile parse_scene(std::string_view text, const std::string& source_name,
+                      const Vocabulary& vocabulary) {
   const toml::table root = parse_toml(text, source_name);
 
   std::vector<Diagnostic> diags;
   SceneFile out;
   out.path = source_name;
-  out.base = resolve(root, source_name, diags);
+  out.base = resolve(root, source_name, vocabulary, diags);
 
   if (const toml::node* vn = root.get("variant")) {
     const auto* arr = vn->as_array();
@@ -1288,7 +1045,7 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
           apply(*set, "");
         }
         copy.erase("variant");
-        Scene s = resolve(copy, source_name, diags);
+        Scene s = resolve(copy, source_name, vocabulary, diags);
         s.variant = *name;
         s.variant_description = vt["description"].value_or(std::string());
         out.variants.push_back(std::move(s));
@@ -1300,14 +1057,14 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name) {
   return out;
 }
 
-SceneFile load_scene_file(const std::filesystem::path& path) {
+SceneFile load_scene_file(const std::filesystem::path& path, const Vocabulary& vocabulary) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw SceneError(
         {Diagnostic{path.string(), 0, 0, "", "cannot open the scene file (does it exist?)"}});
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_scene(ss.str(), path.string());
+  return parse_scene(ss.str(), path.string(), vocabulary);
 }
 
 } // namespace demfem::scene

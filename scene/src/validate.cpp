@@ -203,14 +203,7 @@ std::string human_bytes(double b) {
                                : fmt::format("{:.3g} {}", b, units[k]);
 }
 
-DemStepLimitFn g_dem_step_limit = nullptr;
-ContinuumStepLimitFn g_continuum_step_limit = nullptr;
-
 } // namespace
-
-void set_continuum_step_limit(ContinuumStepLimitFn fn) {
-  g_continuum_step_limit = fn;
-}
 
 std::string continuum_step_refusal(double dt, const ContinuumStepLimit& limit) {
   return fmt::format("time step {:.4g} s is above the explicit integrator's stable step {:.4g} s "
@@ -229,17 +222,13 @@ Diagnostic continuum_step_diagnostic(const Scene& sc, const ContinuumStepLimit& 
   return d;
 }
 
-void set_dem_step_limit(DemStepLimitFn fn) {
-  g_dem_step_limit = fn;
-}
-
 std::string dem_step_refusal(double dt, const DemStepLimit& limit, double auto_dt) {
   return fmt::format("time step {:.4g} s is above the stable limit {:.4g} s ({}); use dt ≤ {:.4g} "
                      "s or 0 for automatic ({:.4g} s)",
                      dt, limit.dt, limit.formula, limit.dt, auto_dt);
 }
 
-Estimates estimate(const Scene& sc) {
+Estimates estimate(const Scene& sc, const Vocabulary& vocabulary) {
   Estimates e;
   const double duration = sc.info.duration;
   if (sc.soil.dem) {
@@ -257,8 +246,8 @@ Estimates estimate(const Scene& sc) {
     e.available_area = std::max(e.available_area, 0.0);
     e.packing_fraction = e.available_area > 0.0 ? e.solid_area / e.available_area
                                                 : std::numeric_limits<double>::infinity();
-    // Automatic Δt = dt_safety × the stable limit, from the DEM layer (set_dem_step_limit).
-    if (g_dem_step_limit) e.dt_limit = g_dem_step_limit(sc);
+    // Automatic Δt = dt_safety × the stable limit, from the DEM layer (the vocabulary's).
+    if (vocabulary.dem_step_limit) e.dt_limit = vocabulary.dem_step_limit(sc);
     if (d.dt > 0.0) {
       e.dt = d.dt;
     } else if (e.dt_limit && std::isfinite(e.dt_limit->dt) && e.dt_limit->dt > 0.0) {
@@ -308,7 +297,7 @@ toml::source_region locate(const toml::table& root, std::initializer_list<Seg> p
 } // namespace
 
 void validate_semantics(const Scene& sc, const toml::table& root, const std::string& file,
-                        std::vector<Diagnostic>& diags) {
+                        const Vocabulary& vocabulary, std::vector<Diagnostic>& diags) {
   auto add = [&](const toml::source_region& src, std::string key, std::string msg) {
     Diagnostic d;
     d.file = file;
@@ -384,10 +373,10 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
 
-  // ---- continuum: an explicit step above the stable step (the run refuses the same; issue 10)
-  if (g_continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
+  // ---- continuum: an explicit step above the stable step (the run refuses the same)
+  if (vocabulary.continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
       sc.continuum.integrator == "explicit" && sc.continuum.dt > 0.0)
-    if (const auto lim = g_continuum_step_limit(sc); lim && sc.continuum.dt > lim->dt)
+    if (const auto lim = vocabulary.continuum_step_limit(sc); lim && sc.continuum.dt > lim->dt)
       add(locate(root, {"continuum", "dt"}), "continuum.dt",
           continuum_step_refusal(sc.continuum.dt, *lim));
 
@@ -451,7 +440,7 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
   }
 
   // ---- capacity, steps, memory, output ---------------------------------------------------------
-  const Estimates e = estimate(sc);
+  const Estimates e = estimate(sc, vocabulary);
   const auto count_where = locate(root, {"soil", "dem", "count"});
   if (d.particles.empty() && e.solid_area > kMaxPackingFraction * e.available_area) {
     const double fit = kMaxPackingFraction * e.available_area / (std::numbers::pi * m.mean_r2);

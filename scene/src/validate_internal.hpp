@@ -13,6 +13,6 @@ namespace demfem::scene::detail {
 // Appends one located Diagnostic per semantic problem of `scene`, read from `root` (the file, or a
 // variant's copy of it with its overrides moved in, so an override is located at its own line).
 void validate_semantics(const Scene& scene, const toml::table& root, const std::string& file,
-                        std::vector<Diagnostic>& diags);
+                        const Vocabulary& vocabulary, std::vector<Diagnostic>& diags);
 
 } // namespace demfem::scene::detail

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../../compare/src/report_sections.hpp"
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/calibrate.hpp"
 #include "demfem/compare/model_differences.hpp"
 #include "demfem/scene/load.hpp"
@@ -94,7 +95,8 @@ compare::CalibrateOptions tiny_options(const fs::path& dir) {
 //  * Cached second call: identical values, from the cache.
 TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   const fs::path dir = demfem::test::scratch_dir("calibrate");
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), (dir / "tiny.toml").string());
+  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), (dir / "tiny.toml").string(),
+                                       demfem::app::vocabulary());
   const auto& s = file.base;
   const auto o = tiny_options(dir);
 
@@ -188,8 +190,8 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_NE(block.find("modulus_reference_stress = "), std::string::npos);
 
   // calibrate = "dem": the calibrated values fill what the scene does not state; stated ones win.
-  const auto stated =
-      scene::parse_scene(tiny_scene(dir / "cache", "young = 5.0e6\nk0 = 0.5\n"), "tiny2.toml");
+  const auto stated = scene::parse_scene(tiny_scene(dir / "cache", "young = 5.0e6\nk0 = 0.5\n"),
+                                         "tiny2.toml", demfem::app::vocabulary());
   scene::Scene r = stated.base;
   ASSERT_TRUE(r.soil.continuum->calibrate_dem);
   const auto lines = compare::apply_calibration(r, d);
@@ -248,7 +250,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   }
   EXPECT_DOUBLE_EQ(r.soil.continuum->k0, 0.5);
   EXPECT_DOUBLE_EQ(r.soil.continuum->poisson, d.poisson);
-  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle * M_PI / 180.0, 1e-12);
+  EXPECT_NEAR(r.soil.continuum->friction_angle, d.friction_angle_deg * M_PI / 180.0, 1e-12);
   EXPECT_DOUBLE_EQ(r.soil.continuum->density, d.bulk_density);
   ASSERT_TRUE(r.soil.continuum->surface.has_value());
   EXPECT_DOUBLE_EQ(*r.soil.continuum->surface, d.surface);
@@ -257,7 +259,7 @@ TEST(Calibrate, TinySpecimenGivesPlausibleParametersAndIsCached) {
   EXPECT_NE(dumped.find("calibrate = 'dem'"), std::string::npos) << dumped;
   EXPECT_NE(dumped.find("provenance"), std::string::npos);
   EXPECT_NE(dumped.find("stated in the scene"), std::string::npos);
-  const auto back = scene::parse_scene(dumped, "dumped.toml");
+  const auto back = scene::parse_scene(dumped, "dumped.toml", demfem::app::vocabulary());
   EXPECT_DOUBLE_EQ(back.base.soil.continuum->poisson, d.poisson);
 }
 
@@ -268,7 +270,8 @@ TEST(Calibrate, IsDeterministic) {
   o.cyclic = false;
   o.depth_fractions = {1.0};
   o.max_axial_strain = 0.05;
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto a = compare::calibrate(file.base, o);
   const auto b = compare::calibrate(file.base, o);
   EXPECT_EQ(a.key, b.key);
@@ -288,7 +291,8 @@ TEST(Calibrate, PoolsSpecimensAndReportsTheirSpread) {
   auto o = tiny_options(dir);
   o.cyclic = false;
   o.max_axial_strain = 0.05;
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto one = compare::calibrate(file.base, o);
   o.specimens = 2;
   const auto two = compare::calibrate(file.base, o);
@@ -367,7 +371,8 @@ TEST(Calibrate, PoolsTheCyclicTestsOfTheSpecimens) {
   auto o = tiny_options(dir);
   o.depth_fractions = {0.5};
   o.cyclic_amplitudes = {3e-4};
-  const auto file = scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml");
+  const auto file =
+      scene::parse_scene(tiny_scene(dir / "cache"), "tiny.toml", demfem::app::vocabulary());
   const auto one = compare::calibrate(file.base, o);
   o.specimens = 2;
   const auto two = compare::calibrate(file.base, o);
@@ -400,7 +405,7 @@ TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
                            "[domain]\npolygon = [[0, 0], [1, 0], [1, 1], [0, 1]]\n"
                            "[soil.continuum]\ncalibrate = \"lab\"\n";
   try {
-    (void)scene::parse_scene(text, "x.toml");
+    (void)scene::parse_scene(text, "x.toml", demfem::app::vocabulary());
     ADD_FAILURE() << "calibrate = \"lab\" was accepted";
   } catch (const scene::SceneError& e) {
     EXPECT_NE(std::string(e.what()).find("unknown calibration 'lab'"), std::string::npos)
@@ -408,5 +413,6 @@ TEST(Calibrate, SceneKeyRejectsUnknownCalibration) {
   }
   std::string ok = text;
   ok.replace(ok.find("\"lab\""), 5, "\"dem\"");
-  EXPECT_TRUE(scene::parse_scene(ok, "x.toml").base.soil.continuum->calibrate_dem);
+  EXPECT_TRUE(scene::parse_scene(ok, "x.toml", demfem::app::vocabulary())
+                  .base.soil.continuum->calibrate_dem);
 }

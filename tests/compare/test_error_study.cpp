@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/error_study.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -30,8 +31,8 @@ TEST(ErrorStudy, ParetoFrontKeepsUndominatedPoints) {
 // head_on_collision.toml "fast": m* = ρπr²/2 = 10.406 kg, v_n = 1.6 m/s > V_0: dissipation
 // ½ m* v² (1 − K²) = 13.19 J, separation at K v_n = 0.16 m/s, contact π√(m*/K_n) = 10.13 ms.
 TEST(ErrorStudy, HeadOnClosedForm) {
-  const auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml");
+  const auto file = scene::load_scene_file(
+      DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml", demfem::app::vocabulary());
   const auto c = compare::head_on_closed_form(file.select("fast"));
   ASSERT_TRUE(c);
   EXPECT_NEAR(c->dissipated, 13.19, 0.01);
@@ -43,8 +44,8 @@ TEST(ErrorStudy, HeadOnClosedForm) {
   EXPECT_EQ(b->dissipated, 0.0);
   EXPECT_NEAR(b->separation, 0.8, 1e-12);
   std::string why;
-  const auto col =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/two_disk_column.toml");
+  const auto col = scene::load_scene_file(
+      DEMFEM_SOURCE_DIR "/cases/verification/two_disk_column.toml", demfem::app::vocabulary());
   EXPECT_FALSE(compare::head_on_closed_form(col.base, &why));
   EXPECT_FALSE(why.empty());
 }

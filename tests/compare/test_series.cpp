@@ -19,6 +19,7 @@
 
 #include "../scratch.hpp"
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/series.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
@@ -102,7 +103,8 @@ Png read_png(const fs::path& f) {
 // longer than 0.9 cells.
 TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
   const auto disks = box_disks();
-  const auto file = scene::parse_scene(box_scene(disks), "series_box.toml");
+  const auto file =
+      scene::parse_scene(box_scene(disks), "series_box.toml", demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = test::scratch("series_box");
   const auto s = dem::run(file.base, o);
@@ -219,7 +221,8 @@ TEST(SnapshotSeries, ParticlesAsImagesAndVelocityAsCellMeans) {
 // says so (10⁶ disks: 1.7 million sub-pixel lines per panel before); with the default every chain
 // of this small box is drawn and the title is as before.
 TEST(SnapshotSeries, PanelsDrawTheStrongestChainsWhenThereAreMany) {
-  const auto file = scene::parse_scene(box_scene(box_disks()), "series_box_cap.toml");
+  const auto file =
+      scene::parse_scene(box_scene(box_disks()), "series_box_cap.toml", demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = test::scratch("series_box_cap");
   ASSERT_TRUE(dem::run(file.base, o).ok);

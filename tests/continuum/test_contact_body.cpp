@@ -1,7 +1,7 @@
 // Coulomb contact between the soil and a MOVING rigid structure (Region::contact with a DoF not
 // fixed; explicit integrator; issue 9 "boundary friction"): the body is not meshed, its faces are
 // contact planes that move with it, and the contact forces are solved with its equation of motion
-// (Model::Impl::explicit_contact_body). Closed forms: the weight carried at rest, Coulomb
+// (Explicit::contact_body). Closed forms: the weight carried at rest, Coulomb
 // sticking/sliding of a pushed block, lift-off of a footing under a moment (which the tied footing
 // cannot do), exact momentum of body + soil through an impact, and the pure-rotation DoF mode.
 #include <gtest/gtest.h>

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/continuum/stability.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -49,7 +50,8 @@ TEST(ContinuumStability, StructureMillionTimesStifferSolves) {
 // continuum.dt, with the stable step in the message.
 TEST(ContinuumStability, ExplicitStepAboveCriticalIsRefused) {
   const auto file = demfem::scene::load_scene_file(
-      DEMFEM_SOURCE_DIR "/cases/verification/continuum_footing_load.toml");
+      DEMFEM_SOURCE_DIR "/cases/verification/continuum_footing_load.toml",
+      demfem::app::vocabulary());
   const auto c = explicit_step_case(file.base, 1.5);
   print(c);
   EXPECT_EQ(c.outcome, "refused");
@@ -65,7 +67,8 @@ TEST(ContinuumStability, ExplicitStepAboveCriticalIsRefused) {
 // (the P-wave speed grows as ν → 0.5).
 TEST(ContinuumStability, SceneNearIncompressibleSeatingLocksWithoutBbar) {
   auto file = demfem::scene::load_scene_file(DEMFEM_SOURCE_DIR
-                                             "/cases/verification/continuum_footing_load.toml");
+                                             "/cases/verification/continuum_footing_load.toml",
+                                             demfem::app::vocabulary());
   auto s = file.base;
   ASSERT_EQ(s.structures.size(), 1u);
   s.structures[0].dof_z = demfem::scene::DofMode::Fixed; // held vertically: seated

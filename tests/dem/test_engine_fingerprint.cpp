@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
@@ -39,7 +40,8 @@ TEST(EngineFingerprint, AnEngineThatRoundsDifferentlyGetsOtherCacheKeys) {
   const std::uint64_t old_skin =
       dem::compute_engine_fingerprint([](dem::EngineConfig& c) { c.skin_factor = 0.3; });
   EXPECT_NE(now, old_skin);
-  const auto s = scene::parse_scene(test::small_bed("bed"), "bed.toml").base;
+  const auto s =
+      scene::parse_scene(test::small_bed("bed"), "bed.toml", demfem::app::vocabulary()).base;
   EXPECT_EQ(dem::packing_key(s), dem::packing_key(s, dem::engine_fingerprint()));
   EXPECT_NE(dem::packing_key(s, fmt::format("{:016x}", now)),
             dem::packing_key(s, fmt::format("{:016x}", old_skin)));

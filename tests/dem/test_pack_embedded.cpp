@@ -16,6 +16,7 @@
 
 #include "../scratch.hpp"
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
@@ -47,7 +48,7 @@ fs::path fresh_dir(const std::string& name) {
 } // namespace
 
 TEST(PackEmbedded, FoundationIsCarvedSeatedAndCarriedByTheBed) {
-  const auto file = scene::parse_scene(kScene, "embedded.toml");
+  const auto file = scene::parse_scene(kScene, "embedded.toml", demfem::app::vocabulary());
   const auto& s = file.base;
   const auto dir = fresh_dir("a");
   const auto r = dem::pack(s, dir);

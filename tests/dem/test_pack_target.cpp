@@ -16,6 +16,7 @@
 
 #include "../scratch.hpp"
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
 #include "small_bed.hpp"
@@ -37,7 +38,8 @@ fs::path fresh_dir(const std::string& name) {
 
 TEST(PackTarget, PorosityTargetMetAndDeterministic) {
   const auto file = scene::parse_scene(
-      bed("placement = \"random\"\ntarget = { porosity = 0.21, tolerance = 0.01 }"), "bed.toml");
+      bed("placement = \"random\"\ntarget = { porosity = 0.21, tolerance = 0.01 }"), "bed.toml",
+      demfem::app::vocabulary());
   const auto& s = file.base;
   const auto a = dem::pack(s, fresh_dir("a"));
   const auto b = dem::pack(s, fresh_dir("b"));
@@ -57,7 +59,8 @@ TEST(PackTarget, PorosityTargetMetAndDeterministic) {
 TEST(PackTarget, UnreachableTargetIsReportedNotMet) {
   // 0.40 is far looser than any stable bed of these disks: the packing says so.
   const auto file = scene::parse_scene(
-      bed("placement = \"random\"\ntarget = { porosity = 0.40, tolerance = 0.005 }"), "bed.toml");
+      bed("placement = \"random\"\ntarget = { porosity = 0.40, tolerance = 0.005 }"), "bed.toml",
+      demfem::app::vocabulary());
   const auto r = dem::pack(file.base, fresh_dir("c"));
   EXPECT_FALSE(r.target_met);
   EXPECT_GT(std::abs(r.measure.porosity - 0.40), 0.005);
@@ -67,8 +70,10 @@ TEST(PackTarget, UnreachableTargetIsReportedNotMet) {
 }
 
 TEST(PackTarget, PlacementsGiveDifferentBedsAndKeys) {
-  const auto lat = scene::parse_scene(bed("placement = \"lattice\""), "bed.toml");
-  const auto ran = scene::parse_scene(bed("placement = \"random\""), "bed.toml");
+  const auto lat =
+      scene::parse_scene(bed("placement = \"lattice\""), "bed.toml", demfem::app::vocabulary());
+  const auto ran =
+      scene::parse_scene(bed("placement = \"random\""), "bed.toml", demfem::app::vocabulary());
   const auto l = dem::pack(lat.base, fresh_dir("l"));
   const auto r = dem::pack(ran.base, fresh_dir("r"));
   EXPECT_GT(l.measure.porosity, 0.1);
@@ -89,8 +94,10 @@ TEST(PackTarget, PlacementsGiveDifferentBedsAndKeys) {
 // (Here, measured: t_min ≈ 4.0 s, at rest at 2.75 s; the longer deposition gives porosity 0.19660
 // against 0.196595 and the same surface to 2e-6 m.)
 TEST(PackRest, StopsWhenTheBedIsAtRestNotAtTheFallBound) {
-  const auto rest = scene::parse_scene(bed("ke_ratio = 1.0e-4\n"), "bed.toml").base;
-  const auto wait = scene::parse_scene(bed("ke_ratio = 1.0e-30\n"), "bed.toml").base;
+  const auto rest =
+      scene::parse_scene(bed("ke_ratio = 1.0e-4\n"), "bed.toml", demfem::app::vocabulary()).base;
+  const auto wait =
+      scene::parse_scene(bed("ke_ratio = 1.0e-30\n"), "bed.toml", demfem::app::vocabulary()).base;
   const double max_time = 10.0; // small_bed.hpp
   const auto placed = dem::place_particles(rest);
   double top = 0.0, m_mean = 0.0;
@@ -114,7 +121,8 @@ TEST(PackTarget, DenserTargetTriesHalfTheFrictionFirst) {
   auto pack_to = [](const char* porosity, const char* dir) {
     const std::string packing = std::string("placement = \"random\"\ntarget = { porosity = ") +
                                 porosity + ", tolerance = 0.003 }";
-    return dem::pack(scene::parse_scene(bed(packing), "bed.toml").base, fresh_dir(dir));
+    return dem::pack(scene::parse_scene(bed(packing), "bed.toml", demfem::app::vocabulary()).base,
+                     fresh_dir(dir));
   };
   // This bed packs to 0.2043 at × 1 and 0.1793 at × ½: a target of 0.18 is met by the second
   // deposition (a frictionless one first, as before, made it the third).

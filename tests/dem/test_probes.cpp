@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/run.hpp"
@@ -126,7 +127,8 @@ TEST(DemLoads, BaseShakingBodyForceOnAFreeParticle) {
 // one particle diameter of the bed top from the disks' area at a random-packing fraction, and
 // equals the highest particle tops of the final state; the loci follow the tagged particles.
 TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
-  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml",
+                                           demfem::app::vocabulary());
   auto sc = file.base;
   const int bins = 12;
   scene::Probe pp;

@@ -17,6 +17,7 @@
 #include <string>
 #include <tuple>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/cpu_idle.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
@@ -40,7 +41,8 @@ std::string slurp(const std::filesystem::path& f) {
 // The settle-box scene (120 disks, friction, cundall-rebound, a free footing, recorded base
 // wall) with a set-friction event at 0.12 s, pressure-profile, loci and coordination probes.
 scene::Scene resume_scene(double duration) {
-  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml",
+                                           demfem::app::vocabulary());
   auto sc = file.base;
   sc.info.duration = duration;
   sc.output.interval = 0.1;
@@ -694,7 +696,8 @@ TEST(CpuIdle, ReadsIdleAndIowaitOfTheAllowedCpus) {
 // A packing stores its particle–particle contact history; the cache returns the same blob and a
 // run that starts from the packing starts with its shear springs.
 TEST(DemResume, PackingKeepsContactHistory) {
-  auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/retaining_wall.toml");
+  auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/retaining_wall.toml",
+                                  demfem::app::vocabulary());
   auto s = f.base;
   s.soil.dem->packing.cache.clear();
   s.soil.dem->count = 200;

@@ -8,6 +8,7 @@
 #include <iterator>
 #include <string>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
@@ -30,8 +31,8 @@ std::string last_line(const std::filesystem::path& f) {
 // The head-on collision scene runs and writes its energy budget; the "fast" variant rebounds
 // with K = 0.1, dissipating ½ m* v² (1 − K²) = ½·10.406·1.6²·0.99 = 13.19 J (within 2 %).
 TEST(DemRun, HeadOnCollisionScene) {
-  const auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml");
+  const auto file = scene::load_scene_file(
+      DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml", demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = scratch("head_on");
   const auto s = dem::run(file.select("fast"), o);
@@ -61,7 +62,8 @@ TEST(DemRun, HeadOnCollisionScene) {
 
 // Settled box scene: the footing ends carried by the soil (force_z = its weight within 1 %).
 TEST(DemRun, SettleBoxSceneCarriesFooting) {
-  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml",
+                                           demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = scratch("settle");
   const auto s = dem::run(file.base, o);
@@ -82,8 +84,8 @@ TEST(DemRun, SettleBoxSceneCarriesFooting) {
 
 // A scene time step above the stable limit is refused before anything runs.
 TEST(DemRun, UnstableSceneStepIsRefused) {
-  auto file =
-      scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml");
+  auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/head_on_collision.toml",
+                                     demfem::app::vocabulary());
   auto sc = file.base;
   sc.soil.dem->dt = 0.1;
   dem::RunOptions o;

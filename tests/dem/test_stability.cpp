@@ -17,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -118,7 +119,7 @@ double json_number(const std::string& text, const std::string& key) {
 }
 
 Outcome run_scene(const std::string& toml, const std::string& name) {
-  const auto file = scene::parse_scene(toml, name + ".toml");
+  const auto file = scene::parse_scene(toml, name + ".toml", demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = demfem::test::scratch(name);
   Outcome r;
@@ -166,7 +167,7 @@ TEST(DemStability, StiffContactsWithAutomaticStepComplete) {
 
 // Δt = 0.9 × the stable limit on the two-disk column completes, its kinetic energy
 // bounded by the work of gravity (no growth); 1.1 × is refused at setup: by the scene check at
-// the dt key's line (what check and run do), and by the engine when no check is installed.
+// the dt key's line (what check and run do), and by the engine when the vocabulary has no limit.
 // (At 0.9 × the limit the contacts last ≈ 3.5 steps: the budget loses energy at each impact of
 // the bouncing column, closure 0.84 after 1 s; it is stable, not accurate.)
 TEST(DemStability, TwoDiskColumnStableBelowAndRefusedAboveTheLimit) {
@@ -175,9 +176,8 @@ TEST(DemStability, TwoDiskColumnStableBelowAndRefusedAboveTheLimit) {
   EXPECT_LT(ok.max_kinetic, ok.gravity_work + 0.5); // 2·m·g·1 mm + the bounce's spring energy
 
   const std::string bad = column_scene(1.1 * column_limit());
-  scene::set_dem_step_limit(&dem::scene_step_limit);
   try {
-    (void)scene::parse_scene(bad, "column11.toml");
+    (void)scene::parse_scene(bad, "column11.toml", demfem::app::vocabulary());
     ADD_FAILURE() << "expected the scene check to refuse dt";
   } catch (const scene::SceneError& e) {
     const auto& d = e.diagnostics().at(0);
@@ -185,8 +185,9 @@ TEST(DemStability, TwoDiskColumnStableBelowAndRefusedAboveTheLimit) {
     EXPECT_EQ(d.line, 11); // the dt line of column_scene
     EXPECT_NE(d.message.find("above the stable limit"), std::string::npos) << d.message;
   }
-  scene::set_dem_step_limit(nullptr);
-  const auto file = scene::parse_scene(bad, "column11.toml"); // no check installed
+  scene::Vocabulary no_limit = demfem::app::vocabulary();
+  no_limit.dem_step_limit = nullptr;
+  const auto file = scene::parse_scene(bad, "column11.toml", no_limit); // no check
   dem::RunOptions o;
   o.out_dir = demfem::test::scratch("column11");
   EXPECT_THROW((void)dem::run(file.base, o), scene::SceneError);

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/scene/load.hpp"
@@ -154,7 +155,7 @@ kn = 1.0e6
 ks = 1.0e6
 particles = [[-0.06, 0.0, 0.05, 0.0, 0.0, 0.0], [0.06, 0.0, 0.05, 0.0, 0.0, 0.0]]
 )",
-                                       "pair.toml");
+                                       "pair.toml", demfem::app::vocabulary());
   const auto sb = scene_critical_step(file.base);
   ASSERT_TRUE(sb);
   Engine e(make_config(file.base));

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
@@ -29,8 +30,8 @@ std::filesystem::path scratch(const std::string& name) {
 
 // Runs cases/verification/<file> (base scene) into a fresh temporary directory; returns <out>/dem.
 std::filesystem::path run_scene(const std::string& file, const std::string& tag) {
-  const auto f =
-      scene::load_scene_file(std::string(DEMFEM_SOURCE_DIR "/cases/verification/") + file);
+  const auto f = scene::load_scene_file(
+      std::string(DEMFEM_SOURCE_DIR "/cases/verification/") + file, demfem::app::vocabulary());
   dem::RunOptions o;
   o.out_dir = scratch(tag);
   const auto s = dem::run(f.base, o);
@@ -189,7 +190,8 @@ TEST(VerificationScene, ElasticGasConservesEnergy) {
     return row[kk] + row[kr] + row[kn] + row[ks];
   };
   // E₀ = Σ ½ m v² of the listed velocities (the first row is written before the first step).
-  const auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/elastic_gas.toml");
+  const auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/elastic_gas.toml",
+                                        demfem::app::vocabulary());
   double e_listed = 0.0;
   for (const auto& q : f.base.soil.dem->particles)
     e_listed += 0.5 * 2650 * kPi * q[2] * q[2] * (q[3] * q[3] + q[4] * q[4]); // m = ρπr², t = 1

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "demfem/app/vocabulary.hpp"
 #include "targets.hpp"
 
 namespace fs = std::filesystem;
@@ -57,7 +58,8 @@ TEST(FuzzRegressions, CheckpointFindings) {
 // at every length: the whole one restores, every cut one is refused cleanly.
 TEST(FuzzRegressions, RunCheckpointAndItsTruncations) {
   auto e = fuzz::settle_box_engine();
-  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml");
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml",
+                                           demfem::app::vocabulary());
   for (const auto& q : file.base.soil.dem->particles) e.add_particle(q[0], q[1], q[2]);
   e.set_dt(e.auto_dt());
   for (int k = 0; k < 20; ++k) e.step();

@@ -11,6 +11,7 @@
 #include "../scratch.hpp"
 #include <nlohmann/json.hpp>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/compare/figures.hpp"
 #include "demfem/compare/plot.hpp"
 #include "demfem/dem/pack.hpp"
@@ -31,7 +32,7 @@ fs::path fresh_dir(const std::string& name) {
 }
 
 scene::Scene load(const std::string& file, const std::string& variant = "") {
-  auto f = scene::load_scene_file(case_file(file));
+  auto f = scene::load_scene_file(case_file(file), demfem::app::vocabulary());
   scene::Scene s = f.select(variant);
   s.soil.dem->packing.cache.clear(); // <out>/packing: tests never touch runs/
   return s;
@@ -106,12 +107,14 @@ TEST(Packing, DepositsReproduciblyAndReusesTheCache) {
 TEST(CaseFiles, AllPaperScenesLoad) {
   for (const char* f : {"slope_ontake.toml", "pile_penetration.toml", "foundation_rocking.toml",
                         "retaining_wall.toml"}) {
-    EXPECT_NO_THROW((void)scene::load_scene_file(case_file(f))) << f;
+    EXPECT_NO_THROW((void)scene::load_scene_file(case_file(f), demfem::app::vocabulary())) << f;
   }
-  const auto pile = scene::load_scene_file(case_file("pile_penetration.toml"));
+  const auto pile =
+      scene::load_scene_file(case_file("pile_penetration.toml"), demfem::app::vocabulary());
   EXPECT_EQ(pile.variants.size(), 7u); // Table 4.1 rows + loose-case-1
   EXPECT_DOUBLE_EQ(pile.select("case-2").structure("pile")->width, 30.0);
-  const auto rock = scene::load_scene_file(case_file("foundation_rocking.toml"));
+  const auto rock =
+      scene::load_scene_file(case_file("foundation_rocking.toml"), demfem::app::vocabulary());
   // Table 5.1 rows + 2-A-quick (the main job) + 4 loose + 4 with the loads × 240 (K_n scale) +
   // 2-A-unloaded (the control: no load, 2-A's packing)
   EXPECT_EQ(rock.variants.size(), 14u);

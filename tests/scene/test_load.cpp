@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 
 using namespace demfem::scene;
@@ -70,7 +71,7 @@ std::string mutate(const std::string& from, const std::string& to) {
 void expect_error(const std::string& text, int line, const std::string& needle,
                   const std::string& key = "") {
   try {
-    (void)parse_scene(text, "test.toml");
+    (void)parse_scene(text, "test.toml", demfem::app::vocabulary());
     FAIL() << "expected a SceneError containing '" << needle << "'";
   } catch (const SceneError& e) {
     bool found = false;
@@ -89,7 +90,7 @@ void expect_error(const std::string& text, int line, const std::string& needle,
 } // namespace
 
 TEST(SceneLoad, ValidSceneResolves) {
-  const auto f = parse_scene(kValid, "test.toml");
+  const auto f = parse_scene(kValid, "test.toml", demfem::app::vocabulary());
   const auto& s = f.base;
   EXPECT_EQ(s.info.name, "box");
   EXPECT_TRUE(s.uses(Solver::Dem));
@@ -111,7 +112,7 @@ TEST(SceneLoad, ValidSceneResolves) {
 }
 
 TEST(SceneLoad, VariantsAreResolvedSeparately) {
-  const auto f = parse_scene(kValid, "test.toml");
+  const auto f = parse_scene(kValid, "test.toml", demfem::app::vocabulary());
   ASSERT_EQ(f.variants.size(), 2u);
   EXPECT_EQ(f.variants[0].variant, "case-2");
   EXPECT_DOUBLE_EQ(f.variants[0].load.shaking->acceleration.amplitude, 8.0);
@@ -125,7 +126,7 @@ TEST(SceneLoad, VariantsAreResolvedSeparately) {
 TEST(SceneLoad, VariantCanAddressArrayElementsByName) {
   const auto f = parse_scene(mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
                                     R"(set = { "structure.wall.to" = [8, 5.0] })"),
-                             "test.toml");
+                             "test.toml", demfem::app::vocabulary());
   EXPECT_NEAR(f.select("case-2").structures[0].height, 5.0, 1e-12);
 }
 
@@ -135,7 +136,7 @@ TEST(SceneLoad, VariantMayStateACalibratedKeyOnlyWithCalibrateDem) {
   std::string text = mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
                             R"(set = { "soil.continuum.dilation_angle" = 5.0 })");
   text.replace(text.find(base_keys), base_keys.size(), "calibrate = \"dem\"");
-  const auto g = parse_scene(text, "test.toml");
+  const auto g = parse_scene(text, "test.toml", demfem::app::vocabulary());
   const auto& c = *g.select("case-2").soil.continuum;
   EXPECT_NEAR(c.dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
   EXPECT_NE(std::find(c.given.begin(), c.given.end(), "dilation_angle"), c.given.end());
@@ -146,12 +147,12 @@ TEST(SceneLoad, VariantMayStateACalibratedKeyOnlyWithCalibrateDem) {
 }
 
 TEST(SceneLoad, ResolvedSceneRoundTrips) {
-  const auto f = parse_scene(kValid, "test.toml");
+  const auto f = parse_scene(kValid, "test.toml", demfem::app::vocabulary());
   for (const Scene* s : {&f.base, &f.variants[0], &f.variants[1]}) {
     // The first line names the source file; the rest must be identical.
     auto body = [](const std::string& t) { return t.substr(t.find('\n')); };
     const std::string dumped = to_toml(*s);
-    const auto again = parse_scene(dumped, "dumped.toml");
+    const auto again = parse_scene(dumped, "dumped.toml", demfem::app::vocabulary());
     EXPECT_EQ(body(to_toml(again.base)), body(dumped));
   }
 }
@@ -251,38 +252,41 @@ TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
   const std::string text = mutate(
       "friction_angle = 30",
       "friction_angle = 30\nsurface = 5.0\n\n[continuum]\nbbar = false\nmax_displacement = 0.5");
-  const SceneFile f = parse_scene(text, "surface.toml");
+  const SceneFile f = parse_scene(text, "surface.toml", demfem::app::vocabulary());
   ASSERT_TRUE(f.base.soil.continuum.has_value());
   EXPECT_DOUBLE_EQ(*f.base.soil.continuum->surface, 5.0);
   EXPECT_FALSE(f.base.continuum.bbar);
   EXPECT_DOUBLE_EQ(f.base.continuum.max_displacement, 0.5);
   // and they survive the resolved-scene round trip
-  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml", demfem::app::vocabulary());
   EXPECT_DOUBLE_EQ(*again.base.soil.continuum->surface, 5.0);
   EXPECT_FALSE(again.base.continuum.bbar);
   EXPECT_DOUBLE_EQ(again.base.continuum.max_displacement, 0.5);
 }
 TEST(SceneLoad, DilationCutoff) {
   // absent: none; given: kept through the resolved-scene round trip; out of [0, 1]: located error
-  EXPECT_FALSE(parse_scene(kValid, "a.toml").base.soil.continuum->dilation_cutoff.has_value());
-  const SceneFile f = parse_scene(
-      mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = 0.02"), "cut.toml");
+  EXPECT_FALSE(parse_scene(kValid, "a.toml", demfem::app::vocabulary())
+                   .base.soil.continuum->dilation_cutoff.has_value());
+  const SceneFile f =
+      parse_scene(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = 0.02"),
+                  "cut.toml", demfem::app::vocabulary());
   ASSERT_TRUE(f.base.soil.continuum->dilation_cutoff.has_value());
   EXPECT_DOUBLE_EQ(*f.base.soil.continuum->dilation_cutoff, 0.02);
-  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml", demfem::app::vocabulary());
   EXPECT_DOUBLE_EQ(*again.base.soil.continuum->dilation_cutoff, 0.02);
   expect_error(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = -0.1"), 22,
                "must be in [0, 1], got -0.1", "soil.continuum.dilation_cutoff");
 }
 TEST(SceneLoad, SeatStructures) {
   // absent: automatic (nullopt); given: kept, and it survives the resolved-scene round trip
-  EXPECT_FALSE(parse_scene(kValid, "a.toml").base.continuum.seat_structures.has_value());
+  EXPECT_FALSE(parse_scene(kValid, "a.toml", demfem::app::vocabulary())
+                   .base.continuum.seat_structures.has_value());
   const SceneFile f = parse_scene(
       mutate("friction_angle = 30", "friction_angle = 30\n\n[continuum]\nseat_structures = false"),
-      "seat.toml");
+      "seat.toml", demfem::app::vocabulary());
   ASSERT_TRUE(f.base.continuum.seat_structures.has_value());
   EXPECT_FALSE(*f.base.continuum.seat_structures);
-  const SceneFile again = parse_scene(to_toml(f.base), "again.toml");
+  const SceneFile again = parse_scene(to_toml(f.base), "again.toml", demfem::app::vocabulary());
   ASSERT_TRUE(again.base.continuum.seat_structures.has_value());
   EXPECT_FALSE(*again.base.continuum.seat_structures);
   expect_error(
@@ -320,7 +324,7 @@ TEST(SceneLoad, AllErrorsReportedAtOnce) {
   std::string s = mutate("kn = 1.0e6", "kn = -1");
   s.replace(s.find("ks = 3.0e5"), 10, "ks = -3");
   try {
-    (void)parse_scene(s, "test.toml");
+    (void)parse_scene(s, "test.toml", demfem::app::vocabulary());
     FAIL();
   } catch (const SceneError& e) {
     EXPECT_GE(e.diagnostics().size(), 2u);
@@ -328,7 +332,7 @@ TEST(SceneLoad, AllErrorsReportedAtOnce) {
 }
 TEST(SceneLoad, MissingFileIsAClearError) {
   try {
-    (void)load_scene_file("/nonexistent/scene.toml");
+    (void)load_scene_file("/nonexistent/scene.toml", demfem::app::vocabulary());
     FAIL();
   } catch (const SceneError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
@@ -344,8 +348,9 @@ TEST(SceneLoad, CoulombInterfaceNeedsTheExplicitIntegrator) {
   expect_error(implicit_coulomb, line, "needs integrator = \"explicit\"");
   expect_error(kValid + "\n[continuum]\ninterface = \"sticky\"\n", 0,
                "valid: tied, frictional, coulomb");
-  const auto ok = parse_scene(
-      kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = \"coulomb\"\n", "test.toml");
+  const auto ok =
+      parse_scene(kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = \"coulomb\"\n",
+                  "test.toml", demfem::app::vocabulary());
   EXPECT_EQ(ok.base.continuum.interface, "coulomb");
 }
 
@@ -358,9 +363,11 @@ TEST(SceneLoad, StructureInterfaceValues) {
                line, "valid: contact, tied");
   const auto ok = parse_scene(kValid + "\n[continuum]\nintegrator = \"explicit\"\ninterface = "
                                        "\"coulomb\"\nstructure_interface = \"tied\"\n",
-                              "test.toml");
+                              "test.toml", demfem::app::vocabulary());
   EXPECT_EQ(ok.base.continuum.structure_interface, "tied");
-  EXPECT_EQ(parse_scene(kValid, "test.toml").base.continuum.structure_interface, "contact");
+  EXPECT_EQ(parse_scene(kValid, "test.toml", demfem::app::vocabulary())
+                .base.continuum.structure_interface,
+            "contact");
 }
 
 // scene::thrust_normal: the chord's normal, pointing out of the soil (away from the domain's
@@ -390,16 +397,45 @@ TEST(SceneGeometry, ThrustNormalPointsOutOfTheSoil) {
 // [output] vtk_compression: a keyword (lz4 by default), kept through the resolved scene's dump
 // only when not the default; anything else is an error located at the key.
 TEST(SceneLoad, VtkCompressionKeyword) {
-  EXPECT_EQ(parse_scene(kValid, "test.toml").base.output.vtk_compression, VtkCompression::Lz4);
+  EXPECT_EQ(parse_scene(kValid, "test.toml", demfem::app::vocabulary()).base.output.vtk_compression,
+            VtkCompression::Lz4);
   const std::string zlib = std::string(kValid) + "\n[output]\nvtk_compression = \"zlib\"\n";
-  const Scene s = parse_scene(zlib, "test.toml").base;
+  const Scene s = parse_scene(zlib, "test.toml", demfem::app::vocabulary()).base;
   EXPECT_EQ(s.output.vtk_compression, VtkCompression::Zlib);
   const std::string dumped = to_toml(s);
   EXPECT_NE(dumped.find("vtk_compression"), std::string::npos) << dumped;
-  EXPECT_EQ(parse_scene(dumped, "dumped.toml").base.output.vtk_compression, VtkCompression::Zlib);
-  EXPECT_EQ(to_toml(parse_scene(kValid, "test.toml").base).find("vtk_compression"),
+  EXPECT_EQ(
+      parse_scene(dumped, "dumped.toml", demfem::app::vocabulary()).base.output.vtk_compression,
+      VtkCompression::Zlib);
+  EXPECT_EQ(to_toml(parse_scene(kValid, "test.toml", demfem::app::vocabulary()).base)
+                .find("vtk_compression"),
             std::string::npos);
   const std::string bad = std::string(kValid) + "\n[output]\nvtk_compression = \"gzip\"\n";
   const int line = static_cast<int>(std::count(bad.begin(), bad.end(), '\n'));
   expect_error(bad, line, "unknown keyword 'gzip'; valid: zlib, lz4, none");
+}
+
+// The step limits come with the vocabulary the loader is given, not from process-wide state: the
+// same text is refused under a vocabulary whose DEM limit it exceeds, and accepted under one
+// without limits, in the same process and in either order.
+TEST(SceneLoad, StepLimitsComeWithTheVocabulary) {
+  const std::string text = mutate("ks = 3.0e5\n", "ks = 3.0e5\ndt = 1.0e-3\n");
+  Vocabulary strict = demfem::app::vocabulary();
+  strict.dem_step_limit = [](const Scene&) {
+    return std::optional<DemStepLimit>(DemStepLimit{1.0e-4, "a test's limit"});
+  };
+  Vocabulary none = demfem::app::vocabulary();
+  none.dem_step_limit = nullptr;
+  none.continuum_step_limit = nullptr;
+  for (int round = 0; round < 2; ++round) {
+    EXPECT_NO_THROW((void)parse_scene(text, "test.toml", none));
+    try {
+      (void)parse_scene(text, "test.toml", strict);
+      ADD_FAILURE() << "expected the strict vocabulary to refuse dt";
+    } catch (const SceneError& e) {
+      EXPECT_EQ(e.diagnostics().at(0).key, "soil.dem.dt");
+      EXPECT_EQ(e.diagnostics().at(0).line, 15); // the dt line
+      EXPECT_NE(e.diagnostics().at(0).message.find("a test's limit"), std::string::npos);
+    }
+  }
 }

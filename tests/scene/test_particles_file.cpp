@@ -9,6 +9,7 @@
 
 #include "../scratch.hpp"
 
+#include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/particles_file.hpp"
 
@@ -37,7 +38,7 @@ protected:
   // The diagnostics of loading `path`; empty when it loads.
   static std::vector<Diagnostic> errors(const fs::path& path) {
     try {
-      (void)load_scene_file(path);
+      (void)load_scene_file(path, demfem::app::vocabulary());
     } catch (const SceneError& e) {
       return e.diagnostics();
     }
@@ -48,7 +49,7 @@ protected:
 
 TEST_F(ParticlesFile, CsvRelativeToSceneWithHeaderAndComments) {
   write("sub/bed.csv", "# three disks\nx,z,r\n0.5, 0.1, 0.1\n\n1.5,0.1,0.12\n2.5,0.3,0.08\n");
-  const auto sf = load_scene_file(scene("particles_file = \"bed.csv\""));
+  const auto sf = load_scene_file(scene("particles_file = \"bed.csv\""), demfem::app::vocabulary());
   const auto& d = *sf.base.soil.dem;
   ASSERT_EQ(d.particles.size(), 3u);
   EXPECT_EQ(d.count, 3); // count left out: taken from the file
@@ -61,7 +62,8 @@ TEST_F(ParticlesFile, CsvRelativeToSceneWithHeaderAndComments) {
 
 TEST_F(ParticlesFile, SixColumnsAndParentDirectory) {
   write("up.csv", "1,2,0.5,3,4,5\n6,7,0.25,8,9,10\n");
-  const auto sf = load_scene_file(scene("count = 2\nparticles_file = \"../up.csv\""));
+  const auto sf = load_scene_file(scene("count = 2\nparticles_file = \"../up.csv\""),
+                                  demfem::app::vocabulary());
   const auto& p = sf.base.soil.dem->particles;
   ASSERT_EQ(p.size(), 2u);
   EXPECT_DOUBLE_EQ(p[1][5], 10.0);
@@ -124,7 +126,8 @@ TEST_F(ParticlesFile, NpyRoundTripIsExact) {
   write_particles_file(dir_ / "sub" / "bed.npy", rows);
   write_particles_file(dir_ / "sub" / "bed.csv", rows);
   for (const char* name : {"bed.npy", "bed.csv"}) {
-    const auto sf = load_scene_file(scene(std::string("particles_file = \"") + name + "\""));
+    const auto sf = load_scene_file(scene(std::string("particles_file = \"") + name + "\""),
+                                    demfem::app::vocabulary());
     const auto& p = sf.base.soil.dem->particles;
     ASSERT_EQ(p.size(), rows.size()) << name;
     for (std::size_t i = 0; i < rows.size(); ++i)
@@ -151,13 +154,13 @@ TEST_F(ParticlesFile, NpyWrongShapeOrType) {
 
 TEST_F(ParticlesFile, ResolvedSceneKeepsTheFileNotAnInlineList) {
   write("sub/bed.csv", "0,0,0.1\n1,0,0.1\n");
-  const auto sf =
-      load_scene_file(scene("particles_file = \"bed.csv\"\nparticle_mass = \"sphere\""));
+  const auto sf = load_scene_file(scene("particles_file = \"bed.csv\"\nparticle_mass = \"sphere\""),
+                                  demfem::app::vocabulary());
   const std::string t = to_toml(sf.base);
   EXPECT_NE(t.find("particles_file"), std::string::npos);
   EXPECT_EQ(t.find("particles = "), std::string::npos);
   write("resolved.toml", t); // another directory: the stored path is absolute
-  const auto back = load_scene_file(dir_ / "resolved.toml");
+  const auto back = load_scene_file(dir_ / "resolved.toml", demfem::app::vocabulary());
   EXPECT_EQ(back.base.soil.dem->particles, sf.base.soil.dem->particles);
   EXPECT_TRUE(back.base.soil.dem->sphere_mass);
 }

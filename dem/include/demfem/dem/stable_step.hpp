@@ -52,8 +52,8 @@ struct StepBound {
 [[nodiscard]] std::optional<StepBound> scene_critical_step(const scene::Scene& scene);
 // Smallest radius of the scene's particles (listed, or the distribution's smallest), 0 if none.
 [[nodiscard]] double scene_min_radius(const scene::DemSoil& d);
-// scene_critical_step in the form scene::set_dem_step_limit() takes: the application installs
-// it so that loading a scene checks soil.dem.dt against this bound (scene/validate.hpp).
+// scene_critical_step as the vocabulary's DEM step limit (vocabulary.hpp): loading a scene checks
+// soil.dem.dt against this bound (scene/validate.hpp).
 [[nodiscard]] std::optional<scene::DemStepLimit> scene_step_limit(const scene::Scene& scene);
 
 // e.set_dt(dt) for a Δt that comes from a scene: a refusal becomes a scene::SceneError at the

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "demfem/scene/scene.hpp"
+#include "demfem/scene/vocabulary.hpp"
 
 namespace demfem::scene {
 
@@ -40,9 +41,12 @@ struct SceneFile {
   [[nodiscard]] const Scene& select(const std::string& variant) const;
 };
 
-// Throws SceneError with every problem found (not only the first).
-[[nodiscard]] SceneFile load_scene_file(const std::filesystem::path& path);
-[[nodiscard]] SceneFile parse_scene(std::string_view text, const std::string& source_name);
+// Throws SceneError with every problem found (not only the first). The vocabulary gives the
+// models and the step limits (vocabulary.hpp).
+[[nodiscard]] SceneFile load_scene_file(const std::filesystem::path& path,
+                                        const Vocabulary& vocabulary);
+[[nodiscard]] SceneFile parse_scene(std::string_view text, const std::string& source_name,
+                                    const Vocabulary& vocabulary);
 
 // The resolved scene written back as TOML (all defaults explicit), for `demfem check` and the
 // run directory. Reading it back gives the same Scene.

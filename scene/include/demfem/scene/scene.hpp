@@ -6,8 +6,10 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "demfem/scene/params.hpp"
 #include "demfem/scene/time_function.hpp"
 
 namespace demfem::scene {
@@ -137,6 +139,18 @@ struct DemSoil {
   // paper); true ("sphere"): m = ρ(4/3)πr³, I = (2/5)mr², what LAMMPS's atom_style sphere gives
   // in 2D (used to race LAMMPS on an identical scene).
   bool sphere_mass = false;
+  // The models of the vocabulary's DEM slots (vocabulary.hpp), in its order, as read.
+  std::vector<ModelChoice> models;
+  [[nodiscard]] const ModelChoice* model(std::string_view key) const {
+    for (const auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
+  [[nodiscard]] ModelChoice* model(std::string_view key) {
+    for (auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
 };
 
 struct ContinuumSoil {
