@@ -164,7 +164,7 @@ struct Hypoplastic {
     // mean stress [Pa] of the reference elasticity (elasticity(): wave speeds, stable step)
     double reference_stress = 1.0e5;
     double minimum_mean_stress = 1.0e3; // [Pa] the rate is evaluated at no less
-    double tolerance = 1e-4;            // relative local error of a sub-step (Sloan's STOL)
+    double tolerance = 1e-3;            // relative local error of a sub-step (Sloan's STOL)
   };
   struct Internal {
     double e = 0.0;            // void ratio (0: not yet placed; set_stress sets it)
