@@ -15,6 +15,7 @@
 #include <string>
 
 #include "constitutive/registry.hpp"
+#include "demfem/scene/params.hpp"
 
 using namespace demfem::continuum::constitutive;
 
@@ -68,23 +69,26 @@ int main(int argc, char** argv) {
   std::printf("%ld updates, %d per cycle, amplitude %g (increment |Δγ| = %.3g)\n", updates, steps,
               amplitude, 4.0 * amplitude / steps);
 
-  MohrCoulomb::Parameters mc;
-  mc.young = 3e7;
-  mc.poisson = 0.3;
-  mc.friction_angle = 30.0 * 3.14159265358979323846 / 180.0;
-  mc.dilation_angle = 5.0 * 3.14159265358979323846 / 180.0;
-  Hypoplastic::Parameters hp;
-  hp.void_ratio = 0.7;
-  Hypoplastic::Parameters hp_off = hp;
-  hp_off.intergranular_strain = false;
+  // the models as a scene chooses them: the continuum slot's choice, Material::from
+  const demfem::scene::ModelSlot slot = model_slot();
+  demfem::scene::ModelChoice mc = demfem::scene::default_choice(slot); // mohr-coulomb
+  mc.get<Elastic::Parameters>().young = 3e7;
+  mc.get<Elastic::Parameters>().poisson = 0.3;
+  mc.get<MohrCoulomb::Parameters>().friction_angle = 30.0 * kRadPerDeg;
+  mc.get<MohrCoulomb::Parameters>().dilation_angle = 5.0 * kRadPerDeg;
+  demfem::scene::ModelChoice hp = mc;
+  demfem::scene::choose(hp, slot, Hypoplastic::keyword);
+  hp.get<Hypoplastic::Parameters>().initial_void_ratio = 0.7;
+  demfem::scene::ModelChoice hp_off = hp;
+  hp_off.get<Hypoplastic::Parameters>().intergranular_strain = false;
 
   struct Case {
     const char* name;
     Material m;
   };
-  const Case cases[] = {{"mohr-coulomb", Material(Parameters(mc))},
-                        {"hypoplastic (IGS)", Material(Parameters(hp))},
-                        {"hypoplastic (no IGS)", Material(Parameters(hp_off))}};
+  const Case cases[] = {{"mohr-coulomb", Material::from(mc)},
+                        {"hypoplastic (IGS)", Material::from(hp)},
+                        {"hypoplastic (no IGS)", Material::from(hp_off)}};
   double mc_rate = 0.0;
   for (const Case& c : cases) {
     const Timing r = run(c.m, updates, steps, amplitude, false);
@@ -93,9 +97,9 @@ int main(int argc, char** argv) {
                 c.name, r.per_second, 1e9 / r.per_second, mc_rate / r.per_second, r.checksum);
   }
   // sub-steps per update of the hypoplastic model on the same path
-  for (const Hypoplastic::Parameters& p : {hp, hp_off}) {
-    const Hypoplastic h(p);
-    const Material m{Parameters(p)};
+  for (const demfem::scene::ModelChoice* p : {&hp, &hp_off}) {
+    const Material m = Material::from(*p);
+    const Hypoplastic& h = *m.get_if<Hypoplastic>();
     const State s0 = at_k0(m);
     hypoplastic::PointState y = h.point(s0, std::get<Hypoplastic::Internal>(s0.internal));
     long sub = 0, rejected = 0;
@@ -107,7 +111,7 @@ int main(int argc, char** argv) {
       rejected += r.rejected;
     }
     std::printf("hypoplastic (%s): %.3f sub-steps and %.4f refusals per update\n",
-                p.intergranular_strain ? "IGS" : "no IGS", double(sub) / n, double(rejected) / n);
+                h.k.igs ? "IGS" : "no IGS", double(sub) / n, double(rejected) / n);
   }
   const long nt = std::max(updates / 20, 1L);
   const Timing t = run(cases[1].m, nt, steps, amplitude, true);

@@ -1,5 +1,5 @@
 #!/bin/bash
-# machine-probe.sh -- how much two cores of this machine give right now (issue 12).
+# machine-probe.sh -- how much two cores of this machine give right now.
 #
 # Usage:  bench/machine-probe.sh        prints one line:
 #   machine cpuA=<s> cpuB=<s> together=<s>/<s> ceiling=<x> lockstep=<x>
@@ -11,10 +11,10 @@
 # each with half the work: it runs at the pace of the slower CPU. A vCPU that the host pauses now
 # and then (30 % slower over the probe) leaves ceiling ≈ 1.7 but lockstep ≈ 1.5; an even share of
 # the work between the two cannot gain back what the pauses cost (bench/RESULTS.md,
-# twenty-seventh session). On this project's VMs the ceiling moves between ≈ 2 (independent
+# "What a lock-stepped team can gain"). On this project's VMs the ceiling moves between ≈ 2 (independent
 # cores), ≈ 1.6–1.7 (one vCPU 1.3–1.4 times slower than the other: its host sibling busy) and
-# ≈ 1.2 (both vCPUs on one host core) from minute to minute (bench/RESULTS.md, twenty-third
-# session). Prints nothing with fewer than 2 CPUs.
+# ≈ 1.2 (both vCPUs on one host core) from minute to minute (bench/RESULTS.md,
+# "What the second vCPU gives"). Prints nothing with fewer than 2 CPUs.
 # Environment: RACE_BIN (default build/bench/bench_dem_race), WORK (default /tmp/demfem_race: the
 # generated scene), LAMMPS_BENCH (the shared bench dir with tile_settled.data.gz).
 set -euo pipefail

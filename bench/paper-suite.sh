@@ -1,6 +1,6 @@
 #!/bin/bash
 # paper-suite.sh -- every variant of the four paper scenes, DEM, from an empty packing cache,
-# on JOBS processes at once (issue 12: "the paper suite in under 5 minutes on 2 cores").
+# on JOBS processes at once (the target: the paper suite in under 5 minutes on 2 cores).
 #
 # Usage:  bench/paper-suite.sh [WORK]     WORK: a new scratch directory (default: mktemp -d)
 # Environment: DEMFEM (default build/app/demfem), JOBS (default 2), PROBE=0 to skip the machine
@@ -12,7 +12,7 @@
 # scene. Prints per scene "scene <name> rc=<rc> <s> s", then
 #   suite total=<s> s idle=<core-s> (<% of the cores' time>) failed=<count>
 # and, before and after, the machine probe's line (what a second core gives at that moment: on
-# this project's VMs it changes from minute to minute; bench/RESULTS.md, twenty-third session).
+# this project's VMs it changes from minute to minute; bench/RESULTS.md, "What the second vCPU gives").
 # Exit status: 1 when a run failed. Each scene's console is WORK/out/<scene>.log.
 set -uo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)

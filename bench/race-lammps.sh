@@ -1,5 +1,5 @@
 #!/bin/bash
-# race-lammps.sh -- demfem vs LAMMPS, back to back, on the identical 2D bed (issue 12).
+# race-lammps.sh -- demfem vs LAMMPS, back to back, on the identical 2D bed.
 #
 # Usage:  bench/race-lammps.sh [N ...]        default N list: 10000 100000
 # Environment knobs:

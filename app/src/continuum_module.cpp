@@ -17,7 +17,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// PETSc (initialised with MPI by deal.II in the module) replaces the handlers of SIGTERM, SIGHUP
+// and others with its own, which end the process at once (exit 143, 129): without them the
+// app's handlers (signals.hpp) stop a continuum run cleanly. Added to the user's PETSC_OPTIONS.
+void keep_stop_signals() {
+  const char* env = std::getenv("PETSC_OPTIONS");
+  std::string opts = env ? env : "";
+  if (opts.find("-no_signal_handler") != std::string::npos) return;
+  opts += opts.empty() ? "-no_signal_handler" : " -no_signal_handler";
+  ::setenv("PETSC_OPTIONS", opts.c_str(), 1);
+}
+
 const continuum::ModuleApi* open_module() {
+  keep_stop_signals();
   std::vector<fs::path> tried;
   if (const char* env = std::getenv("DEMFEM_CONTINUUM_MODULE"); env && *env) {
     tried.emplace_back(env); // an explicit choice: nothing else is tried

@@ -1,5 +1,6 @@
 #include "demfem/app/vocabulary.hpp"
 
+#include "constitutive/registry.hpp"
 #include "demfem/dem/vocabulary.hpp"
 
 #ifdef DEMFEM_WITH_CONTINUUM
@@ -7,7 +8,7 @@
 #include <filesystem>
 #include <system_error>
 
-#include "demfem/compare/calibrate.hpp"
+#include "demfem/calibrate/calibrate.hpp"
 
 #include "continuum_module.hpp"
 #endif
@@ -24,13 +25,13 @@ std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene
   namespace fs = std::filesystem;
   scene::Scene r = s;
   if (r.soil.continuum && r.soil.continuum->calibrate_dem) {
-    const compare::CalibrateOptions o;
-    const fs::path f = compare::calibration_cache_dir(r, o) /
-                       ("calibration-" + compare::calibration_key(r, o) + ".json");
+    const calibrate::CalibrateOptions o;
+    const fs::path f = calibrate::calibration_cache_dir(r, o) /
+                       ("calibration-" + calibrate::calibration_key(r, o) + ".json");
     std::error_code ec;
     if (!fs::exists(f, ec)) return std::nullopt;
     try {
-      compare::apply_calibration(r, compare::load_or_calibrate(r, o));
+      calibrate::apply_calibration(r, calibrate::load_or_calibrate(r, o));
     } catch (const std::exception&) {
       return std::nullopt;
     }
@@ -45,6 +46,9 @@ std::optional<scene::ContinuumStepLimit> continuum_step_limit(const scene::Scene
 
 scene::Vocabulary build() {
   scene::Vocabulary v = dem::vocabulary();
+  // [soil.continuum]: the constitutive models (continuum/constitutive/, no deal.II: built with
+  // or without the continuum solver)
+  v.continuum.push_back(continuum::constitutive::model_slot());
 #ifdef DEMFEM_WITH_CONTINUUM
   v.continuum_step_limit = &continuum_step_limit;
 #endif

@@ -28,8 +28,9 @@
 #include <vtkXMLUnstructuredGridWriter.h>
 
 #include "demfem/compare/coarse_grain.hpp"
-#include "gnuplot_run.hpp"
-#include "out_file.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
+#include "demfem/compare/out_file.hpp"
+#include "demfem/output/contract.hpp"
 
 namespace fs = std::filesystem;
 
@@ -533,9 +534,11 @@ void write_fields_vtu(const fs::path& file, const ContinuumSnapshot& mesh, const
 FieldComparison compare_fields(const fs::path& run_dir, double rest_time, double density,
                                double width) {
   FieldComparison out;
-  const auto dp = read_pvd_entries(run_dir / "dem" / "particles.pvd");
-  const auto dc = read_pvd_entries(run_dir / "dem" / "force_chains.pvd");
-  const auto cp = read_pvd_entries(run_dir / "continuum" / "continuum.pvd");
+  namespace dir = output::dir;
+  namespace file = output::file;
+  const auto dp = read_pvd_entries(run_dir / dir::dem / file::particles_pvd);
+  const auto dc = read_pvd_entries(run_dir / dir::dem / file::force_chains_pvd);
+  const auto cp = read_pvd_entries(run_dir / dir::continuum / file::continuum_pvd);
   if (dp.empty() || cp.empty()) {
     out.notes.push_back("no DEM particle snapshots or no continuum snapshots: no field maps");
     return out;

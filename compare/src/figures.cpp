@@ -18,12 +18,16 @@
 #include "demfem/compare/series.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
+#include "demfem/output/contract.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace demfem::compare {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+namespace col = output::col;
+namespace dir = output::dir;
+namespace file = output::file;
 
 double loop_area(const std::vector<double>& x, const std::vector<double>& y) {
   const std::size_t n = std::min(x.size(), y.size());
@@ -146,8 +150,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
                              double wall_seconds, long long steps) {
   RunFigures out;
   PlotQueue queue; // the figures before the snapshot series, drawn together (draw_figures)
-  const fs::path dem = run_dir / "dem";
-  const fs::path fig = run_dir / "figures";
+  const fs::path dem = run_dir / dir::dem;
+  const fs::path fig = run_dir / dir::figures;
   fs::create_directories(fig);
   json sum;
   sum["scene"] = scene.label();
@@ -157,7 +161,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   if (scene.soil.dem) sum["particles"] = scene.soil.dem->count;
   // The initial packing's density and contacts (dem/packing.json, issue 14).
   {
-    std::ifstream pj(dem / "packing.json");
+    std::ifstream pj(dem / file::packing);
     if (pj) try {
         sum["packing"] = json::parse(pj);
       } catch (const std::exception& e) {
@@ -166,14 +170,14 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- structures: settlement, rotation, moment, M–θ loops --------------------------------
-  const auto st = try_csv(dem / "structures.csv", out);
+  const auto st = try_csv(dem / file::structures, out);
   if (!st.rows.empty()) {
-    const auto t = st.column("time");
+    const auto t = st.column(col::time.name);
     json js = json::object();
     for (const auto& s : scene.structures) {
-      const auto settle = st.column(s.name + ".settlement");
-      const auto rot = st.column(s.name + ".rotation");
-      const auto mom = st.column(s.name + ".moment");
+      const auto settle = st.column(output::key(s.name, col::settlement));
+      const auto rot = st.column(output::key(s.name, col::rotation));
+      const auto mom = st.column(output::key(s.name, col::moment));
       if (settle.empty()) continue;
       json j;
       j["final_settlement_m"] = settle.back();
@@ -219,12 +223,14 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- walls: thrust and its running mean ---------------------------------------------------
-  const auto wl = try_csv(dem / "walls.csv", out);
+  const auto wl = try_csv(dem / file::walls, out);
   if (!wl.rows.empty()) {
-    const auto t = wl.column("time");
+    const auto t = wl.column(col::time.name);
     json jw = json::object();
+    const std::string thrust = fmt::format(".{}", output::heading(col::thrust)); // ".thrust [N]"
     for (const auto& c : wl.columns) {
-      if (c.find(".thrust") == std::string::npos) continue;
+      if (c.size() <= thrust.size() || c.compare(c.size() - thrust.size(), thrust.size(), thrust))
+        continue;
       const std::string name = strip_unit(c);
       const auto y = wl.column(name);
       const double dtp = t.size() > 1 ? t[1] - t[0] : 0.01;
@@ -268,9 +274,9 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
 
   // ---- force distribution along each recorded wall: pressure per bin, bin 0 at the bottom -------
   for (const auto& wall : scene.structures) {
-    const auto pr = try_csv(dem / ("pressure_" + wall.name + ".csv"), out);
+    const auto pr = try_csv(dem / file::pressure(wall.name), out);
     if (pr.rows.empty() || pr.columns.size() < 2) continue;
-    const auto t = pr.column("time");
+    const auto t = pr.column(col::time.name);
     const std::size_t nb = pr.columns.size() - 1;
     const double ts = scene.load.shaking ? scene.load.shaking->acceleration.start : 0.0;
     const double tend = t.empty() ? 0.0 : t.back();
@@ -295,7 +301,7 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- surface profile: initial vs final, subsidence ------------------------------------------
-  const auto sf = try_csv(dem / "surface.csv", out);
+  const auto sf = try_csv(dem / file::surface, out);
   if (sf.rows.size() >= 2) {
     const std::size_t nb = sf.columns.size() - 1;
     double x0 = 0, x1 = 1;
@@ -335,12 +341,12 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- loci -----------------------------------------------------------------------------------
-  const auto lc = try_csv(dem / "loci.csv", out);
+  const auto lc = try_csv(dem / file::loci, out);
   if (!lc.rows.empty()) {
     PlotSpec ps =
         spec_of(fmt::format("loci of tagged particles — {}", scene.label()), "x [m]", "z [m]", {});
     ps.equal_axes = true;
-    const auto t = lc.column("time");
+    const auto t = lc.column(col::time.name);
     double vmax = 0.0;
     for (std::size_t c = 1; c + 1 < lc.columns.size(); c += 2) {
       const auto x = lc.column(strip_unit(lc.columns[c]));
@@ -356,13 +362,13 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
   }
 
   // ---- energy ---------------------------------------------------------------------------------
-  const auto en = try_csv(dem / "energy.csv", out);
+  const auto en = try_csv(dem / file::energy, out);
   if (!en.rows.empty()) {
-    const auto t = en.column("time");
+    const auto t = en.column(col::time.name);
     draw(spec_of(fmt::format("energy — {}", scene.label()), "time [s]", "[J]",
-                 {ser("kinetic", t, en.column("kinetic")),
-                  ser("friction (cum.)", t, en.column("friction")),
-                  ser("rebound (cum.)", t, en.column("rebound"))}),
+                 {ser("kinetic", t, en.column(col::kinetic.name)),
+                  ser("friction (cum.)", t, en.column(col::friction.name)),
+                  ser("rebound (cum.)", t, en.column(col::rebound.name))}),
          fig / "energy.png", out, queue);
   }
 
@@ -383,9 +389,9 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     sum["peak_speed_above_lowest_ground_km_h"] = pk.above * 3.6;
   }
   std::error_code ec;
-  if (fs::exists(dem / "final.ckpt", ec)) {
+  if (fs::exists(dem / file::final_state, ec)) {
     try {
-      const auto ck = dem::io::read_checkpoint(dem / "final.ckpt");
+      const auto ck = dem::io::read_checkpoint(dem / file::final_state);
       const auto& p = ck.particles;
       // Size segregation (Ontake: "large particles gather at the toe"): mean radius of the leading
       // tenth of the particles still in the model (largest x) over the mean radius of all of them.

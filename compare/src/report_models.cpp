@@ -14,9 +14,14 @@
 #include <nlohmann/json.hpp>
 
 #include "constitutive/k0.hpp"
+#include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
+#include "demfem/output/contract.hpp"
+#include "demfem/scene/params.hpp"
 #include "demfem/scene/write_file.hpp"
 
 namespace fs = std::filesystem;
+namespace cst = demfem::continuum::constitutive;
 using nlohmann::json;
 
 namespace demfem::compare {
@@ -112,27 +117,48 @@ std::string contact_law(const scene::DemSoil& d) {
 }
 
 // E as the report states it: "30 MPa", or "30 MPa × (p/1.08 MPa)^0.25" for a stress-dependent
-// modulus (scene.hpp, ContinuumSoil::modulus_exponent).
+// modulus (continuum/constitutive/elastic.hpp).
 std::string modulus_text(const scene::ContinuumSoil& c) {
-  if (!c.stress_dependent_modulus()) return pa(c.young);
-  return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(c.young),
-                     pa(*c.modulus_reference_stress), g3(c.modulus_exponent));
+  const auto& el = cst::elastic_block(c);
+  if (!el.stress_dependent()) return pa(el.young);
+  return fmt::format("{} × (p/{})^{} at the in-plane mean stress p", pa(el.young),
+                     pa(el.modulus_reference_stress), g3(el.modulus_exponent));
 }
 
-// Soil model of the continuum (continuum/src/run.cpp: elastic or Mohr–Coulomb, mohr_coulomb.cpp).
+// The continuum soil's model is `keyword` (continuum/constitutive/registry.hpp)?
+bool soil_is(const scene::ContinuumSoil& c, const char* keyword) {
+  return cst::soil_model(c).keyword == keyword;
+}
+bool mohr_coulomb(const scene::ContinuumSoil& c) {
+  return soil_is(c, cst::MohrCoulomb::keyword);
+}
+
+// Soil model of the continuum (continuum/constitutive/: elastic, Mohr–Coulomb, or another
+// registered model, told by its summary and its keys).
 std::string continuum_model(const scene::ContinuumSoil& c) {
   const bool cal = calibrated(c, "young") || calibrated(c, "friction_angle");
-  if (c.model == scene::ContinuumModel::Elastic)
+  const auto& el = cst::elastic_block(c);
+  const auto& st = cst::strength_block(c);
+  if (soil_is(c, cst::Elastic::keyword))
     return fmt::format("linear elastic, E = {}, ν = {}{}; never yields", modulus_text(c),
-                       g3(c.poisson), cal ? " (calibrated)" : "");
+                       g3(el.poisson), cal ? " (calibrated)" : "");
+  if (!mohr_coulomb(c)) {
+    const auto& choice = cst::soil_model(c);
+    const auto* entry = cst::model_slot().find(choice.keyword);
+    std::string keys;
+    for (const auto& p : scene::describe(choice)) keys += (keys.empty() ? "" : ", ") + p.text();
+    return fmt::format("{}: {}{}", entry ? entry->summary : choice.keyword, keys,
+                       cal ? " (calibrated from DEM element tests)" : "");
+  }
   return fmt::format(
       "Mohr–Coulomb, perfectly plastic, non-associated: E = {}, ν = {}, φ = {}, c = {}, "
       "ψ = {}{}{}{}",
-      modulus_text(c), g3(c.poisson), deg(c.friction_angle), pa(c.cohesion), deg(c.dilation_angle),
-      c.dilation_cutoff && c.dilation_angle > 0.0
-          ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(*c.dilation_cutoff))
-          : std::string(c.dilation_angle > 0.0 ? " without limit" : ""),
-      c.tension_cutoff > 0.0 ? ", tension cut-off " + pa(c.tension_cutoff) : "",
+      modulus_text(c), g3(el.poisson), deg(st.friction_angle), pa(st.cohesion),
+      deg(st.dilation_angle),
+      !std::isnan(st.dilation_cutoff) && st.dilation_angle > 0.0
+          ? fmt::format(" up to a plastic dilation of {} (then ψ = 0)", g3(st.dilation_cutoff))
+          : std::string(st.dilation_angle > 0.0 ? " without limit" : ""),
+      st.tension_cutoff > 0.0 ? ", tension cut-off " + pa(st.tension_cutoff) : "",
       cal ? " (calibrated from DEM element tests)" : "");
 }
 
@@ -285,7 +311,7 @@ ModelFacts read_model_facts(const fs::path& run_dir) {
   f.dem = read_solver_run(run_dir, "dem");
   f.continuum = read_solver_run(run_dir, "continuum");
   json p;
-  if (parse_file(run_dir / "dem" / "packing.json", p)) {
+  if (parse_file(run_dir / output::dir::dem / output::file::packing, p)) {
     f.packing = true;
     f.packing_porosity = num_or(p, "porosity");
     for (const auto& [k, v] : p.items())
@@ -345,363 +371,384 @@ ModelFacts read_model_facts(const fs::path& run_dir) {
 
 // ---- what differs ------------------------------------------------------------------------------
 
-std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& f) {
-  std::vector<DiffRow> rows;
-  if (!s.soil.dem || !s.soil.continuum) return rows;
-  const auto& d = *s.soil.dem;
-  const auto& c = *s.soil.continuum;
-  const auto& co = s.continuum;
-  const bool mc = c.model == scene::ContinuumModel::MohrCoulomb;
-  const double g = s.load.gravity;
-  const Box dom = box_of(s, false), mesh = box_of(s, true);
-  const double tol = 1e-6 * std::max(1.0, std::max(mesh.x1 - mesh.x0, mesh.z1 - mesh.z0));
+namespace {
 
-  // 1. soil model
-  {
-    DiffRow r{"soil model (constitutive behaviour)", contact_law(d), continuum_model(c), "", false};
-    if (mc)
-      r.consequence = fmt::format(
-          "The granular bed's stiffness grows with confinement and falls with strain amplitude, "
-          "and it compacts under shaking; the continuum's E {} and does not fall with strain, "
-          "and it changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up "
-          "to its dilatancy cut-off; where it is pulled to the yield surface's apex, zero "
-          "stress for a cohesionless soil, without limit) — it cannot densify.",
-          c.stress_dependent_modulus()
-              ? "follows the initial confinement as p^" + g3(c.modulus_exponent)
-              : "is the same at every depth");
-    else
-      r.consequence = "The continuum never yields or slides: every permanent deformation and all "
-                      "sliding at failure are DEM-only.";
-    if (calibrated(c, "young") || calibrated(c, "friction_angle"))
-      r.consequence += " Its parameters are the DEM element tests' (Parameters below), so the two "
-                       "agree at the calibration's stress and strain levels, not everywhere.";
-    rows.push_back(r);
-  }
+// What every row of model_differences reads: the scene, the run's facts, both soils, the
+// continuum's options, and the domain's box without and with the structures.
+struct DiffContext {
+  const scene::Scene& s;
+  const ModelFacts& f;
+  const scene::DemSoil& d;
+  const scene::ContinuumSoil& c;
+  const scene::ContinuumOptions& co;
+  bool mc; // the continuum is Mohr–Coulomb
+  double g;
+  Box dom, mesh;
+  double tol; // a length below which two positions are the same
+};
 
-  // 2. soil surface, density and mass
-  {
-    // (listed particles are not a deposited bed: no porosity)
-    const double n = f.calibration                      ? f.cal_porosity
-                     : f.packing && d.particles.empty() ? f.packing_porosity
-                                                        : -1.0;
-    std::string dem = fmt::format("{} of {} disks, ρ_s = {} kg/m³",
-                                  d.particles.empty() ? "deposited bed" : "listed particles",
-                                  d.count, g4(d.density));
-    if (n >= 0.0)
-      dem += fmt::format(", porosity {:.4f} → bulk density {} kg/m³", n, g4(d.density * (1.0 - n)));
-    if (f.calibration)
-      dem += fmt::format("; surface: mean column top {} m; mass {} kg per m thickness; the "
-                         "calibration's mass-matched surface {} m{}",
-                         g4(f.cal_surface_top_mean), g4(f.cal_soil_mass), g4(f.cal_surface),
-                         std::abs(f.cal_surface - dom.z1) < tol ? " (capped at the domain's top)"
-                                                                : "");
-    // The continuum soil: the domain below the surface without the structures' cells
-    // (continuum/src/run.cpp; a structure's part inside the domain's bounding box).
-    const double top = c.surface.value_or(dom.z1);
-    double soil = area(clip(s.domain, 0.0, 1.0, top));
-    for (const auto& st : s.structures) {
-      auto q = clip(st.outline, 0.0, 1.0, std::min(top, dom.z1));
-      q = clip(clip(clip(q, 0.0, -1.0, -dom.z0), 1.0, 0.0, dom.x1), -1.0, 0.0, -dom.x0);
-      soil -= area(q);
-    }
-    const double mass = c.density * d.thickness * std::max(0.0, soil);
-    std::string cont = fmt::format("{}: z ≤ {} m, ρ = {} kg/m³; mass {} kg per m thickness",
-                                   c.surface ? "domain polygon below soil.continuum.surface"
-                                             : "the whole domain polygon",
-                                   g4(top), g4(c.density), g4(mass));
-    bool matched = false;
-    std::string why;
-    if (f.calibration && f.cal_soil_mass > 0.0 && f.cal_bulk_density > 0.0) {
-      // Matched: the same density and, in the continuum's actual soil (domain below the surface
-      // without the structures), the DEM's soil mass within 1 %.
-      const double ratio = mass / f.cal_soil_mass;
-      const bool same_density =
-          std::abs(c.density - f.cal_bulk_density) <= 1e-3 * f.cal_bulk_density;
-      matched = same_density && std::abs(ratio - 1.0) <= 0.01;
-      why = matched ? fmt::format("Same density, and the same soil mass to within 1 % "
-                                  "(continuum/DEM {:.4f}): the static loads (weight, thrust at "
-                                  "rest) start from the same soil.",
-                                  ratio)
-                    : fmt::format("Continuum soil mass {:.3f} × the DEM's (surface {} m against "
-                                  "the bed's mass-matched {} m, density {} against {} kg/m³): "
-                                  "the at-rest loads differ accordingly.",
-                                  ratio, g4(top), g4(f.cal_surface), g4(c.density),
-                                  g4(f.cal_bulk_density));
-    } else {
-      why = "No calibration in this run: the DEM bed's surface and density were not measured, so "
-            "mass and height are not matched (soil.continuum.calibrate = \"dem\" matches them).";
-    }
-    rows.push_back({"soil surface, density and mass", dem, cont, why, matched});
-  }
+// The soil models: the DEM's contact law against the continuum's constitutive model.
+void soil_model(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  DiffRow r{"soil model (constitutive behaviour)", contact_law(d), continuum_model(c), "", false};
+  if (mc)
+    r.consequence = fmt::format(
+        "The granular bed's stiffness grows with confinement and falls with strain amplitude, "
+        "and it compacts under shaking; the continuum's E {} and does not fall with strain, "
+        "and it changes volume only elastically or by dilating at ψ ≥ 0 when it yields (up "
+        "to its dilatancy cut-off; where it is pulled to the yield surface's apex, zero "
+        "stress for a cohesionless soil, without limit) — it cannot densify.",
+        cst::elastic_block(c).stress_dependent()
+            ? "follows the initial confinement as p^" + g3(cst::elastic_block(c).modulus_exponent)
+            : "is the same at every depth");
+  else if (soil_is(c, cst::Elastic::keyword))
+    r.consequence = "The continuum never yields or slides: every permanent deformation and all "
+                    "sliding at failure are DEM-only.";
+  if (calibrated(c, "young") || calibrated(c, "friction_angle"))
+    r.consequence += " Its parameters are the DEM element tests' (Parameters below), so the two "
+                     "agree at the calibration's stress and strain levels, not everywhere.";
+  rows.push_back(r);
+}
 
-  // 3. initial stress
-  {
-    const double k0 = continuum::constitutive::k0_at_rest(c.k0, c.friction_angle);
-    const std::string src = calibrated(c, "k0") ? "calibrated: the DEM bed's"
-                            : given(c, "k0")    ? "stated in the scene"
-                            : c.k0 >= 0.0       ? "set"
-                                                : "Jaky 1 − sin φ (no k0 given)";
-    std::string dem = !d.particles.empty() ? "the listed particles' initial state (no deposition)"
-                      : d.packing.target_porosity
-                          ? "the deposited bed's own stresses (deposition under gravity "
-                            "at raised friction, then the scene's friction, settled)"
-                          : "the deposited bed's own stresses (deposition under gravity)";
-    if (f.calibration)
-      dem +=
-          fmt::format("; K0 = σ_xx/σ_zz = {:.3f} (Love–Weber stress, away from walls)", f.cal_k0);
-    const std::string cont =
-        fmt::format("geostatic: σ_zz = −ρ g depth, σ_xx = K0 σ_zz with K0 = {:.3f} ({}), then "
-                    "an equilibrium correction",
-                    k0, src);
-    const bool matched = f.calibration && std::abs(k0 - f.cal_k0) <= 5e-4;
-    rows.push_back({"initial stress", dem, cont,
-                    matched ? "Same lateral stress ratio at rest: static thrusts comparable."
-                    : f.calibration
-                        ? fmt::format("K0 {:.3f} against the bed's {:.3f}: static lateral "
-                                      "stresses differ by that ratio.",
-                                      k0, f.cal_k0)
-                        : "The bed's K0 was not measured (no calibration): the static lateral "
-                          "stresses need not agree.",
-                    matched});
-  }
-
-  // 4. boundaries: the continuum's box (continuum/src/fem.hpp Problem: left/right rollers,
-  // bottom fixed, top free; box conditions skip structure dofs), the DEM's [[wall]]s
-  {
-    struct Side {
-      const char* name;
-      const char* continuum;
-      bool (*on)(const scene::Wall&, const Box&, double);
-    };
-    const Side sides[] = {
-        {"base", "fixed: u = 0 (fully rough, no sliding or lift-off)",
-         [](const scene::Wall& w, const Box& b, double t) {
-           return std::all_of(w.points.begin(), w.points.end(),
-                              [&](const scene::Vec2& q) { return std::abs(q.z - b.z0) < t; });
-         }},
-        {"left side", "roller: u_x = 0, frictionless, no separation",
-         [](const scene::Wall& w, const Box& b, double t) {
-           return std::all_of(w.points.begin(), w.points.end(),
-                              [&](const scene::Vec2& q) { return std::abs(q.x - b.x0) < t; });
-         }},
-        {"right side", "roller: u_x = 0, frictionless, no separation",
-         [](const scene::Wall& w, const Box& b, double t) {
-           return std::all_of(w.points.begin(), w.points.end(),
-                              [&](const scene::Vec2& q) { return std::abs(q.x - b.x1) < t; });
-         }},
-    };
-    std::vector<bool> used(s.walls.size(), false);
-    for (const auto& side : sides) {
-      const bool right = std::string(side.name) == "right side";
-      const bool left = std::string(side.name) == "left side";
-      // A structure at the mesh's edge takes that side's dofs (box conditions skip them).
-      const scene::Structure* edge = nullptr;
-      for (const auto& st : s.structures) {
-        const auto b = scene::bounds(st.outline);
-        if ((right && std::abs(b.x1 - mesh.x1) < tol && b.x0 >= dom.x1 - tol) ||
-            (left && std::abs(b.x0 - mesh.x0) < tol && b.x1 <= dom.x0 + tol))
-          edge = &st;
-      }
-      std::string dem;
-      double mu = 0.0, mu_d = 0.0;
-      bool any = false;
-      for (std::size_t k = 0; k < s.walls.size(); ++k)
-        if (side.on(s.walls[k], dom, tol)) {
-          used[k] = true;
-          any = true;
-          dem += fmt::format(
-              "{}frictional wall '{}': {}{}", dem.empty() ? "" : "; ", s.walls[k].name,
-              boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d, &mu, &mu_d),
-              s.walls[k].opens_at ? fmt::format(", removed at t = {} s", g3(*s.walls[k].opens_at))
-                                  : "");
-        }
-      if (!any && edge) continue; // the structure row covers it
-      if (!any) dem = "no wall";
-      std::string cont =
-          edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
-      std::string why;
-      bool matched = false;
-      // continuum.interface = "coulomb" (continuum/src/run.cpp): the wall is a zero-thickness
-      // Coulomb contact plane with the DEM's μ (continuum/README.md)
-      const bool coulomb = co.interface == "coulomb" && any && !edge;
-      if (coulomb) {
-        cont = fmt::format("Coulomb contact plane (continuum.interface = \"coulomb\"): zero "
-                           "thickness, μ_s {} / μ_D {}, slides and separates",
-                           g3(mu), g3(mu_d));
-        why = "Matched: the same wall friction; the soil slides on the wall at μ_D once μ_s is "
-              "exceeded and leaves it when pulled, as the DEM particles do.";
-        matched = true;
-      } else if (!any && !edge) {
-        why = "The DEM soil has no wall on this side; the continuum's is held there.";
-      } else if (std::string(side.name) == "base") {
-        why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
-        if (s.load.shaking && s.load.shaking->direction == 'x' && any) {
-          // Rigid block on a Coulomb base: it starts sliding when |a| > μ_s g and keeps sliding
-          // while |a| > μ_D g (Newmark 1965 sliding block).
-          const double a = peak(s.load.shaking->acceleration, s.info.duration);
-          why += fmt::format(" Peak shaking {} m/s² against μ_s g = {} and μ_D g = {} m/s²: {}.",
-                             g3(a), g3(mu * g), g3(mu_d * g),
-                             a > mu * g     ? "the DEM bed can slide on its base"
-                             : a > mu_d * g ? "the DEM bed cannot start sliding on its base"
-                                            : "no sliding on the base");
-        }
-      } else {
-        matched = any && mu == 0.0 && !edge;
-        why = matched ? "Both frictionless (the DEM wall can still separate from the soil)."
-              : edge  ? "See structure faces."
-                      : "Shear stress along this side: carried by the DEM wall's friction, zero "
-                        "on the continuum's roller.";
-      }
-      rows.push_back({std::string("boundary: ") + side.name, dem, cont, why, matched});
-    }
-    std::string other;
-    for (std::size_t k = 0; k < s.walls.size(); ++k)
-      if (!used[k])
-        other += fmt::format("{}'{}' ({})", other.empty() ? "" : "; ", s.walls[k].name,
-                             boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d));
-    if (!other.empty())
-      rows.push_back({"boundary: other walls", "frictional walls " + other,
-                      "no counterpart: the soil's edge there is the domain polygon's "
-                      "(stair-stepped, free)",
-                      "The DEM soil leans on these walls; the continuum's does not.", false});
-  }
-
-  // 5. structure faces (continuum/src/run.cpp: tied rigid bodies, or the thin frictional layer)
-  if (!s.structures.empty()) {
-    std::string dem;
-    for (const auto& st : s.structures)
-      dem += fmt::format("{}'{}': {}", dem.empty() ? "" : "; ", st.name,
-                         boundary_friction(st.mu_static, st.mu_dynamic, d));
-    dem = "rigid bodies with frictional contacts that slide and open: " + dem;
-    std::string cont, why;
-    bool matched = false;
-    const double h = f.continuum.h_min > 0.0 ? f.continuum.h_min : 0.0;
-    if (co.interface == "coulomb") {
-      // continuum/src/run.cpp: structures with every DoF fixed are unmeshed Coulomb contact
-      // bodies; moving structures too unless continuum.structure_interface = "tied"
-      std::string at_rest, moving;
-      for (const auto& st : s.structures) {
-        const bool fixed =
-            (st.dof_x == scene::DofMode::Fixed && st.dof_z == scene::DofMode::Fixed &&
-             st.dof_rotation == scene::DofMode::Fixed) ||
-            co.structure_interface == "contact";
-        std::string& list = fixed ? at_rest : moving;
-        list += fmt::format("{}'{}'", list.empty() ? "" : ", ", st.name);
-      }
-      if (!at_rest.empty())
-        cont = fmt::format("{}: zero-thickness Coulomb contact with the DEM's μ (not meshed; "
-                           "continuum.interface = \"coulomb\"), slides and separates",
-                           at_rest);
-      if (!moving.empty())
-        cont += fmt::format("{}{}: rigid bodies tied to the soil and seated (the soil carries "
-                            "their weight, as the DEM bed does; continuum.structure_interface = "
-                            "\"tied\"; \"contact\" makes them seated Coulomb contact bodies)",
-                            cont.empty() ? "" : "; ", moving);
-      matched = moving.empty();
-      why = matched ? "Matched: zero-thickness contact with the same μ_s/μ_D, sliding and "
-                      "separation."
-                    : "The moving structures' faces are still bonded to the soil; the DEM's "
-                      "slide and open at μ.";
-    } else if (co.interface == "frictional") {
-      const double mu = std::tan(co.interface_friction_angle);
-      cont = fmt::format(
-          "rigid bodies; the soil cells touching them form a Mohr–Coulomb layer one cell thick{} "
-          "with δ = {} (tan δ = {:.3f}; layer φ_l = asin(tan δ)), c = 0, ψ = 0",
-          h > 0.0 ? fmt::format(" (≈ {} m)", g3(h)) : std::string(),
-          deg(co.interface_friction_angle), mu);
-      why = fmt::format("A layer, not a zero-thickness contact: its thickness changes with the "
-                        "mesh, it cannot open, and its one δ stands for the DEM's μ_s/μ_D "
-                        "(tan δ {:.3f} against μ_D {}).",
-                        mu, g3(d.mu_dynamic));
-    } else {
-      cont = "rigid bodies tied to the soil (continuum.interface = \"tied\"): no slip, no "
-             "separation — an infinitely rough, bonded face";
-      why = "The continuum's soil cannot slide along or separate from a structure; the DEM's "
-            "does at μ. Wall friction and active wedges differ accordingly.";
-    }
-    rows.push_back({"boundary: structure faces", dem, cont, why, matched});
-  }
-
-  // 6. damping (dem/src/engine.cpp: C, D global damping; contact law; continuum/src/run.cpp)
-  {
-    std::string dem = "Coulomb sliding at contacts (μ_D) at every amplitude";
-    if (d.law == scene::ContactLaw::CundallRebound)
-      dem += fmt::format("; rebound K = {} only at impacts faster than V_0 = {} m/s (slower "
-                         "contacts are elastic; dem/contact_laws.hpp)",
-                         g3(d.rebound), g3(d.rebound_speed));
-    else if (d.law == scene::ContactLaw::CundallDashpot)
-      dem += "; contact dashpots";
-    else if (d.law == scene::ContactLaw::LinearRestitution)
-      dem += fmt::format("; restitution e = {}", g3(d.restitution));
+// The soil's surface, density and mass in each model.
+void surface_and_mass(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  // (listed particles are not a deposited bed: no porosity)
+  const double n = f.calibration                      ? f.cal_porosity
+                   : f.packing && d.particles.empty() ? f.packing_porosity
+                                                      : -1.0;
+  std::string dem = fmt::format("{} of {} disks, ρ_s = {} kg/m³",
+                                d.particles.empty() ? "deposited bed" : "listed particles", d.count,
+                                g4(d.density));
+  if (n >= 0.0)
+    dem += fmt::format(", porosity {:.4f} → bulk density {} kg/m³", n, g4(d.density * (1.0 - n)));
+  if (f.calibration)
     dem +=
-        d.damping_c > 0.0 || d.damping_d > 0.0
-            ? fmt::format("; global damping C = {} /s, D = {} /s", g3(d.damping_c), g3(d.damping_d))
-            : "; no global damping (soil.dem.damping_c = damping_d = 0)";
-    if (!f.cal_cyclic.empty()) {
-      const auto& a = f.cal_cyclic.front();
-      const auto& b = f.cal_cyclic.back();
-      dem += fmt::format("; measured (cyclic biaxial): ξ = {:.1f} % at γ = {:.2g} … {:.1f} % at "
-                         "γ = {:.2g}",
-                         100 * a.xi, a.gamma, 100 * b.xi, b.gamma);
-    }
-    std::string cont;
-    const bool viscous = co.rayleigh_alpha > 0.0 || co.rayleigh_beta > 0.0;
-    // calibrate = "dem" sets α, β from the DEM's small-strain ξ0 (compare::apply_calibration)
-    const std::string* rayleigh = provenance(c, "continuum.rayleigh");
-    cont = viscous ? fmt::format("Rayleigh α = {} /s, β = {} s{}", g3(co.rayleigh_alpha),
-                                 g3(co.rayleigh_beta),
-                                 rayleigh ? " (calibrated — " + *rayleigh + ")" : std::string())
-                   : "no Rayleigh damping (α = β = 0)";
-    if (co.local_damping > 0.0 && co.integrator == "explicit")
-      cont += fmt::format("; local damping α_L = {}", g3(co.local_damping));
-    if (co.absorbing) cont += "; Lysmer dashpots on the unconstrained boundary components";
-    cont += mc ? "; plastic dissipation once Mohr–Coulomb yields" : "; elastic: no plastic work";
-    std::string why;
-    if (!viscous && co.local_damping <= 0.0)
-      why = mc ? "Below yield the continuum dissipates nothing; the DEM dissipates by sliding at "
-                 "every amplitude."
-               : "The continuum dissipates nothing at all.";
-    else if (viscous)
-      why = "Both dissipate, by different mechanisms: the continuum's Rayleigh damping is "
-            "viscous (frequency-dependent, the same at every amplitude), the DEM's friction "
-            "grows with the strain amplitude.";
-    else
-      why = "Both dissipate, by different mechanisms (local non-viscous against frictional).";
-    if (!f.cal_cyclic.empty() && !rayleigh)
-      why += " The calibration's ξ(γ) is measured but not used by the continuum.";
-    rows.push_back({"damping", dem, cont, why, false});
+        fmt::format("; surface: mean column top {} m; mass {} kg per m thickness; the "
+                    "calibration's mass-matched surface {} m{}",
+                    g4(f.cal_surface_top_mean), g4(f.cal_soil_mass), g4(f.cal_surface),
+                    std::abs(f.cal_surface - dom.z1) < tol ? " (capped at the domain's top)" : "");
+  // The continuum soil: the domain below the surface without the structures' cells
+  // (continuum/run/run.cpp; a structure's part inside the domain's bounding box).
+  const double top = c.surface.value_or(dom.z1);
+  double soil = area(clip(s.domain, 0.0, 1.0, top));
+  for (const auto& st : s.structures) {
+    auto q = clip(st.outline, 0.0, 1.0, std::min(top, dom.z1));
+    q = clip(clip(clip(q, 0.0, -1.0, -dom.z0), 1.0, 0.0, dom.x1), -1.0, 0.0, -dom.x0);
+    soil -= area(q);
   }
-
-  // 7. excitation (dem/src/engine.cpp integrate: m·a on particles only; continuum: ρ·a on soil)
-  {
-    std::string both = "gravity g = " + g3(g) + " m/s²";
-    std::string dem = both, cont = both;
-    if (s.load.shaking) {
-      const auto& sh = *s.load.shaking;
-      dem += fmt::format("; body force m·a(t) on every particle, a_{} = {} m/s²; walls and "
-                         "structures are not shaken",
-                         sh.direction, sh.acceleration.describe());
-      cont += fmt::format("; body force ρ·a(t) on the soil cells, the same a_{}(t), in the frame "
-                          "of the fixed base; structures are not shaken",
-                          sh.direction);
-    } else {
-      dem += "; no shaking";
-      cont += "; no shaking";
-    }
-    bool loads = false;
-    for (const auto& st : s.structures)
-      if (!zero_function(st.force_x) || !zero_function(st.force_z) || !zero_function(st.moment))
-        loads = true;
-    if (loads) {
-      dem += "; structure loads at their load points";
-      cont += "; structure loads as body forces with the same resultant and moment";
-    }
-    rows.push_back({"excitation", dem, cont,
-                    "The same input: differences in response are the models', not the loading's.",
-                    true});
+  const double mass = c.density * d.thickness * std::max(0.0, soil);
+  std::string cont = fmt::format("{}: z ≤ {} m, ρ = {} kg/m³; mass {} kg per m thickness",
+                                 c.surface ? "domain polygon below soil.continuum.surface"
+                                           : "the whole domain polygon",
+                                 g4(top), g4(c.density), g4(mass));
+  bool matched = false;
+  std::string why;
+  if (f.calibration && f.cal_soil_mass > 0.0 && f.cal_bulk_density > 0.0) {
+    // Matched: the same density and, in the continuum's actual soil (domain below the surface
+    // without the structures), the DEM's soil mass within 1 %.
+    const double ratio = mass / f.cal_soil_mass;
+    const bool same_density = std::abs(c.density - f.cal_bulk_density) <= 1e-3 * f.cal_bulk_density;
+    matched = same_density && std::abs(ratio - 1.0) <= 0.01;
+    why = matched ? fmt::format("Same density, and the same soil mass to within 1 % "
+                                "(continuum/DEM {:.4f}): the static loads (weight, thrust at "
+                                "rest) start from the same soil.",
+                                ratio)
+                  : fmt::format("Continuum soil mass {:.3f} × the DEM's (surface {} m against "
+                                "the bed's mass-matched {} m, density {} against {} kg/m³): "
+                                "the at-rest loads differ accordingly.",
+                                ratio, g4(top), g4(f.cal_surface), g4(c.density),
+                                g4(f.cal_bulk_density));
+  } else {
+    why = "No calibration in this run: the DEM bed's surface and density were not measured, so "
+          "mass and height are not matched (soil.continuum.calibrate = \"dem\" matches them).";
   }
+  rows.push_back({"soil surface, density and mass", dem, cont, why, matched});
+}
 
-  // 8. friction changes during the run (set-friction events) and walls that open
+// The initial stress: the deposited bed's own against the continuum's geostatic K0.
+void initial_stress(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  const double k0 = cst::soil_k0(c);
+  const std::string src = calibrated(c, "k0") ? "calibrated: the DEM bed's"
+                          : given(c, "k0")    ? "stated in the scene"
+                          : c.k0 >= 0.0       ? "set"
+                                              : "Jaky 1 − sin φ (no k0 given)";
+  std::string dem = !d.particles.empty() ? "the listed particles' initial state (no deposition)"
+                    : d.packing.target_porosity
+                        ? "the deposited bed's own stresses (deposition under gravity "
+                          "at raised friction, then the scene's friction, settled)"
+                        : "the deposited bed's own stresses (deposition under gravity)";
+  if (f.calibration)
+    dem += fmt::format("; K0 = σ_xx/σ_zz = {:.3f} (Love–Weber stress, away from walls)", f.cal_k0);
+  const std::string cont =
+      fmt::format("geostatic: σ_zz = −ρ g depth, σ_xx = K0 σ_zz with K0 = {:.3f} ({}), then "
+                  "an equilibrium correction",
+                  k0, src);
+  const bool matched = f.calibration && std::abs(k0 - f.cal_k0) <= 5e-4;
+  rows.push_back({"initial stress", dem, cont,
+                  matched ? "Same lateral stress ratio at rest: static thrusts comparable."
+                  : f.calibration
+                      ? fmt::format("K0 {:.3f} against the bed's {:.3f}: static lateral "
+                                    "stresses differ by that ratio.",
+                                    k0, f.cal_k0)
+                      : "The bed's K0 was not measured (no calibration): the static lateral "
+                        "stresses need not agree.",
+                  matched});
+}
+
+// The continuum's box sides (continuum/fem/fem.hpp Problem: left/right rollers, bottom fixed,
+// top free; box conditions skip structure dofs), each with the DEM walls that lie on it.
+struct BoxSide {
+  const char* name;
+  const char* continuum;
+  bool (*on)(const scene::Wall&, const Box&, double);
+};
+const BoxSide kBoxSides[] = {
+    {"base", "fixed: u = 0 (fully rough, no sliding or lift-off)",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.z - b.z0) < t; });
+     }},
+    {"left side", "roller: u_x = 0, frictionless, no separation",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.x - b.x0) < t; });
+     }},
+    {"right side", "roller: u_x = 0, frictionless, no separation",
+     [](const scene::Wall& w, const Box& b, double t) {
+       return std::all_of(w.points.begin(), w.points.end(),
+                          [&](const scene::Vec2& q) { return std::abs(q.x - b.x1) < t; });
+     }},
+};
+
+// One side of the box: the DEM's walls on it (marked in `used`) against the continuum's condition.
+void box_side(const DiffContext& x, const BoxSide& side, std::vector<bool>& used,
+              std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  const bool right = std::string(side.name) == "right side";
+  const bool left = std::string(side.name) == "left side";
+  // A structure at the mesh's edge takes that side's dofs (box conditions skip them).
+  const scene::Structure* edge = nullptr;
+  for (const auto& st : s.structures) {
+    const auto b = scene::bounds(st.outline);
+    if ((right && std::abs(b.x1 - mesh.x1) < tol && b.x0 >= dom.x1 - tol) ||
+        (left && std::abs(b.x0 - mesh.x0) < tol && b.x1 <= dom.x0 + tol))
+      edge = &st;
+  }
+  std::string dem;
+  double mu = 0.0, mu_d = 0.0;
+  bool any = false;
+  for (std::size_t k = 0; k < s.walls.size(); ++k)
+    if (side.on(s.walls[k], dom, tol)) {
+      used[k] = true;
+      any = true;
+      dem += fmt::format(
+          "{}frictional wall '{}': {}{}", dem.empty() ? "" : "; ", s.walls[k].name,
+          boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d, &mu, &mu_d),
+          s.walls[k].opens_at ? fmt::format(", removed at t = {} s", g3(*s.walls[k].opens_at))
+                              : "");
+    }
+  if (!any && edge) return; // the structure row covers it
+  if (!any) dem = "no wall";
+  std::string cont =
+      edge ? fmt::format("structure '{}' (see structure faces)", edge->name) : side.continuum;
+  std::string why;
+  bool matched = false;
+  // continuum.interface = "coulomb" (continuum/run/run.cpp): the wall is a zero-thickness
+  // Coulomb contact plane with the DEM's μ (continuum/README.md)
+  const bool coulomb = co.interface == "coulomb" && any && !edge;
+  if (coulomb) {
+    cont = fmt::format("Coulomb contact plane (continuum.interface = \"coulomb\"): zero "
+                       "thickness, μ_s {} / μ_D {}, slides and separates",
+                       g3(mu), g3(mu_d));
+    why = "Matched: the same wall friction; the soil slides on the wall at μ_D once μ_s is "
+          "exceeded and leaves it when pulled, as the DEM particles do.";
+    matched = true;
+  } else if (!any && !edge) {
+    why = "The DEM soil has no wall on this side; the continuum's is held there.";
+  } else if (std::string(side.name) == "base") {
+    why = "The DEM bed can slide on its base and lift off it; the continuum cannot.";
+    if (s.load.shaking && s.load.shaking->direction == 'x' && any) {
+      // Rigid block on a Coulomb base: it starts sliding when |a| > μ_s g and keeps sliding
+      // while |a| > μ_D g (Newmark 1965 sliding block).
+      const double a = peak(s.load.shaking->acceleration, s.info.duration);
+      why += fmt::format(" Peak shaking {} m/s² against μ_s g = {} and μ_D g = {} m/s²: {}.", g3(a),
+                         g3(mu * g), g3(mu_d * g),
+                         a > mu * g     ? "the DEM bed can slide on its base"
+                         : a > mu_d * g ? "the DEM bed cannot start sliding on its base"
+                                        : "no sliding on the base");
+    }
+  } else {
+    matched = any && mu == 0.0 && !edge;
+    why = matched ? "Both frictionless (the DEM wall can still separate from the soil)."
+          : edge  ? "See structure faces."
+                  : "Shear stress along this side: carried by the DEM wall's friction, zero "
+                    "on the continuum's roller.";
+  }
+  rows.push_back({std::string("boundary: ") + side.name, dem, cont, why, matched});
+}
+
+// The boundaries: the continuum's box against the DEM's [[wall]]s, side by side, then the DEM
+// walls on no side of the box.
+void boundaries(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& s = x.s;
+  const auto& d = x.d;
+  std::vector<bool> used(s.walls.size(), false);
+  for (const auto& side : kBoxSides) box_side(x, side, used, rows);
+  std::string other;
+  for (std::size_t k = 0; k < s.walls.size(); ++k)
+    if (!used[k])
+      other += fmt::format("{}'{}' ({})", other.empty() ? "" : "; ", s.walls[k].name,
+                           boundary_friction(s.walls[k].mu_static, s.walls[k].mu_dynamic, d));
+  if (!other.empty())
+    rows.push_back({"boundary: other walls", "frictional walls " + other,
+                    "no counterpart: the soil's edge there is the domain polygon's "
+                    "(stair-stepped, free)",
+                    "The DEM soil leans on these walls; the continuum's does not.", false});
+}
+
+// The structure faces (continuum/run/run.cpp: tied rigid bodies, or the thin frictional layer)
+void structure_faces(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  if (s.structures.empty()) return;
+  std::string dem;
+  for (const auto& st : s.structures)
+    dem += fmt::format("{}'{}': {}", dem.empty() ? "" : "; ", st.name,
+                       boundary_friction(st.mu_static, st.mu_dynamic, d));
+  dem = "rigid bodies with frictional contacts that slide and open: " + dem;
+  std::string cont, why;
+  bool matched = false;
+  const double h = f.continuum.h_min > 0.0 ? f.continuum.h_min : 0.0;
+  if (co.interface == "coulomb") {
+    // continuum/run/run.cpp: structures with every DoF fixed are unmeshed Coulomb contact
+    // bodies; moving structures too unless continuum.structure_interface = "tied"
+    std::string at_rest, moving;
+    for (const auto& st : s.structures) {
+      const bool fixed = (st.dof_x == scene::DofMode::Fixed && st.dof_z == scene::DofMode::Fixed &&
+                          st.dof_rotation == scene::DofMode::Fixed) ||
+                         co.structure_interface == "contact";
+      std::string& list = fixed ? at_rest : moving;
+      list += fmt::format("{}'{}'", list.empty() ? "" : ", ", st.name);
+    }
+    if (!at_rest.empty())
+      cont = fmt::format("{}: zero-thickness Coulomb contact with the DEM's μ (not meshed; "
+                         "continuum.interface = \"coulomb\"), slides and separates",
+                         at_rest);
+    if (!moving.empty())
+      cont += fmt::format("{}{}: rigid bodies tied to the soil and seated (the soil carries "
+                          "their weight, as the DEM bed does; continuum.structure_interface = "
+                          "\"tied\"; \"contact\" makes them seated Coulomb contact bodies)",
+                          cont.empty() ? "" : "; ", moving);
+    matched = moving.empty();
+    why = matched ? "Matched: zero-thickness contact with the same μ_s/μ_D, sliding and "
+                    "separation."
+                  : "The moving structures' faces are still bonded to the soil; the DEM's "
+                    "slide and open at μ.";
+  } else if (co.interface == "frictional") {
+    const double mu = std::tan(co.interface_friction_angle);
+    cont = fmt::format(
+        "rigid bodies; the soil cells touching them form a Mohr–Coulomb layer one cell thick{} "
+        "with δ = {} (tan δ = {:.3f}; layer φ_l = asin(tan δ)), c = 0, ψ = 0",
+        h > 0.0 ? fmt::format(" (≈ {} m)", g3(h)) : std::string(), deg(co.interface_friction_angle),
+        mu);
+    why = fmt::format("A layer, not a zero-thickness contact: its thickness changes with the "
+                      "mesh, it cannot open, and its one δ stands for the DEM's μ_s/μ_D "
+                      "(tan δ {:.3f} against μ_D {}).",
+                      mu, g3(d.mu_dynamic));
+  } else {
+    cont = "rigid bodies tied to the soil (continuum.interface = \"tied\"): no slip, no "
+           "separation — an infinitely rough, bonded face";
+    why = "The continuum's soil cannot slide along or separate from a structure; the DEM's "
+          "does at μ. Wall friction and active wedges differ accordingly.";
+  }
+  rows.push_back({"boundary: structure faces", dem, cont, why, matched});
+}
+
+// Damping (dem/src/engine.cpp: C, D global damping; contact law; continuum/run/run.cpp)
+void damping(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  std::string dem = "Coulomb sliding at contacts (μ_D) at every amplitude";
+  if (d.law == scene::ContactLaw::CundallRebound)
+    dem += fmt::format("; rebound K = {} only at impacts faster than V_0 = {} m/s (slower "
+                       "contacts are elastic; dem/contact_laws.hpp)",
+                       g3(d.rebound), g3(d.rebound_speed));
+  else if (d.law == scene::ContactLaw::CundallDashpot)
+    dem += "; contact dashpots";
+  else if (d.law == scene::ContactLaw::LinearRestitution)
+    dem += fmt::format("; restitution e = {}", g3(d.restitution));
+  dem +=
+      d.damping_c > 0.0 || d.damping_d > 0.0
+          ? fmt::format("; global damping C = {} /s, D = {} /s", g3(d.damping_c), g3(d.damping_d))
+          : "; no global damping (soil.dem.damping_c = damping_d = 0)";
+  if (!f.cal_cyclic.empty()) {
+    const auto& a = f.cal_cyclic.front();
+    const auto& b = f.cal_cyclic.back();
+    dem += fmt::format("; measured (cyclic biaxial): ξ = {:.1f} % at γ = {:.2g} … {:.1f} % at "
+                       "γ = {:.2g}",
+                       100 * a.xi, a.gamma, 100 * b.xi, b.gamma);
+  }
+  std::string cont;
+  const bool viscous = co.rayleigh_alpha > 0.0 || co.rayleigh_beta > 0.0;
+  // calibrate = "dem" sets α, β from the DEM's small-strain ξ0 (compare::apply_calibration)
+  const std::string* rayleigh = provenance(c, "continuum.rayleigh");
+  cont = viscous ? fmt::format("Rayleigh α = {} /s, β = {} s{}", g3(co.rayleigh_alpha),
+                               g3(co.rayleigh_beta),
+                               rayleigh ? " (calibrated — " + *rayleigh + ")" : std::string())
+                 : "no Rayleigh damping (α = β = 0)";
+  if (co.local_damping > 0.0 && co.integrator == "explicit")
+    cont += fmt::format("; local damping α_L = {}", g3(co.local_damping));
+  if (co.absorbing) cont += "; Lysmer dashpots on the unconstrained boundary components";
+  cont += mc ? "; plastic dissipation once Mohr–Coulomb yields" : "; elastic: no plastic work";
+  std::string why;
+  if (!viscous && co.local_damping <= 0.0)
+    why = mc ? "Below yield the continuum dissipates nothing; the DEM dissipates by sliding at "
+               "every amplitude."
+             : "The continuum dissipates nothing at all.";
+  else if (viscous)
+    why = "Both dissipate, by different mechanisms: the continuum's Rayleigh damping is "
+          "viscous (frequency-dependent, the same at every amplitude), the DEM's friction "
+          "grows with the strain amplitude.";
+  else
+    why = "Both dissipate, by different mechanisms (local non-viscous against frictional).";
+  if (!f.cal_cyclic.empty() && !rayleigh)
+    why += " The calibration's ξ(γ) is measured but not used by the continuum.";
+  rows.push_back({"damping", dem, cont, why, false});
+}
+
+// The excitation (dem/src/engine.cpp integrate: m·a on particles only; continuum: ρ·a on soil)
+void excitation(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  std::string both = "gravity g = " + g3(g) + " m/s²";
+  std::string dem = both, cont = both;
+  if (s.load.shaking) {
+    const auto& sh = *s.load.shaking;
+    dem += fmt::format("; body force m·a(t) on every particle, a_{} = {} m/s²; walls and "
+                       "structures are not shaken",
+                       sh.direction, sh.acceleration.describe());
+    cont += fmt::format("; body force ρ·a(t) on the soil cells, the same a_{}(t), in the frame "
+                        "of the fixed base; structures are not shaken",
+                        sh.direction);
+  } else {
+    dem += "; no shaking";
+    cont += "; no shaking";
+  }
+  bool loads = false;
+  for (const auto& st : s.structures)
+    if (!zero_function(st.force_x) || !zero_function(st.force_z) || !zero_function(st.moment))
+      loads = true;
+  if (loads) {
+    dem += "; structure loads at their load points";
+    cont += "; structure loads as body forces with the same resultant and moment";
+  }
+  rows.push_back({"excitation", dem, cont,
+                  "The same input: differences in response are the models', not the loading's.",
+                  true});
+}
+
+// Friction changes during the run (set-friction events).
+void friction_changes(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
   for (const auto& ev : s.events) {
     if (ev.action != scene::EventAction::SetFriction) continue;
     const bool same = ev.mu_static == d.mu_static && ev.mu_dynamic == d.mu_dynamic;
@@ -715,8 +762,11 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
                 "continuum's calibration) was made with.",
          same});
   }
+}
 
-  // 9. structure placement (packing seat vs continuum offsets and seating stage)
+// Each structure's placement (packing seat vs continuum offsets and seating stage)
+void placements(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
   for (const auto& st : s.structures) {
     double dem_dz = 0.0;
     bool dem_known = f.packing || f.calibration;
@@ -755,68 +805,94 @@ std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& 
                                 : "The structure starts at a different height in the two models.",
                     matched});
   }
+}
 
-  // 10. time integration
-  {
-    std::string dem = "explicit symplectic Euler";
-    if (f.dem.present)
-      dem += fmt::format(", Δt = {} s ({}), {} steps", g3(f.dem.dt),
-                         d.dt > 0.0 ? "soil.dem.dt"
-                                    : fmt::format("{} × the stable limit", g3(d.dt_safety)),
-                         f.dem.steps);
-    else
-      dem += d.dt > 0.0 ? fmt::format(", Δt = {} s", g3(d.dt))
-                        : fmt::format(", Δt = {} × the stable limit", g3(d.dt_safety));
-    std::string cont;
-    const std::string integ = f.continuum.present && !f.continuum.integrator.empty()
-                                  ? f.continuum.integrator
-                                  : co.integrator;
-    if (integ == "explicit")
-      cont = fmt::format("explicit central differences, lumped mass{}",
-                         f.continuum.present
-                             ? fmt::format(", Δt = {} s ({}), {} steps", g3(f.continuum.dt),
-                                           co.dt > 0.0 ? "continuum.dt"
-                                                       : fmt::format("{} × the critical step",
-                                                                     g3(co.explicit_safety)),
-                                           f.continuum.substeps)
-                             : std::string());
-    else
-      cont = fmt::format("implicit Newmark β = {}, γ = {}, Newton{}", g3(co.newmark_beta),
-                         g3(co.newmark_gamma),
-                         f.continuum.present ? fmt::format(", Δt = {} s, {} steps",
-                                                           g3(f.continuum.dt), f.continuum.steps)
-                                             : std::string());
-    rows.push_back({"time integration", dem, cont,
-                    "Each solver is stable at its own step; their convergence is measured by "
-                    "'demfem study error-vs-time' on scenes with closed forms.",
-                    false});
-  }
+// Time integration.
+void time_integration(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  std::string dem = "explicit symplectic Euler";
+  if (f.dem.present)
+    dem += fmt::format(", Δt = {} s ({}), {} steps", g3(f.dem.dt),
+                       d.dt > 0.0 ? "soil.dem.dt"
+                                  : fmt::format("{} × the stable limit", g3(d.dt_safety)),
+                       f.dem.steps);
+  else
+    dem += d.dt > 0.0 ? fmt::format(", Δt = {} s", g3(d.dt))
+                      : fmt::format(", Δt = {} × the stable limit", g3(d.dt_safety));
+  std::string cont;
+  const std::string integ = f.continuum.present && !f.continuum.integrator.empty()
+                                ? f.continuum.integrator
+                                : co.integrator;
+  if (integ == "explicit")
+    cont = fmt::format("explicit central differences, lumped mass{}",
+                       f.continuum.present
+                           ? fmt::format(", Δt = {} s ({}), {} steps", g3(f.continuum.dt),
+                                         co.dt > 0.0 ? "continuum.dt"
+                                                     : fmt::format("{} × the critical step",
+                                                                   g3(co.explicit_safety)),
+                                         f.continuum.substeps)
+                           : std::string());
+  else
+    cont = fmt::format("implicit Newmark β = {}, γ = {}, Newton{}", g3(co.newmark_beta),
+                       g3(co.newmark_gamma),
+                       f.continuum.present ? fmt::format(", Δt = {} s, {} steps",
+                                                         g3(f.continuum.dt), f.continuum.steps)
+                                           : std::string());
+  rows.push_back({"time integration", dem, cont,
+                  "Each solver is stable at its own step; their convergence is measured by "
+                  "'demfem study error-vs-time' on scenes with closed forms.",
+                  false});
+}
 
-  // 11. resolution
-  {
-    const double dm = mean_diameter(d);
-    const double H = (f.calibration ? f.cal_surface : c.surface.value_or(dom.z1)) - dom.z0;
-    std::string dem = fmt::format("{} disks, mean diameter {} m ({:.0f} across the soil's {} m "
-                                  "height)",
-                                  d.count, g3(dm), dm > 0.0 ? H / dm : 0.0, g3(H));
-    std::string cont;
-    const int deg_ = f.continuum.degree > 0 ? f.continuum.degree : co.degree;
-    const int ref = f.continuum.refinement >= 0 ? f.continuum.refinement : co.refinement;
-    cont = fmt::format("Q{} elements, refinement {}", deg_, ref);
-    if (f.continuum.present && f.continuum.h_max > 0.0)
-      cont += fmt::format(
-          ": cells {}{} m ({:.0f} over the height), {} cells, {} dofs", g3(f.continuum.h_min),
-          f.continuum.h_max > f.continuum.h_min * (1 + 1e-9) ? "–" + g3(f.continuum.h_max)
-                                                             : std::string(),
-          H / f.continuum.h_max, f.continuum.cells, f.continuum.dofs);
-    std::string why = "The DEM resolves grains and force chains; the continuum smooths over its "
-                      "cells.";
-    if (f.kernel_width > 0.0)
-      why += fmt::format(" DEM fields are coarse-grained with a kernel of support radius {} m "
-                         "({:.1f} mean diameters) before they are compared.",
-                         g3(f.kernel_width), dm > 0.0 ? f.kernel_width / dm : 0.0);
-    rows.push_back({"resolution", dem, cont, why, false});
-  }
+// Resolution.
+void resolution(const DiffContext& x, std::vector<DiffRow>& rows) {
+  const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
+  const double dm = mean_diameter(d);
+  const double H = (f.calibration ? f.cal_surface : c.surface.value_or(dom.z1)) - dom.z0;
+  std::string dem = fmt::format("{} disks, mean diameter {} m ({:.0f} across the soil's {} m "
+                                "height)",
+                                d.count, g3(dm), dm > 0.0 ? H / dm : 0.0, g3(H));
+  std::string cont;
+  const int deg_ = f.continuum.degree > 0 ? f.continuum.degree : co.degree;
+  const int ref = f.continuum.refinement >= 0 ? f.continuum.refinement : co.refinement;
+  cont = fmt::format("Q{} elements, refinement {}", deg_, ref);
+  if (f.continuum.present && f.continuum.h_max > 0.0)
+    cont += fmt::format(
+        ": cells {}{} m ({:.0f} over the height), {} cells, {} dofs", g3(f.continuum.h_min),
+        f.continuum.h_max > f.continuum.h_min * (1 + 1e-9) ? "–" + g3(f.continuum.h_max)
+                                                           : std::string(),
+        H / f.continuum.h_max, f.continuum.cells, f.continuum.dofs);
+  std::string why = "The DEM resolves grains and force chains; the continuum smooths over its "
+                    "cells.";
+  if (f.kernel_width > 0.0)
+    why += fmt::format(" DEM fields are coarse-grained with a kernel of support radius {} m "
+                       "({:.1f} mean diameters) before they are compared.",
+                       g3(f.kernel_width), dm > 0.0 ? f.kernel_width / dm : 0.0);
+  rows.push_back({"resolution", dem, cont, why, false});
+}
+} // namespace
+
+std::vector<DiffRow> model_differences(const scene::Scene& s, const ModelFacts& f) {
+  std::vector<DiffRow> rows;
+  if (!s.soil.dem || !s.soil.continuum) return rows;
+  const auto& c = *s.soil.continuum;
+  const Box mesh = box_of(s, true);
+  const DiffContext x{.s = s,
+                      .f = f,
+                      .d = *s.soil.dem,
+                      .c = c,
+                      .co = s.continuum,
+                      .mc = mohr_coulomb(c),
+                      .g = s.load.gravity,
+                      .dom = box_of(s, false),
+                      .mesh = mesh,
+                      .tol = 1e-6 * std::max(1.0, std::max(mesh.x1 - mesh.x0, mesh.z1 - mesh.z0))};
+  // one writer per aspect, in the report's order
+  using Aspect = void (*)(const DiffContext&, std::vector<DiffRow>&);
+  for (const Aspect aspect :
+       {soil_model, surface_and_mass, initial_stress, boundaries, structure_faces, damping,
+        excitation, friction_changes, placements, time_integration, resolution})
+    aspect(x, rows);
   return rows;
 }
 
@@ -900,25 +976,31 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
         prov = "default";
       rows.push_back({"continuum", std::string("soil.continuum.") + key, v, prov});
     };
-    rows.push_back({"continuum", "soil.continuum.model",
-                    scene::keyword(scene::kContinuumModelNames, c.model), "scene (" + file + ")"});
-    add("young", pa(c.young));
-    if (c.modulus_exponent != 0.0) {
-      add("modulus_exponent", g3(c.modulus_exponent));
-      if (c.modulus_reference_stress)
-        add("modulus_reference_stress", pa(*c.modulus_reference_stress));
+    rows.push_back(
+        {"continuum", "soil.continuum.model", cst::soil_model(c).keyword, "scene (" + file + ")"});
+    const auto& el = cst::elastic_block(c);
+    const auto& st = cst::strength_block(c);
+    add("young", pa(el.young));
+    if (el.modulus_exponent != 0.0) {
+      add("modulus_exponent", g3(el.modulus_exponent));
+      if (!std::isnan(el.modulus_reference_stress))
+        add("modulus_reference_stress", pa(el.modulus_reference_stress));
     }
-    add("poisson", fmt::format("{:.3f}", c.poisson));
-    if (c.model == scene::ContinuumModel::MohrCoulomb) {
-      add("friction_angle", deg(c.friction_angle));
-      add("cohesion", pa(c.cohesion));
-      add("dilation_angle", deg(c.dilation_angle));
-      if (c.dilation_cutoff) add("dilation_cutoff", g3(*c.dilation_cutoff));
+    add("poisson", fmt::format("{:.3f}", el.poisson));
+    if (mohr_coulomb(c)) {
+      add("friction_angle", deg(st.friction_angle));
+      add("cohesion", pa(st.cohesion));
+      add("dilation_angle", deg(st.dilation_angle));
+      if (!std::isnan(st.dilation_cutoff)) add("dilation_cutoff", g3(st.dilation_cutoff));
+    } else if (!soil_is(c, cst::Elastic::keyword)) { // another model: the keys of its blocks
+      for (const auto& p : scene::describe(cst::soil_model(c)))
+        if (p.key != "young" && p.key != "poisson" && p.key.rfind("modulus_", 0) != 0)
+          add(p.key.c_str(), p.value);
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
-    add("k0", c.k0 >= 0.0 ? fmt::format("{:.3f}", c.k0)
-                          : fmt::format("{:.3f} (Jaky 1 − sin φ)",
-                                        continuum::constitutive::jaky_k0(c.friction_angle)));
+    add("k0", c.k0 >= 0.0
+                  ? fmt::format("{:.3f}", c.k0)
+                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::jaky_k0(st.friction_angle)));
     add("surface", c.surface ? g4(*c.surface) + " m" : std::string("(none: the domain's top)"));
     for (const auto& [name, dz] : c.structure_offsets) {
       const std::string key = "structure." + name + ".base";

@@ -9,9 +9,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "demfem/compare/calibrate.hpp"
-#include "demfem/compare/error_study.hpp"
-#include "html.hpp"
+#include "demfem/calibrate/calibrate.hpp"
+#include "demfem/compare/html.hpp"
+#include "demfem/dem/verification.hpp"
 
 namespace fs = std::filesystem;
 
@@ -240,7 +240,7 @@ std::string parameters_section(const fs::path& run_dir, const std::vector<ParamR
                      "peaks alone give φ / c = {} (the realisation spread one specimen would "
                      "carry).</p>\n",
                      f.cal_phi_fit, f.cal_cohesion_fit / 1e3,
-                     h(specimen_fits_text(f.cal_specimen_fits)));
+                     h(calibrate::specimen_fits_text(f.cal_specimen_fits)));
   if (!f.cal_cyclic.empty()) {
     o += fmt::format("<table><tr><th colspan=\"3\">cyclic biaxial at σ_c = {:.4g} kPa</th></tr>"
                      "<tr><th>γ</th><th>G [MPa]</th><th>ξ [%]</th></tr>\n",
@@ -289,7 +289,7 @@ std::string studies_section(const fs::path& run_dir, const std::vector<StudyLink
        h(stab) + "</code> (writes <code>" + h(where + "stability" + sub) +
        "/study.html</code>, which this report then links). ";
   std::string evt = "demfem study error-vs-time " + shell_quote(scene->source_file) + var;
-  if (head_on_closed_form(*scene))
+  if (dem::head_on_closed_form(*scene))
     o += "Error against run time (against the closed form): <code>" + h(evt) + "</code>.</p>\n";
   else
     o += "Error against run time, each solver against its most resolved run (this scene has no "

@@ -1,7 +1,7 @@
 #include "demfem/compare/series.hpp"
-#include "gnuplot_run.hpp"
-#include "out_file.hpp"
-#include "raster.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
+#include "demfem/compare/out_file.hpp"
+#include "demfem/compare/raster.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -21,6 +21,7 @@
 #include <vtkXMLPolyDataReader.h>
 
 #include "demfem/compare/plot.hpp"
+#include "demfem/output/contract.hpp"
 
 namespace demfem::compare {
 
@@ -159,14 +160,14 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
                                      std::size_t max_chains) {
   SnapshotSeries res;
   res.requested = series_times(scene);
-  const fs::path dem = run_dir / "dem";
-  const auto parts = read_pvd(dem / "particles.pvd");
+  const fs::path dem = run_dir / output::dir::dem;
+  const auto parts = read_pvd(dem / output::file::particles_pvd);
   if (parts.empty()) {
     res.problems.push_back("snapshot series: no dem/particles.pvd (output.vtk off?)");
     return res;
   }
-  const auto chains = read_pvd(dem / "force_chains.pvd");
-  const auto bounds = read_pvd(dem / "boundaries.pvd");
+  const auto chains = read_pvd(dem / output::file::force_chains_pvd);
+  const auto bounds = read_pvd(dem / output::file::boundaries_pvd);
   // Nearest snapshot to each requested time (a snapshot is drawn once).
   std::vector<std::size_t> picks;
   for (double t : res.requested) {
@@ -230,11 +231,11 @@ SnapshotSeries write_snapshot_series(const scene::Scene& scene, const fs::path& 
   CsvTable loci;
   try {
     std::error_code ec;
-    if (fs::exists(dem / "loci.csv", ec)) loci = read_csv(dem / "loci.csv");
+    if (fs::exists(dem / output::file::loci, ec)) loci = read_csv(dem / output::file::loci);
   } catch (const std::exception& e) {
     res.problems.push_back(std::string("snapshot series: loci.csv: ") + e.what());
   }
-  const auto lt = loci.column("time");
+  const auto lt = loci.column(output::col::time.name);
 
   constexpr int kClasses = 4;   // chain widths by |f_n| / max over the strip
   std::size_t chains_total = 0; // the most in a panel

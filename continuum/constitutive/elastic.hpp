@@ -6,11 +6,19 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 
 #include "seam.hpp"
 
+namespace demfem::scene {
+class ParamVisitor;
+struct ModelChoice;
+struct ModelEntry;
+} // namespace demfem::scene
+
 namespace demfem::continuum::constitutive {
+
+// An optional parameter that is not set (a parameter block's NaN, scene/params.hpp).
+inline constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
 
 // Isotropic elastic constants.
 struct Hooke {
@@ -75,15 +83,20 @@ struct Elasticity {
 // modulus.
 struct Elastic {
   static constexpr const char* keyword = "elastic";
-  // The parameter block (soil.continuum keys).
+  // The parameter block of the elasticity (soil.continuum keys; also Mohr–Coulomb's).
   struct Parameters {
+    static constexpr const char* kName = "elastic";
     double young = 3.0e7; // E at p_ref [Pa]
     double poisson = 0.3;
     // E = young (p/p_ref)^modulus_exponent (StressDependentModulus); exponent 0: uniform
     double modulus_exponent = 0.0;
-    std::optional<double> modulus_reference_stress; // p_ref [Pa]
-    std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
+    double modulus_reference_stress = kUnset; // p_ref [Pa]
+    double modulus_min_stress = kUnset;       // [Pa]; unset: p_ref / 100
+    void fields(scene::ParamVisitor& v);
     [[nodiscard]] Elasticity elasticity() const;
+    [[nodiscard]] bool stress_dependent() const {
+      return modulus_exponent != 0.0 && !std::isnan(modulus_reference_stress);
+    }
   };
   struct Internal {
     ElasticStrain ee; // elastic strain (= total strain since the point's stress-free state)
@@ -93,6 +106,9 @@ struct Elastic {
 
   explicit Elastic(const Parameters& p) : el(p.elasticity()) {}
   explicit Elastic(const Hooke& h) { el.hooke = h; }
+  // The registry's entry (keyword, summary, blocks) and the model of a scene's choice.
+  static scene::ModelEntry entry();
+  static Elastic from(const scene::ModelChoice& choice);
 
   [[nodiscard]] const Elasticity& elasticity() const { return el; }
   [[nodiscard]] bool symmetric_tangent() const { return true; }

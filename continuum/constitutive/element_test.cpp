@@ -52,8 +52,17 @@ ElementTest::ElementTest(Material model, State s) : point_(Plane{std::move(model
   history_.push_back(sample_of(Components{{0.0, 0.0, 0.0, 0.0}}));
 }
 
-ElementTest::ElementTest(Hypoplastic model, const hypoplastic::PointState& s)
-    : point_(Free{std::move(model), s}) {
+namespace {
+const Hypoplastic& hypoplastic_of(const Material& m) {
+  if (const auto* h = m.get_if<Hypoplastic>()) return *h;
+  throw std::invalid_argument(std::string("element test: a free out-of-plane strain needs a "
+                                          "hypoplastic point, not ") +
+                              m.keyword());
+}
+} // namespace
+
+ElementTest::ElementTest(const Material& model, const hypoplastic::PointState& s)
+    : point_(Free{hypoplastic_of(model), s}) {
   history_.push_back(sample_of(Components{{0.0, 0.0, 0.0, 0.0}}));
 }
 

@@ -2,12 +2,13 @@
 // (isotropic and oedometric compression, biaxial and triaxial compression, simple shear, their
 // cyclic and undrained variants), for the verification of the models and for calibration.
 //
-// A point is either a plane-strain point of any registered model (εyy = 0, σyy carried: what the
-// continuum's integration points see) or a hypoplastic point whose out-of-plane strain is free
-// (the 3D-consistent isotropic and triaxial paths). Each leg of a path runs in equal increments;
-// per component it prescribes either the strain increment over the leg or the stress at its end,
-// the stress-controlled components' strains being found by Newton iterations on the model's
-// tangent. Pure C++ without deal.II; C++17-compatible. Conventions: seam.hpp (tension positive).
+// A point is a Material (Material::from a scene's model choice): either a plane-strain point of
+// any registered model (εyy = 0, σyy carried: what the continuum's integration points see) or a
+// hypoplastic point whose out-of-plane strain is free (the 3D-consistent isotropic and triaxial
+// paths). Each leg of a path runs in equal increments; per component it prescribes either the
+// strain increment over the leg or the stress at its end, the stress-controlled components'
+// strains being found by Newton iterations on the model's tangent. Pure C++ without deal.II;
+// C++17-compatible. Conventions: seam.hpp (tension positive).
 #pragma once
 
 #include <array>
@@ -62,11 +63,13 @@ struct Sample {
 
 class ElementTest {
 public:
-  // A plane-strain point of a registered model at state `s` (Material::initial_state and
-  // set_stress place it); its yy component must stay strain-controlled with a zero increment.
+  // A plane-strain point of a registered model (Material::from a scene's choice) at state `s`
+  // (Material::initial_state and set_stress place it); its yy component must stay
+  // strain-controlled with a zero increment.
   ElementTest(Material model, State s);
-  // A hypoplastic point with a free out-of-plane strain at state `s`.
-  ElementTest(Hypoplastic model, const hypoplastic::PointState& s);
+  // A point with a free out-of-plane strain at state `s`: `model` must be hypoplastic (else
+  // std::invalid_argument).
+  ElementTest(const Material& model, const hypoplastic::PointState& s);
 
   // Runs a leg, appending one sample per increment; throws std::runtime_error when a stress
   // target is not met (Newton not converged) or a plane-strain point is asked for εyy ≠ 0.

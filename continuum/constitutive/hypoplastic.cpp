@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "demfem/scene/params.hpp"
+
 namespace demfem::continuum::constitutive {
 namespace hypoplastic {
 
@@ -230,28 +232,173 @@ void replay(const Constants& k, PointState& y, const Tensor& deps, const Schedul
 
 } // namespace hypoplastic
 
+void Hypoplastic::Parameters::fields(scene::ParamVisitor& v) {
+  using scene::Field;
+  using scene::Scale;
+  v.number({"critical_friction_angle", "φ_c", "°",
+            "hypoplastic: critical-state friction angle (von Wolffersdorff 1996; Herle & Gudehus "
+            "1999: the angle of repose of the dry sand)",
+            Scale::none, Field::Value::degrees},
+           critical_friction_angle, scene::in_range(10.0, 60.0));
+  v.number({"granular_hardness", "h_s", "Pa",
+            "hypoplastic: granular hardness of Bauer's compression law e = e_0 exp(−(3p/h_s)^n) "
+            "(Bauer 1996; von Wolffersdorff 1996)"},
+           granular_hardness, scene::positive());
+  v.number({"compression_exponent", "n", "",
+            "hypoplastic: exponent n of Bauer's compression law (Bauer 1996)"},
+           compression_exponent, scene::in_range(0.01, 1.0, true));
+  v.number({"densest_void_ratio", "e_d0", "",
+            "hypoplastic: minimum (densest) void ratio at zero mean stress (von Wolffersdorff "
+            "1996)"},
+           densest_void_ratio, scene::positive());
+  v.number({"critical_void_ratio", "e_c0", "",
+            "hypoplastic: critical-state void ratio at zero mean stress (von Wolffersdorff 1996)"},
+           critical_void_ratio, scene::positive());
+  v.number({"loosest_void_ratio", "e_i0", "",
+            "hypoplastic: maximum (loosest, isotropically compressed) void ratio at zero mean "
+            "stress (von Wolffersdorff 1996)"},
+           loosest_void_ratio, scene::positive());
+  v.number({"density_peak_exponent", "α", "",
+            "hypoplastic: exponent α of the density factor f_d, the peak friction of dense sand "
+            "(von Wolffersdorff 1996; Herle & Gudehus 1999)"},
+           density_peak_exponent, scene::in_range(0.0, 2.0));
+  v.number({"density_stiffness_exponent", "β", "",
+            "hypoplastic: exponent β of the density factor f_e, the stiffness of dense sand "
+            "(von Wolffersdorff 1996; Herle & Gudehus 1999)"},
+           density_stiffness_exponent, scene::in_range(0.0, 5.0));
+  v.flag({"intergranular_strain", "IGS", "",
+          "hypoplastic: the intergranular strain of Niemunis & Herle (1997), a strain memory that "
+          "stiffens small cycles and reversals; false: the plain von Wolffersdorff model"},
+         intergranular_strain);
+  v.number({"igs_radius", "R", "",
+            "hypoplastic: size R of the intergranular strain's elastic range in strain space "
+            "(Niemunis & Herle 1997)"},
+           igs_radius, scene::in_range(1e-7, 1e-2));
+  v.number({"igs_reversal_factor", "m_R", "",
+            "hypoplastic: stiffness factor m_R after a 180° strain reversal (Niemunis & Herle "
+            "1997)"},
+           igs_reversal_factor, scene::in_range(1.0, 100.0));
+  v.number({"igs_transverse_factor", "m_T", "",
+            "hypoplastic: stiffness factor m_T after a 90° change of strain direction (Niemunis & "
+            "Herle 1997); ≤ igs_reversal_factor"},
+           igs_transverse_factor, scene::in_range(1.0, 100.0));
+  v.number({"igs_beta_r", "β_r", "",
+            "hypoplastic: evolution exponent β_r of the intergranular strain (Niemunis & Herle "
+            "1997)"},
+           igs_beta_r, scene::in_range(0.01, 10.0));
+  v.number({"igs_chi", "χ", "",
+            "hypoplastic: interpolation exponent χ of the stiffness between m_R L and the "
+            "hypoplastic one (Niemunis & Herle 1997)"},
+           igs_chi, scene::in_range(0.1, 50.0));
+  v.number({"initial_void_ratio", "e_0", "",
+            "hypoplastic: void ratio of a point when the initial stresses place it (uniform, or "
+            "with initial_void_ratio_at_zero_stress the value at p = 0)"},
+           initial_void_ratio, scene::positive());
+  v.flag({"initial_void_ratio_at_zero_stress", "e_0 at p = 0", "",
+          "hypoplastic: true: a point placed at mean stress p gets initial_void_ratio × "
+          "exp(−(3p/h_s)^n), the same relative density at every depth (Bauer 1996)"},
+         initial_void_ratio_at_zero_stress);
+  v.number({"minimum_mean_stress", "p_min", "Pa",
+            "hypoplastic: the rate law is evaluated at a mean stress of at least this (the model "
+            "has no stiffness at zero stress); also where the reference modulus stops falling"},
+           minimum_mean_stress, scene::positive());
+  v.number({"substep_tolerance", "STOL", "",
+            "hypoplastic: relative local error a sub-step of the stress integration may have "
+            "(modified Euler with error control: Sloan, Abbo & Sheng 2001)"},
+           substep_tolerance, scene::in_range(1e-8, 0.1, true));
+}
+
+void Hypoplastic::Parameters::check(scene::ParamCheck& c) const {
+  if (!(densest_void_ratio < critical_void_ratio))
+    c.error("densest_void_ratio", "the densest void ratio e_d0 must be below the critical one "
+                                  "e_c0 (critical_void_ratio)");
+  if (!(critical_void_ratio < loosest_void_ratio))
+    c.error("critical_void_ratio", "the critical void ratio e_c0 must be below the loosest one "
+                                   "e_i0 (loosest_void_ratio)");
+  if (densest_void_ratio < critical_void_ratio && critical_void_ratio < loosest_void_ratio) {
+    // f_b's denominator 3 + a² − a√3 ((e_i0 − e_d0)/(e_c0 − e_d0))^α must be positive (von
+    // Wolffersdorff 1996): otherwise isotropic compression has no stiffness
+    const double sp = std::sin(critical_friction_angle);
+    const double a = std::sqrt(3.0) * (3.0 - sp) / (2.0 * std::sqrt(2.0) * sp);
+    const double r =
+        (loosest_void_ratio - densest_void_ratio) / (critical_void_ratio - densest_void_ratio);
+    if (!(3.0 + a * a - a * std::sqrt(3.0) * std::pow(r, density_peak_exponent) > 0.0))
+      c.error("density_peak_exponent",
+              "with these void ratios and critical_friction_angle the isotropic stiffness "
+              "factor f_b is not positive: 3 + a² − √3 a ((e_i0 − e_d0)/(e_c0 − e_d0))^α ≤ 0 "
+              "(von Wolffersdorff 1996); lower density_peak_exponent");
+  }
+  if (intergranular_strain && igs_transverse_factor > igs_reversal_factor)
+    c.error("igs_transverse_factor",
+            "the transverse factor m_T must not exceed the reversal factor m_R "
+            "(igs_reversal_factor; Niemunis & Herle 1997)");
+  if (!(initial_void_ratio < loosest_void_ratio))
+    c.error("initial_void_ratio", "the initial void ratio must be below the loosest one e_i0 "
+                                  "(loosest_void_ratio): no state is looser");
+  else if (initial_void_ratio_at_zero_stress && !(initial_void_ratio > densest_void_ratio))
+    c.error("initial_void_ratio", "the initial void ratio at zero stress must be above the "
+                                  "densest one e_d0 (densest_void_ratio)");
+}
+
+namespace {
+
+// The block's values against its keys' rules (Parameters::fields), for a block built in code.
+class RuleCheck final : public scene::ParamVisitor {
+public:
+  void number(const scene::Field& f, double& v, scene::Rule r) override {
+    const double x = f.value == scene::Field::Value::degrees ? v / kRadPerDeg : v;
+    bool ok = true;
+    switch (r.kind) {
+    case scene::Rule::Kind::any:
+      break;
+    case scene::Rule::Kind::positive:
+      ok = x > 0.0;
+      break;
+    case scene::Rule::Kind::non_negative:
+      ok = x >= 0.0;
+      break;
+    case scene::Rule::Kind::range:
+      ok = x >= r.lo && (r.open_hi ? x < r.hi : x <= r.hi);
+      break;
+    }
+    if (!ok)
+      throw std::invalid_argument("hypoplastic: " + std::string(f.key) + " = " + std::to_string(x) +
+                                  " is outside its range");
+  }
+  void integer(const scene::Field&, int&, int, int) override {}
+  void flag(const scene::Field&, bool&) override {}
+  void text(const scene::Field&, std::string&) override {}
+};
+
+class ThrowingCheck final : public scene::ParamCheck {
+public:
+  void error(std::string_view key, const std::string& message) override {
+    throw std::invalid_argument("hypoplastic: " + std::string(key) + ": " + message);
+  }
+};
+
+} // namespace
+
+scene::ModelEntry Hypoplastic::entry() {
+  return {keyword,
+          "hypoplastic sand (von Wolffersdorff 1996) with the intergranular strain of Niemunis & "
+          "Herle (1997): stiffness and strength follow stress and void ratio, compacts under "
+          "cyclic shear",
+          {scene::ParamBlock(Parameters{})}};
+}
+
+Hypoplastic Hypoplastic::from(const scene::ModelChoice& choice) {
+  return Hypoplastic(choice.get<Parameters>());
+}
+
 Hypoplastic::Hypoplastic(const Parameters& p) {
-  auto require = [](bool ok, const char* what) {
-    if (!ok) throw std::invalid_argument(std::string("hypoplastic: ") + what);
-  };
-  require(p.critical_friction_angle > 0.0 && p.critical_friction_angle < 1.5,
-          "critical_friction_angle must lie in (0°, 86°)");
-  require(p.granular_hardness > 0.0, "granular_hardness must be positive");
-  require(p.compression_exponent > 0.0 && p.compression_exponent < 1.0,
-          "compression_exponent must lie in (0, 1)");
-  require(p.densest_void_ratio > 0.0 && p.densest_void_ratio < p.critical_void_ratio &&
-              p.critical_void_ratio < p.loosest_void_ratio,
-          "the void ratios must satisfy 0 < e_d0 < e_c0 < e_i0");
-  require(p.alpha >= 0.0 && p.beta >= 0.0, "alpha and beta must not be negative");
-  require(!p.intergranular_strain ||
-              (p.igs_radius > 0.0 && p.igs_reversal_factor >= 1.0 &&
-               p.igs_transverse_factor >= 1.0 && p.igs_transverse_factor <= p.igs_reversal_factor &&
-               p.igs_beta_r > 0.0 && p.igs_chi > 0.0),
-          "intergranular strain: R > 0, 1 ≤ m_T ≤ m_R, β_r > 0, χ > 0");
-  require(p.void_ratio > 0.0, "void_ratio must be positive");
-  require(p.reference_stress > 0.0 && p.minimum_mean_stress > 0.0,
-          "reference_stress and minimum_mean_stress must be positive");
-  require(p.tolerance > 0.0 && p.tolerance < 0.1, "tolerance must lie in (0, 0.1)");
+  {
+    Parameters q = p;
+    RuleCheck rules;
+    q.fields(rules);
+    ThrowingCheck check;
+    p.check(check);
+  }
 
   const double s = std::sin(p.critical_friction_angle);
   k.a = std::sqrt(3.0) * (3.0 - s) / (2.0 * std::sqrt(2.0) * s); // von Wolffersdorff (1996)
@@ -260,8 +407,8 @@ Hypoplastic::Hypoplastic(const Parameters& p) {
   k.e_d0 = p.densest_void_ratio;
   k.e_c0 = p.critical_void_ratio;
   k.e_i0 = p.loosest_void_ratio;
-  k.alpha = p.alpha;
-  k.beta = p.beta;
+  k.alpha = p.density_peak_exponent;
+  k.beta = p.density_stiffness_exponent;
   // f_b's constant part (von Wolffersdorff 1996; Herle & Gudehus 1999)
   k.fb0 = k.h_s / k.n * std::pow(k.e_i0 / k.e_c0, k.beta) /
           (3.0 + k.a * k.a -
@@ -273,13 +420,13 @@ Hypoplastic::Hypoplastic(const Parameters& p) {
   k.beta_r = p.igs_beta_r;
   k.chi = p.igs_chi;
   k.p_min = p.minimum_mean_stress;
-  k.tolerance = p.tolerance;
-  e_init = p.void_ratio;
-  e_init_at_zero_stress = p.void_ratio_at_zero_stress;
+  k.tolerance = p.substep_tolerance;
+  e_init = p.initial_void_ratio;
+  e_init_at_zero_stress = p.initial_void_ratio_at_zero_stress;
 
   // the reference elasticity: m_R L at an isotropic state (T̂ = 1/3, F = 1, T̂:T̂ = 1/3):
   // L = 3 f_s (I + a²/9 1⊗1), so 2G = 3 f_s and λ = f_s a²/3 (von Wolffersdorff 1996)
-  const double pr = p.reference_stress;
+  const double pr = kReferenceStress;
   const double x = 3.0 * pr / k.h_s;
   const double bf = hypoplastic::bauer_factor(k, pr);
   const double ei = k.e_i0 * bf, ec = k.e_c0 * bf, ed = k.e_d0 * bf;

@@ -27,7 +27,12 @@
 #include <cmath>
 
 #include "elastic.hpp"
+#include "mohr_coulomb.hpp" // kRadPerDeg
 #include "seam.hpp"
+
+namespace demfem::scene {
+class ParamCheck;
+} // namespace demfem::scene
 
 namespace demfem::continuum::constitutive {
 
@@ -140,32 +145,39 @@ void replay(const Constants& k, PointState& y, const Tensor& deps, const Schedul
 
 struct Hypoplastic {
   static constexpr const char* keyword = "hypoplastic";
-  // The parameter block (soil.continuum keys). Defaults: the Hochstetten sand constants of von
-  // Wolffersdorff (1996) and the intergranular-strain constants of Niemunis & Herle (1997).
+  // The parameter block (soil.continuum keys, each with its source in fields()). Defaults: the
+  // Hochstetten sand constants of von Wolffersdorff (1996) and the intergranular-strain constants
+  // of Niemunis & Herle (1997). The model has no other block: its reference elasticity comes from
+  // these constants (elasticity()), not from young and poisson.
   struct Parameters {
-    double critical_friction_angle = 0.5759586531581288; // φ_c [rad] (33°)
-    double granular_hardness = 1.0e9;                    // h_s [Pa]
-    double compression_exponent = 0.25;                  // n
-    double densest_void_ratio = 0.55;                    // e_d0 (at p = 0)
-    double critical_void_ratio = 0.95;                   // e_c0 (at p = 0)
-    double loosest_void_ratio = 1.05;                    // e_i0 (at p = 0)
-    double alpha = 0.25;                                 // α: peak friction with density
-    double beta = 1.0;                                   // β: stiffness with density
-    bool intergranular_strain = true;                    // off: the plain von Wolffersdorff model
+    static constexpr const char* kName = "hypoplastic";
+    double critical_friction_angle = 33.0 * kRadPerDeg; // φ_c [rad]; the file states degrees
+    double granular_hardness = 1.0e9;                   // h_s [Pa]
+    double compression_exponent = 0.25;                 // n
+    double densest_void_ratio = 0.55;                   // e_d0 (at p = 0)
+    double critical_void_ratio = 0.95;                  // e_c0 (at p = 0)
+    double loosest_void_ratio = 1.05;                   // e_i0 (at p = 0)
+    double density_peak_exponent = 0.25;                // α: peak friction with density (f_d)
+    double density_stiffness_exponent = 1.0;            // β: stiffness with density (f_e)
+    bool intergranular_strain = true;                   // off: the plain von Wolffersdorff model
     double igs_radius = 1e-4;           // R: size of the elastic range in strain space
     double igs_reversal_factor = 5.0;   // m_R: stiffness factor after a 180° reversal
     double igs_transverse_factor = 2.0; // m_T: after a 90° change of direction
     double igs_beta_r = 0.5;            // β_r: evolution exponent of δ
     double igs_chi = 6.0;               // χ: interpolation exponent of the stiffness
-    double void_ratio = 0.75;           // e of a point when it is placed (initial stress)
-    // true: `void_ratio` is the value at zero stress and a point placed at mean stress p gets
-    // void_ratio × exp(−(3p/h_s)^n) (the same relative density at every depth)
-    bool void_ratio_at_zero_stress = false;
-    // mean stress [Pa] of the reference elasticity (elasticity(): wave speeds, stable step)
-    double reference_stress = 1.0e5;
+    double initial_void_ratio = 0.75;   // e of a point when it is placed (initial stress)
+    // true: `initial_void_ratio` is the value at zero stress and a point placed at mean stress p
+    // gets initial_void_ratio × exp(−(3p/h_s)^n) (the same relative density at every depth)
+    bool initial_void_ratio_at_zero_stress = false;
     double minimum_mean_stress = 1.0e3; // [Pa] the rate is evaluated at no less
-    double tolerance = 1e-3;            // relative local error of a sub-step (Sloan's STOL)
+    double substep_tolerance = 1e-3;    // relative local error of a sub-step (Sloan's STOL)
+    void fields(scene::ParamVisitor& v);
+    // e_d0 < e_c0 < e_i0, f_b's denominator positive, m_T ≤ m_R, the initial void ratio below
+    // e_i0 (and above e_d0 when it is the value at zero stress)
+    void check(scene::ParamCheck& c) const;
   };
+  // The mean stress of the reference elasticity [Pa] (elasticity()).
+  static constexpr double kReferenceStress = 1.0e5;
   struct Internal {
     double e = 0.0;            // void ratio (0: not yet placed; set_stress sets it)
     hypoplastic::Tensor delta; // intergranular strain (tensor components)
@@ -177,10 +189,15 @@ struct Hypoplastic {
   double e_init = 0.75;
   bool e_init_at_zero_stress = false;
 
+  // Throws std::invalid_argument for a value outside its key's range or an inconsistent set
+  // (Parameters::check).
   explicit Hypoplastic(const Parameters& p);
+  // The registry's entry (keyword, summary, block) and the model of a scene's choice.
+  static scene::ModelEntry entry();
+  static Hypoplastic from(const scene::ModelChoice& choice);
 
   // The stiffness after a reversal (m_R L, or L without the intergranular strain) at an
-  // isotropic state of mean stress `reference_stress` and the initial void ratio, as isotropic
+  // isotropic state of mean stress kReferenceStress and the initial void ratio, as isotropic
   // elastic constants (L is isotropic there: 2G = 3 f_s, λ = f_s a²/3), with E following
   // p^(1−n) (f_b ∝ p^(1−n)) from `minimum_mean_stress` on. The integrators take wave speeds and
   // the explicit stable step from it; the model's own stress update does not use it.

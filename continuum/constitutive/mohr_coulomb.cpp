@@ -1,5 +1,7 @@
 #include "mohr_coulomb.hpp"
 
+#include "demfem/scene/params.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -293,14 +295,50 @@ Result integrate(const Hooke& e, const Strength& strength, const ElasticStrain& 
 
 } // namespace mohr_coulomb
 
-MohrCoulomb::MohrCoulomb(const Parameters& p) : el(p.elasticity()) {
+MohrCoulomb::MohrCoulomb(const Elastic::Parameters& elastic, const Parameters& p)
+    : el(elastic.elasticity()) {
   strength.friction = p.friction_angle;
   strength.cohesion = p.cohesion;
   strength.dilation = p.dilation_angle;
   strength.tension_cutoff = p.tension_cutoff > 0.0 ? p.tension_cutoff : -1.0;
   strength_cut = strength;
   strength_cut.dilation = 0.0;
-  if (p.dilation_cutoff) dilation_cutoff = *p.dilation_cutoff;
+  if (!std::isnan(p.dilation_cutoff)) dilation_cutoff = p.dilation_cutoff;
+}
+
+void MohrCoulomb::Parameters::fields(scene::ParamVisitor& v) {
+  using scene::Field;
+  v.number({"friction_angle", "φ", "°", "Mohr–Coulomb friction angle", scene::Scale::none,
+            Field::Value::degrees},
+           friction_angle, scene::in_range(0.0, 89.0));
+  v.number({"cohesion", "c", "Pa", "Mohr–Coulomb cohesion"}, cohesion, scene::non_negative());
+  v.number({"dilation_angle", "ψ", "°", "dilatancy angle of the plastic flow (non-associated)",
+            scene::Scale::none, Field::Value::degrees},
+           dilation_angle, scene::in_range(0.0, 89.0));
+  v.number({"tension_cutoff", "t", "Pa",
+            "largest principal stress (tension positive) the soil carries; 0: none"},
+           tension_cutoff, scene::non_negative());
+  v.number({"dilation_cutoff", "ε_v,cut", "",
+            "plastic volumetric strain (dilation positive) after which a point flows with ψ = 0 "
+            "(PLAXIS's dilatancy cut-off); unset: none",
+            scene::Scale::none, Field::Value::optional},
+           dilation_cutoff, scene::in_range(0.0, 1.0));
+}
+
+void MohrCoulomb::Parameters::check(scene::ParamCheck& c) const {
+  if (dilation_angle > friction_angle)
+    c.error("dilation_angle", "dilation angle must not exceed the friction angle");
+}
+
+scene::ModelEntry MohrCoulomb::entry() {
+  return {keyword,
+          "elastic–perfectly plastic Mohr–Coulomb, non-associated flow, tension and dilatancy "
+          "cut-offs",
+          {scene::ParamBlock(Elastic::Parameters{}), scene::ParamBlock(Parameters{})}};
+}
+
+MohrCoulomb MohrCoulomb::from(const scene::ModelChoice& choice) {
+  return MohrCoulomb(choice.get<Elastic::Parameters>(), choice.get<Parameters>());
 }
 
 } // namespace demfem::continuum::constitutive

@@ -7,12 +7,18 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <optional>
 
 #include "elastic.hpp"
 #include "seam.hpp"
 
+namespace demfem::scene {
+class ParamCheck;
+} // namespace demfem::scene
+
 namespace demfem::continuum::constitutive {
+
+// Radians per degree (the file states angles in degrees).
+inline constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 
 namespace mohr_coulomb {
 
@@ -53,17 +59,21 @@ Result integrate(const Hooke& e, const Strength& s, const ElasticStrain& trial,
 
 struct MohrCoulomb {
   static constexpr const char* keyword = "mohr-coulomb";
-  // The parameter block (soil.continuum keys): the elastic ones and the strength.
-  struct Parameters : Elastic::Parameters {
-    double friction_angle = 0.5236; // φ [rad]
-    double cohesion = 0.0;          // c [Pa]
-    double dilation_angle = 0.0;    // ψ [rad]
-    double tension_cutoff = 0.0;    // [Pa], the largest principal stress; 0 = none
+  // Its parameter blocks (soil.continuum keys): the elasticity (Elastic::Parameters) and the
+  // strength below. The file states the angles in degrees.
+  struct Parameters {
+    static constexpr const char* kName = "mohr-coulomb";
+    double friction_angle = 30.0 * kRadPerDeg; // φ [rad]
+    double cohesion = 0.0;                     // c [Pa]
+    double dilation_angle = 0.0;               // ψ [rad]
+    double tension_cutoff = 0.0;               // [Pa], the largest principal stress; 0 = none
     // Dilatancy cut-off: a point whose plastic volumetric strain (dilation positive) has reached
     // this value flows with ψ = 0 from then on (PLAXIS Material Models Manual, Mohr–Coulomb
     // "dilatancy cut-off": a soil stops dilating at its loosest, critical state). Without it a
-    // constant ψ dilates a yielding mass without bound. Unset: none.
-    std::optional<double> dilation_cutoff;
+    // constant ψ dilates a yielding mass without bound. Unset (NaN): none.
+    double dilation_cutoff = kUnset;
+    void fields(scene::ParamVisitor& v);
+    void check(scene::ParamCheck& c) const; // ψ ≤ φ
   };
   struct Internal {
     ElasticStrain ee;                          // elastic strain
@@ -76,7 +86,10 @@ struct MohrCoulomb {
   mohr_coulomb::Strength strength_cut; // with ψ = 0: past the dilatancy cut-off
   double dilation_cutoff = std::numeric_limits<double>::infinity();
 
-  explicit MohrCoulomb(const Parameters& p);
+  MohrCoulomb(const Elastic::Parameters& elastic, const Parameters& p);
+  // The registry's entry (keyword, summary, blocks) and the model of a scene's choice.
+  static scene::ModelEntry entry();
+  static MohrCoulomb from(const scene::ModelChoice& choice);
 
   [[nodiscard]] const Elasticity& elasticity() const { return el; }
   // Non-associated flow (ψ ≠ φ) makes the consistent tangent non-symmetric; a dilatancy cut-off

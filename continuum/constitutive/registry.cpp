@@ -1,12 +1,37 @@
 #include "registry.hpp"
 
+#include <optional>
 #include <stdexcept>
+
+#include "demfem/scene/params.hpp"
 
 namespace demfem::continuum::constitutive {
 
-Parameters Material::parameters(std::string_view keyword) {
-  if (auto p = Registry::defaults(keyword)) return *p;
-  throw std::invalid_argument("unknown constitutive model '" + std::string(keyword) +
+namespace {
+template <class... Ms> void add_entries(scene::ModelSlot& slot, ModelList<Ms...>) {
+  (slot.entries.push_back(Ms::entry()), ...);
+}
+template <class... Ms>
+std::optional<Material> make(const scene::ModelChoice& choice, ModelList<Ms...>) {
+  std::optional<Material> m;
+  ((choice.keyword == Ms::keyword ? (void)m.emplace(Ms::from(choice)) : void()), ...);
+  return m;
+}
+} // namespace
+
+scene::ModelSlot model_slot() {
+  scene::ModelSlot slot;
+  slot.key = "model";
+  slot.meaning = "the soil's constitutive model";
+  slot.default_keyword = MohrCoulomb::keyword;
+  slot.always_written = true;
+  add_entries(slot, Registry{});
+  return slot;
+}
+
+Material Material::from(const scene::ModelChoice& choice) {
+  if (auto m = make(choice, Registry{})) return *m;
+  throw std::invalid_argument("unknown constitutive model '" + choice.keyword +
                               "' (valid: " + keywords() + ")");
 }
 
@@ -28,7 +53,7 @@ void Material::cap_stiffness_at(double p_max) {
 }
 
 Material interface_layer(const Material& soil, double friction, double cohesion) {
-  MohrCoulomb layer{MohrCoulomb::Parameters{}};
+  MohrCoulomb layer(Elastic::Parameters{}, MohrCoulomb::Parameters{});
   layer.el = soil.elasticity();
   layer.strength.friction = friction;
   layer.strength.cohesion = cohesion;

@@ -1,6 +1,7 @@
 // The continuum's constitutive models, chosen by keyword (soil.continuum.model). A model is its
-// file in this folder (seam.hpp says what it provides: parameter block, per-point variables,
-// stress update with its tangent) and one entry in `Registry` below; nothing else changes.
+// file in this folder (seam.hpp says what it provides: parameter blocks, per-point variables,
+// stress update with its tangent) and one entry in `Registry` below; nothing else changes. The
+// scene reads the chosen model's keys through the vocabulary's continuum slot (model_slot()).
 //
 // `Material` is one registered model with its parameters; both integrators call it per
 // quadrature point (no virtual call: a std::variant). Pure C++ without deal.II;
@@ -18,12 +19,18 @@
 #include "mohr_coulomb.hpp"
 #include "seam.hpp"
 
+namespace demfem::scene {
+struct ModelSlot;
+} // namespace demfem::scene
+
 namespace demfem::continuum::constitutive {
 
 // The registered models.
 using Registry = ModelList<Elastic, MohrCoulomb, Hypoplastic>;
 
-using Parameters = Registry::Parameters; // one registered model's parameter block
+// soil.continuum.model: the registered models by keyword (default "mohr-coulomb"), each with its
+// parameter blocks; every block of every model is read and written (scene/vocabulary.hpp).
+[[nodiscard]] scene::ModelSlot model_slot();
 
 // A point's state: what every model keeps (PointStress) and its model's own variables.
 struct State : PointStress {
@@ -33,13 +40,12 @@ struct State : PointStress {
 class Material {
 public:
   Material() : model_(Elastic(Elastic::Parameters{})) {} // elastic, E = 30 MPa, ν = 0.3
-  explicit Material(const Parameters& block) : model_(Registry::make(block)) {}
   template <class M, class = std::enable_if_t<Registry::contains<M>>>
   explicit Material(M model) : model_(std::move(model)) {}
 
-  // The parameter block of the model named `keyword`, with its defaults; throws
-  // std::invalid_argument naming the registered keywords.
-  [[nodiscard]] static Parameters parameters(std::string_view keyword);
+  // The model a scene chose (its keyword and parameter blocks, model_slot()); throws
+  // std::invalid_argument for a keyword no model has, naming the registered ones.
+  [[nodiscard]] static Material from(const scene::ModelChoice& choice);
   // "elastic, mohr-coulomb, hypoplastic"
   [[nodiscard]] static std::string keywords();
 

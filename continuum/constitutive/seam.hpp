@@ -7,9 +7,10 @@
 //
 // A model is a type with
 //   static constexpr const char* keyword;   its name (soil.continuum.model)
-//   struct Parameters;                      its parameter block
 //   struct Internal;                        its own per-point variables (trivially copyable)
-//   explicit Model(const Parameters&);
+//   static scene::ModelEntry entry();       its keyword, summary and parameter blocks (each a
+//                                           struct that lists its keys: scene/params.hpp)
+//   static Model from(const scene::ModelChoice&);   the model of a scene's choice
 //   const Elasticity& elasticity() const;   its reference elasticity (elastic.hpp)
 //   bool symmetric_tangent() const;         whether every tangent it returns is symmetric
 //   void set_stress(PointStress&, Internal&) const;   a point put at the stress in PointStress
@@ -29,10 +30,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
-#include <optional>
-#include <string_view>
 #include <type_traits>
-#include <utility>
 #include <variant>
 
 namespace demfem::continuum::constitutive {
@@ -66,12 +64,11 @@ struct PointStress {
   double stiffness = 1.0;
 };
 
-// The registered models (registry.hpp): their variant, their points' internal variables and their
-// parameter blocks (one alternative per model, in the same order), and their keywords.
+// The registered models (registry.hpp): their variant and their points' internal variables (one
+// alternative per model, in the same order), and their keywords.
 template <class... Models> struct ModelList {
   using Model = std::variant<Models...>;
   using Internal = std::variant<typename Models::Internal...>;
-  using Parameters = std::variant<typename Models::Parameters...>;
   static constexpr std::size_t size = sizeof...(Models);
   static constexpr std::array<const char*, size> keywords{{Models::keyword...}};
 
@@ -83,32 +80,6 @@ template <class... Models> struct ModelList {
     std::size_t k = 0;
     while (!same[k]) ++k;
     return k;
-  }
-  // The model a parameter block describes.
-  static Model make(const Parameters& block) {
-    return make(block, std::make_index_sequence<size>{});
-  }
-  // The default block of the model named `keyword`; empty when no model has that name.
-  static std::optional<Parameters> defaults(std::string_view keyword) {
-    std::optional<Parameters> out;
-    for (std::size_t k = 0; k < size; ++k)
-      if (keyword == keywords[k]) out = defaults(k, std::make_index_sequence<size>{});
-    return out;
-  }
-
-private:
-  template <std::size_t I> static Model make_one(const Parameters& b) {
-    return Model(std::in_place_index<I>, std::get<I>(b));
-  }
-  template <std::size_t... I> static Model make(const Parameters& b, std::index_sequence<I...>) {
-    using Make = Model (*)(const Parameters&);
-    static constexpr Make table[] = {&make_one<I>...};
-    return table[b.index()](b);
-  }
-  template <std::size_t... I> static Parameters defaults(std::size_t k, std::index_sequence<I...>) {
-    using Make = Parameters (*)();
-    static constexpr Make table[] = {[]() { return Parameters(std::in_place_index<I>); }...};
-    return table[k]();
   }
 };
 

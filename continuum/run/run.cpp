@@ -1,5 +1,8 @@
 // Scene-driven continuum run: maps a Scene onto fem::Problem, initialises gravity, integrates the
-// scene's duration with Newmark-β and writes probes, a surface profile and .vtu/.pvd snapshots.
+// scene's duration (Newmark-β or explicit central differences) and calls its hooks between steps
+// (run/hooks.hpp): probes, steps.csv, snapshots, the small-strain watch, progress. The files it
+// writes under <out>/continuum and their columns are the run-directory contract's
+// (output/contract.hpp).
 //
 // Modelling choices (see continuum/README.md):
 // - mesh: tensor-product grid through every vertex coordinate of the domain and the structures,
@@ -18,24 +21,26 @@
 
 #include <fmt/format.h>
 
+#include <fmt/ranges.h>
+
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <optional>
 #include <set>
 
-#include "constitutive/k0.hpp"
 #include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
+#include "demfem/output/contract.hpp"
+#include "demfem/output/probe.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/validate.hpp"
 #include "demfem/scene/write_file.hpp"
 #include "fem.hpp"
+#include "hooks.hpp"
 #include "mesh_grading.hpp"
 
 namespace demfem::continuum {
@@ -82,54 +87,6 @@ scene::Polygon clip_below(const scene::Polygon& poly, double level) {
   }
   return out;
 }
-
-// A streamed output (a time series, the log) whose every write is checked (issue 13): the first
-// failure (a full disk, a file size limit, an unwritable directory) is kept as "cannot write
-// <path>: <cause>" and later writes are dropped. Nothing is thrown here: the run reports it at
-// its next collective point (see raise_write_errors), so that every MPI rank stops together.
-class CheckedStream {
-public:
-  void open(const std::filesystem::path& p) {
-    path_ = p;
-    errno = 0;
-    f_.open(p, std::ios::trunc);
-    check("creating");
-  }
-  [[nodiscard]] bool is_open() const { return f_.is_open(); }
-  template <class T> CheckedStream& operator<<(const T& v) {
-    if (f_.is_open() && error_.empty()) {
-      f_ << v;
-      check("writing");
-    }
-    return *this;
-  }
-  CheckedStream& operator<<(std::ostream& (*manip)(std::ostream&)) {
-    if (f_.is_open() && error_.empty()) {
-      manip(f_);
-      check("writing");
-    }
-    return *this;
-  }
-  void flush() { *this << std::flush; }
-  void close() {
-    if (!f_.is_open()) return;
-    flush();
-    f_.close();
-    check("closing");
-  }
-  [[nodiscard]] const std::string& error() const { return error_; }
-
-private:
-  void check(const char* step) {
-    if (f_ || !error_.empty()) return;
-    const int err = errno;
-    error_ = fmt::format("cannot write {}: {} ({})", path_.string(),
-                         err != 0 ? std::strerror(err) : "the stream failed", step);
-  }
-  std::filesystem::path path_;
-  std::ofstream f_;
-  std::string error_;
-};
 
 // The scene with its structures where the DEM packing seated them (calibrate = "dem";
 // ContinuumSoil::structure_offsets), so both models hold a foundation at the same height.
@@ -201,26 +158,6 @@ bool add_contact_planes(const scene::Scene& scene, const std::string& kind, cons
   }
   return true;
 }
-
-// A model's parameter block filled from the scene's [soil.continuum] keys.
-void read_block(constitutive::Elastic::Parameters& b, const scene::ContinuumSoil& s) {
-  b.young = s.young;
-  b.poisson = s.poisson;
-  b.modulus_exponent = s.modulus_exponent;
-  b.modulus_reference_stress = s.modulus_reference_stress;
-  b.modulus_min_stress = s.modulus_min_stress;
-}
-void read_block(constitutive::MohrCoulomb::Parameters& b, const scene::ContinuumSoil& s) {
-  read_block(static_cast<constitutive::Elastic::Parameters&>(b), s);
-  b.friction_angle = s.friction_angle;
-  b.cohesion = s.cohesion;
-  b.dilation_angle = s.dilation_angle;
-  b.tension_cutoff = s.tension_cutoff;
-  b.dilation_cutoff = s.dilation_cutoff;
-}
-// The scene has no hypoplastic keys yet (its model list names elastic and mohr-coulomb only):
-// the block keeps its defaults.
-void read_block(constitutive::Hypoplastic::Parameters&, const scene::ContinuumSoil&) {}
 
 // The finite-element problem of a (seated) scene: mesh, materials, structures, loads and
 // procedures. Returns false with `message` when the scene cannot be meshed.
@@ -296,16 +233,13 @@ bool build_problem(const scene::Scene& scene, const RunOptions& options, Setup& 
   pb.bbar = co.bbar;
 
   // ---- materials
-  // the soil's model, chosen by its keyword (constitutive/registry.hpp)
-  constitutive::Parameters block =
-      constitutive::Material::parameters(scene::keyword(scene::kContinuumModelNames, soil.model));
-  std::visit([&](auto& b) { read_block(b, soil); }, block);
-  pb.soil = constitutive::Material(block);
+  // the soil's model, chosen by its keyword with its parameter blocks (constitutive/registry.hpp)
+  pb.soil = constitutive::Material::from(constitutive::soil_model(soil));
   pb.density = soil.density;
   if (pb.soil.stiffness_from_stress()) {
     // E = young (p/p_ref)^n (scene.hpp, constitutive/elastic.hpp), capped at the deepest
     // geostatic in-plane mean stress ρ g H (1 + K0)/2 (the explicit step is bounded with it)
-    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
+    const double k0 = constitutive::soil_k0(soil);
     double zlo = 1e300, zhi = -1e300;
     for (const auto& p : domain) {
       zlo = std::min(zlo, p.z);
@@ -457,6 +391,152 @@ std::optional<scene::ContinuumStepLimit> stable_step(const scene::Scene& scene_i
   return step_limit(su, scene);
 }
 
+namespace {
+
+// The probes with the DEM's names, signs and units (output/contract.hpp): the root writes them,
+// every rank samples (the source's calls are collective).
+output::ProbeSetOptions probe_options(const scene::Scene& scene, bool root) {
+  output::ProbeSetOptions o;
+  o.base_interval = scene.output.probe_interval;
+  o.csv.flush_every_rows = 50;
+  o.csv.formats = {output::CsvFormat::general(6)}; // time
+  o.csv.keep_errors = true;
+  o.write = root;
+  o.load_histories = true;
+  return o;
+}
+
+// One run's model and hooks (run/hooks.hpp), set up in this order.
+class Driver {
+public:
+  Driver(const scene::Scene& scene, const fem::Problem& pb, const std::filesystem::path& dir,
+         bool root)
+      : m(pb), snapshots(m, scene, dir), scene_(scene), pb_(pb), dir_(dir), root_(root),
+        source_(m, scene), probes_(scene, source_, probe_options(scene, root)) {}
+
+  // log.txt's head, gravity, the K0 state and the seating; the loop's step; the files and the
+  // state at t = 0. Returns "" or why the run cannot go on.
+  std::string start(RunSummary& summary, std::chrono::steady_clock::time_point t_start) {
+    using namespace run_detail;
+    describe(summary, m, pb_);
+    if (root_) {
+      log_.open(dir_ / output::file::log);
+      log_header(log_, scene_, m, pb_);
+    }
+    if (auto why = initialise(m, scene_, pb_, log_, root_, summary, t_start); !why.empty())
+      return why;
+    if (root_ && !probes_.not_recorded().empty())
+      log_ << fmt::format("probes the continuum does not record: {}\n",
+                          fmt::join(probes_.not_recorded(), "; "));
+    dt = loop_step(m, scene_, probes_.finest_interval(), log_, root_, summary, nsteps);
+    probes_.open(dir_);
+    if (root_) steps_.open(dir_);
+    snapshots.write(0.0);
+    sample(0.0, false);
+    t_dyn_ = std::chrono::steady_clock::now();
+    return {};
+  }
+
+  // One step and its record; false (summary says why) when it did not converge.
+  bool advance(long long step, RunSummary& summary) {
+    const auto t_step = std::chrono::steady_clock::now();
+    const fem::StepStats st = m.dynamic_step(dt);
+    steps_.add(step, m.time(), st,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count());
+    totals_.add(st);
+    if (root_ && (st.cuts > 0 || st.newton_iterations > 10))
+      log_ << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step, m.time(),
+                          st.newton_iterations, st.cuts)
+           << std::flush;
+    if (st.converged) return true;
+    summary.message =
+        fmt::format("{} at t = {:.6g} s\n{}",
+                    scene_.continuum.integrator == "explicit" ? "explicit integration diverged"
+                                                              : "Newton did not converge",
+                    m.time(), m.log());
+    summary.steps = step;
+    summary.simulated_time = m.time();
+    return false;
+  }
+
+  // The probes due at t (all at the last step), then the collective check of the writes.
+  void sample(double t, bool all) {
+    if (!all && !probes_.any_due(t, 1e-9 * dt)) return;
+    source_.begin(t);
+    probes_.sample_due(source_, 1e-9 * dt, all);
+    raise();
+  }
+
+  // The small-strain validity limit (continuum.max_displacement): true when the run stops at t,
+  // with every probe and a snapshot at t.
+  bool beyond_validity(double t, RunSummary& summary) {
+    const auto over = run_detail::beyond_small_strain(m, scene_);
+    if (over.empty()) return false;
+    source_.begin(t);
+    probes_.sample_missing(source_);
+    raise();
+    snapshots.write_if_missed(t);
+    summary.note = fmt::format(
+        "stopped at t = {:.4g} s of {:.4g} s: {} > continuum.max_displacement = {:.4g} m "
+        "(beyond the small-strain model's validity)",
+        t, scene_.info.duration, over, scene_.continuum.max_displacement);
+    if (root_) log_ << summary.note << "\n";
+    return true;
+  }
+
+  // The .pvd, surface_profile.csv (the soil's top), the log's last lines; every file closed.
+  void finish(RunSummary& summary, std::span<const fem::Point> top) {
+    snapshots.finish();
+    raise(); // a failed steps.csv row or log line since the last probe row
+    const std::string failure = run_detail::write_surface_profile(m, top, dir_, root_);
+    if (root_ && !failure.empty()) log_ << "run failed: " << failure << "\n" << std::flush;
+    if (fem::MpiScope::any(!failure.empty()))
+      throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
+                                              : failure);
+    run_detail::log_end(log_, m, pb_, root_, summary, totals_, dt,
+                        scene_.continuum.integrator == "explicit", t_dyn_);
+    probes_.close();
+    steps_.close();
+    log_.close();
+    raise();
+    summary.ok = true;
+    summary.simulated_time = m.time();
+    summary.substeps = totals_.substeps;
+    summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
+  }
+
+  fem::Model m;
+  run_detail::Snapshots snapshots;
+  double dt = 0.0;
+  long long nsteps = 0;
+
+private:
+  // Collective: the first failed write of any output ends the run on every rank, naming the
+  // file and the cause (and it goes to log.txt when that is still writable).
+  void raise() {
+    std::string failure = probes_.error();
+    for (const std::string& e : {steps_.error(), log_.error()})
+      if (failure.empty()) failure = e;
+    if (!fem::MpiScope::any(!failure.empty())) return;
+    if (root_) log_ << "run failed: " << failure << "\n" << std::flush;
+    throw scene::WriteError(failure.empty() ? "an output could not be written on the root rank"
+                                            : failure);
+  }
+
+  const scene::Scene& scene_;
+  const fem::Problem& pb_;
+  std::filesystem::path dir_;
+  bool root_;
+  run_detail::CheckedStream log_;
+  run_detail::ContinuumProbeSource source_;
+  output::ProbeSet probes_;
+  run_detail::StepRecord steps_;
+  run_detail::Totals totals_;
+  std::chrono::steady_clock::time_point t_dyn_;
+};
+
+} // namespace
+
 RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   const scene::Scene scene = seated(scene_in);
   RunSummary summary;
@@ -466,19 +546,12 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
   fem::ensure_mpi();
   const bool root = fem::MpiScope::rank() == 0;
   summary.root = root;
-  const scene::ContinuumSoil& soil = *scene.soil.continuum;
-  const scene::ContinuumOptions& co = scene.continuum;
-  const fem::Problem& pb = su.pb;
-  const scene::Polygon& domain = su.domain;
-  const double xmin = su.xmin, xmax = su.xmax, zmin = su.zmin, zmax = su.zmax;
-  const bool explicit_dyn = co.integrator == "explicit";
   // an explicit step above the stable step: refused at continuum.dt, as `demfem check` does
   // (scene::set_continuum_step_limit), before the K0 procedure
-  if (explicit_dyn && co.dt > 0.0)
-    if (const auto lim = step_limit(su, scene); co.dt > lim.dt)
+  if (scene.continuum.integrator == "explicit" && scene.continuum.dt > 0.0)
+    if (const auto lim = step_limit(su, scene); scene.continuum.dt > lim.dt)
       throw scene::SceneError({scene::continuum_step_diagnostic(scene, lim)});
-
-  const std::filesystem::path dir = options.out_dir / "continuum";
+  const std::filesystem::path dir = options.out_dir / output::dir::continuum;
   std::error_code ec;
   if (root) std::filesystem::create_directories(dir, ec);
   if (fem::MpiScope::any(static_cast<bool>(ec))) {
@@ -486,373 +559,27 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                                   ec ? ec.message() : "failed on the root rank");
     return summary;
   }
-
   try {
-    fem::Model m(pb);
-    summary.dofs = m.n_dofs();
-    summary.cells = m.n_cells();
-    summary.refinement = pb.mesh.refinement;
-    summary.degree = pb.degree;
-    summary.integrator = pb.integrator;
-    {
-      const double scale = std::ldexp(1.0, -std::max(0, pb.mesh.refinement));
-      summary.h_min = 1e300;
-      for (const auto* d : {&pb.mesh.dx, &pb.mesh.dz})
-        for (const double v : *d) {
-          summary.h_min = std::min(summary.h_min, v * scale);
-          summary.h_max = std::max(summary.h_max, v * scale);
-        }
-    }
-    CheckedStream log;
-    if (root) {
-      log.open(dir / "log.txt");
-      const double scale = std::ldexp(1.0, -std::max(0, pb.mesh.refinement));
-      const auto [dx0, dx1] = std::minmax_element(pb.mesh.dx.begin(), pb.mesh.dx.end());
-      const auto [dz0, dz1] = std::minmax_element(pb.mesh.dz.begin(), pb.mesh.dz.end());
-      log << fmt::format("continuum run of {}: {} cells, {} dofs, degree {}, refinement {}, "
-                         "cells {:.3g}–{:.3g} m wide, {:.3g}–{:.3g} m tall{}, linear solver {}\n",
-                         scene.label(), m.n_cells(), m.n_dofs(), pb.degree, pb.mesh.refinement,
-                         *dx0 * scale, *dx1 * scale, *dz0 * scale, *dz1 * scale,
-                         co.mesh_size_near > 0.0
-                             ? fmt::format(" (graded: {} m coarse at the structures, ratio {})",
-                                           co.mesh_size_near, co.mesh_grading)
-                             : std::string(),
-                         pb.linear_solver)
-          << std::flush; // kept if the run is killed
-      if (co.absorbing)
-        log << "absorbing: Lysmer dashpots on the left, right and bottom boundaries (components "
-               "not constrained there: the vertical on the roller sides, none on the fixed base)\n";
-    }
-    const double k0 = constitutive::k0_at_rest(soil.k0, soil.friction_angle);
-    const fem::StepStats g = m.initialise_gravity(true, k0, co.load_steps);
-    if (!g.converged) {
-      summary.message = "gravity initialisation did not converge\n" + m.log();
+    Driver d(scene, su.pb, dir, root);
+    if (auto why = d.start(summary, t_start); !why.empty()) {
+      summary.message = why;
       return summary;
     }
-    summary.setup_newton_iterations = g.newton_iterations;
-    summary.setup_residual = g.residual;
-    for (const fem::Seating& st : m.seating())
-      summary.seated.emplace_back(pb.regions[st.region].name, st.settlement);
-    for (const fem::Seating& st : m.seating())
-      if (root)
-        log << fmt::format("seated structure '{}' (continuum.seat_structures): it settled {:.4g} m "
-                           "under its weight with dof_z free and is held there from t = 0; soil "
-                           "reaction {:.4g} N = {:.4f} W (W = {:.4g} N)\n",
-                           pb.regions[st.region].name, st.settlement, st.soil_fz,
-                           st.soil_fz / st.weight, st.weight);
-    if (root)
-      log << fmt::format(
-                 "setup and K0 initialisation: {:.2f} s wall ({} Newton, {} linear "
-                 "iterations)\n",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count(),
-                 g.newton_iterations, g.linear_iterations)
-          << std::flush;
-
-    // ---- time loop
-    const double duration = scene.info.duration;
-    // explicit: the loop's step is the probe interval, taken in central-difference substeps of
-    // at most the stable step (continuum.dt, when given, must not exceed it)
-    double dt = co.dt > 0.0 && !explicit_dyn
-                    ? co.dt
-                    : std::min(scene.output.probe_interval, duration / 100.0);
-    if (explicit_dyn) {
-      const double stable = m.stable_time_step(); // co.dt ≤ stable: checked above
-      const double h = co.dt > 0.0 ? co.dt : stable;
-      summary.dt = h;
-      if (root)
-        log << fmt::format("explicit central differences: step {:.4g} s ({}), stable step {:.4g} "
-                           "s, lumped mass, local damping {}, Rayleigh α = {}, β = {}\n",
-                           h, co.dt > 0.0 ? "continuum.dt" : "automatic", stable, co.local_damping,
-                           co.rayleigh_alpha, co.rayleigh_beta)
-            << std::flush;
-    }
-    dt = std::max(dt, 1e-9);
-    const long long nsteps = std::max<long long>(1, std::llround(std::ceil(duration / dt - 1e-9)));
-    dt = duration / double(nsteps);
-    if (!explicit_dyn) summary.dt = dt;
-
-    // ---- probes, with the DEM run's names, signs and units (dem/src/run.cpp):
-    // structures.csv: <s>.settlement [m] (−z displacement of the pivot), <s>.rotation [rad]
-    // (counter-clockwise), <s>.moment [N·m] (soil about the pivot), <s>.force_x/_z [N] (force of
-    // the soil on the structure), <s>.applied_moment [N·m] (external loads about the pivot),
-    // <s>.displacement_x [m]; continuum only: <s>.applied_force_x/_z [N] (the load histories).
-    // walls.csv: <w>.thrust [N] = F·n with n the normal of the chord from the first to the last
-    // outline vertex pointing out of the soil (scene::thrust_normal, as the DEM): > 0 when the soil
-    // presses on the wall, < 0 in tension; <w>.reaction_x/_z [N] = F (soil force on the wall).
-    // pressure_<w>.csv: <w>.binK [Pa], normal soil pressure on the structure per z bin between
-    // the outline's lowest and highest vertex.
-    std::vector<std::size_t> thrust;                   // structure indices
-    std::vector<std::pair<std::size_t, int>> pressure; // structure index, bins
-    auto index_of = [&](const std::string& name) -> long {
-      for (std::size_t k = 0; k < scene.structures.size(); ++k)
-        if (scene.structures[k].name == name) return static_cast<long>(k);
-      return -1;
-    };
-    auto add_thrust = [&](long k) {
-      if (k >= 0 && std::find(thrust.begin(), thrust.end(), std::size_t(k)) == thrust.end())
-        thrust.push_back(std::size_t(k));
-    };
-    for (std::size_t k = 0; k < scene.structures.size(); ++k) {
-      const auto& s = scene.structures[k];
-      if (s.kind == scene::StructureKind::Wall ||
-          std::find(s.record.begin(), s.record.end(), "thrust") != s.record.end())
-        add_thrust(long(k));
-    }
-    for (const auto& pr : scene.probes) {
-      if (pr.kind == scene::ProbeKind::WallThrust) add_thrust(index_of(pr.target));
-      if (pr.kind == scene::ProbeKind::PressureProfile && index_of(pr.target) >= 0)
-        pressure.emplace_back(std::size_t(index_of(pr.target)), pr.bins);
-    }
-    auto zrange = [&](std::size_t k) {
-      double lo = 1e300, hi = -1e300;
-      for (const auto& p : scene.structures[k].outline) {
-        lo = std::min(lo, p.z);
-        hi = std::max(hi, p.z);
-      }
-      return std::pair{lo, hi};
-    };
-    CheckedStream sfile, wfile;
-    std::vector<CheckedStream> pfiles(pressure.size());
-    CheckedStream stepfile; // solver statistics per step (benchmarks: bench/RESULTS.md)
-    // Collective: the first failed write of any output ends the run on every rank, naming the
-    // file and the cause (and it goes to log.txt when that is still writable).
-    auto raise_write_errors = [&] {
-      std::string failure;
-      for (const CheckedStream* f : {&sfile, &wfile, &stepfile, &log})
-        if (failure.empty()) failure = f->error();
-      for (const auto& f : pfiles)
-        if (failure.empty()) failure = f.error();
-      if (!fem::MpiScope::any(!failure.empty())) return;
-      if (root) log << "run failed: " << failure << "\n" << std::flush;
-      throw scene::WriteError(failure.empty() ? "an output could not be written on the root rank"
-                                              : failure);
-    };
-    if (root) {
-      if (!scene.structures.empty()) {
-        sfile.open(dir / "structures.csv");
-        sfile << "time [s]";
-        for (const auto& s : scene.structures)
-          for (const char* q : {"settlement [m]", "rotation [rad]", "moment [N·m]", "force_x [N]",
-                                "force_z [N]", "applied_moment [N·m]", "displacement_x [m]",
-                                "applied_force_x [N]", "applied_force_z [N]"})
-            sfile << "," << s.name << "." << q;
-        sfile << "\n";
-      }
-      if (!thrust.empty()) {
-        wfile.open(dir / "walls.csv");
-        wfile << "time [s]";
-        for (auto k : thrust)
-          for (const char* q : {"thrust [N]", "reaction_x [N]", "reaction_z [N]"})
-            wfile << "," << scene.structures[k].name << "." << q;
-        wfile << "\n";
-      }
-      for (std::size_t j = 0; j < pressure.size(); ++j) {
-        const auto& name = scene.structures[pressure[j].first].name;
-        pfiles[j].open(dir / ("pressure_" + name + ".csv"));
-        pfiles[j] << "time [s]";
-        for (int b = 0; b < pressure[j].second; ++b)
-          pfiles[j] << fmt::format(",{}.bin{} [Pa]", name, b);
-        pfiles[j] << "\n";
-      }
-    }
-    auto flush_all = [&] {
-      sfile.flush();
-      wfile.flush();
-      for (auto& f : pfiles) f.flush();
-    };
-    auto write_probes = [&](double t) {
-      std::vector<fem::Model::RegionMotion> motion;
-      std::vector<fem::Reaction> react;
-      for (std::size_t k = 0; k < scene.structures.size(); ++k) {
-        motion.push_back(m.region_motion(k));
-        react.push_back(m.soil_reaction(k));
-      }
-      std::vector<std::vector<double>> prof;
-      for (const auto& [k, bins] : pressure) {
-        const auto [lo, hi] = zrange(k);
-        prof.push_back(m.soil_pressure(k, lo, hi, bins));
-      }
-      if (!root) return raise_write_errors();
-      if (sfile.is_open()) {
-        sfile << fmt::format("{:.6g}", t);
-        for (std::size_t k = 0; k < scene.structures.size(); ++k) {
-          const auto& s = scene.structures[k];
-          const double fx = s.force_x(t), fz = s.force_z(t);
-          // applied moment about the pivot: M + (load point − pivot) × F
-          const double ma =
-              s.moment(t) + (s.load_point.x - s.pivot.x) * fz - (s.load_point.z - s.pivot.z) * fx;
-          sfile << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}",
-                               -motion[k].uz, motion[k].rotation, react[k].moment, react[k].fx,
-                               react[k].fz, ma, motion[k].ux, fx, fz);
-        }
-        sfile << "\n";
-      }
-      if (wfile.is_open()) {
-        wfile << fmt::format("{:.6g}", t);
-        for (auto k : thrust) {
-          const auto n = scene::thrust_normal(scene.structures[k].outline, scene.domain);
-          wfile << fmt::format(",{:.9g},{:.9g},{:.9g}", react[k].fx * n.x + react[k].fz * n.z,
-                               react[k].fx, react[k].fz);
-        }
-        wfile << "\n";
-      }
-      for (std::size_t j = 0; j < pressure.size(); ++j) {
-        pfiles[j] << fmt::format("{:.6g}", t);
-        for (double v : prof[j]) pfiles[j] << fmt::format(",{:.9g}", v);
-        pfiles[j] << "\n";
-      }
-      raise_write_errors();
-    };
-    int snapshot = 0;
-    const bool vtk = scene.output.vtk;
-    if (vtk) m.write_vtu(dir.string(), "continuum", snapshot++);
-    write_probes(0.0);
-    double next_probe = scene.output.probe_interval, next_out = scene.output.interval;
-    long long newton_total = 0, linear_total = 0, cuts_total = 0, substeps_total = 0;
-    const auto t_dyn = std::chrono::steady_clock::now();
-    if (root) {
-      stepfile.open(dir / "steps.csv");
-      stepfile << "step,time [s],newton iterations,linear iterations,step cuts,converged,"
-                  "relative residual,wall [s],explicit substeps\n";
-    }
-    for (long long step = 1; step <= nsteps; ++step) {
-      const auto t_step = std::chrono::steady_clock::now();
-      const fem::StepStats st = m.dynamic_step(dt);
-      if (root)
-        stepfile
-            << fmt::format(
-                   "{},{:.6g},{},{},{},{},{:.3e},{:.4f},{}\n", step, m.time(), st.newton_iterations,
-                   st.linear_iterations, st.cuts, st.converged ? 1 : 0, st.residual,
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t_step).count(),
-                   st.substeps)
-            << std::flush;
-      newton_total += st.newton_iterations;
-      linear_total += st.linear_iterations;
-      cuts_total += st.cuts;
-      substeps_total += st.substeps;
-      if (root && (st.cuts > 0 || st.newton_iterations > 10))
-        log << fmt::format("step {} (t = {:.4g} s): {} Newton iterations, {} cuts\n", step,
-                           m.time(), st.newton_iterations, st.cuts)
-            << std::flush;
-      if (!st.converged) {
-        summary.message =
-            fmt::format("{} at t = {:.6g} s\n{}",
-                        explicit_dyn ? "explicit integration diverged" : "Newton did not converge",
-                        m.time(), m.log());
-        summary.steps = step;
-        summary.simulated_time = m.time();
-        return summary;
-      }
-      const double t = m.time();
-      if (t >= next_probe - 1e-9 * dt || step == nsteps) {
-        write_probes(t);
-        if (root && step % 50 == 0) flush_all();
-        next_probe += scene.output.probe_interval;
-      }
-      if (vtk && (t >= next_out - 1e-9 * dt || step == nsteps)) {
-        m.write_vtu(dir.string(), "continuum", snapshot++);
-        next_out += scene.output.interval;
-      }
-      if (options.progress && (step % 10 == 0 || step == nsteps)) {
-        scene::Progress p;
-        p.stage = "continuum";
-        p.time = t;
-        p.end_time = duration;
-        p.step = step;
-        p.wall_seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-        options.progress(p);
-      }
+    for (long long step = 1; step <= d.nsteps; ++step) {
+      if (!d.advance(step, summary)) return summary;
+      const double t = d.m.time();
+      d.sample(t, step == d.nsteps);
+      d.snapshots.at(t, d.dt, step == d.nsteps);
+      run_detail::report_progress(options, step, d.nsteps, t, scene.info.duration, t_start);
       summary.steps = step;
-      if (co.max_displacement > 0.0) { // small-strain validity limit
-        std::string over;
-        for (std::size_t k = 0; k < scene.structures.size() && over.empty(); ++k) {
-          const auto mo = m.region_motion(k);
-          const double moved = std::hypot(mo.ux, mo.uz);
-          if (moved > co.max_displacement)
-            over = fmt::format("{} moved {:.4g} m", scene.structures[k].name, moved);
-        }
-        if (!over.empty()) {
-          if (t < next_probe - 1e-9 * dt && step != nsteps) write_probes(t);
-          if (vtk && t < next_out - 1e-9 * dt) m.write_vtu(dir.string(), "continuum", snapshot++);
-          summary.note = fmt::format(
-              "stopped at t = {:.4g} s of {:.4g} s: {} > continuum.max_displacement = {:.4g} m "
-              "(beyond the small-strain model's validity)",
-              t, duration, over, co.max_displacement);
-          if (root) log << summary.note << "\n";
-          break;
-        }
-      }
+      if (d.beyond_validity(t, summary)) break;
     }
-    if (vtk) m.write_pvd(dir.string(), "continuum");
-    raise_write_errors(); // a failed steps.csv row or log line since the last probe row
-
-    // ---- surface settlement profile at the end
-    std::vector<std::pair<double, double>> profile;
-    const int n = 101;
-    for (int i = 0; i < n; ++i) {
-      const double x = xmin + (xmax - xmin) * i / (n - 1);
-      const double z = top_of(domain, x, zmax) - 1e-9 * (zmax - zmin);
-      profile.emplace_back(x, -m.displacement({x, z}).z);
+    std::vector<fem::Point> top; // the soil's top, 101 points across the domain
+    for (int i = 0; i < 101; ++i) {
+      const double x = su.xmin + (su.xmax - su.xmin) * i / 100;
+      top.push_back({x, top_of(su.domain, x, su.zmax) - 1e-9 * (su.zmax - su.zmin)});
     }
-    std::string failure;
-    if (root) {
-      std::string csv = "x [m],settlement [m]\n";
-      for (const auto& [x, s] : profile) csv += fmt::format("{:.6g},{:.9g}\n", x, s);
-      try {
-        scene::write_file_atomic(dir / "surface_profile.csv", csv);
-      } catch (const scene::WriteError& e) {
-        failure = e.what();
-        log << "run failed: " << failure << "\n" << std::flush;
-      }
-    }
-    if (fem::MpiScope::any(!failure.empty()))
-      throw scene::WriteError(failure.empty() ? "surface_profile.csv: failed on the root rank"
-                                              : failure);
-    // Coulomb contact planes (continuum.interface = "coulomb"): state at the end (collective
-    // before the explicit run has started)
-    std::vector<fem::ContactForce> contact_end;
-    for (std::size_t k = 0; k < pb.contacts.size(); ++k) contact_end.push_back(m.contact_force(k));
-    if (root) {
-      log << m.log();
-      for (std::size_t k = 0; k < pb.contacts.size(); ++k) {
-        const fem::ContactForce& c = contact_end[k];
-        const fem::ContactPlane& p = pb.contacts[k];
-        log << fmt::format("contact '{}' ({:.4g}, {:.4g})–({:.4g}, {:.4g}), μ_s = {}, μ_d = {}: {} "
-                           "nodes in contact ({} sliding), {} separated, soil force ({:.6g}, "
-                           "{:.6g}) N, largest slip {:.4g} m, frictional work {:.6g} J\n",
-                           p.name, p.a.x, p.a.z, p.b.x, p.b.z, p.mu_static, p.mu_dynamic, c.nodes,
-                           c.sliding, c.open, c.fx, c.fz, c.max_slip, c.dissipated);
-      }
-      log << m.contact_body_summary();
-      const double wall_dyn =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dyn).count();
-      log << fmt::format("dynamic: {} steps of {:.6g} s, {} Newton iterations, {} linear "
-                         "iterations, {} step cuts, {:.3f} s wall per step ({:.1f} s)\n",
-                         summary.steps, dt, newton_total, linear_total, cuts_total,
-                         wall_dyn / double(std::max(1LL, summary.steps)), wall_dyn);
-      if (explicit_dyn) {
-        log << fmt::format("explicit: {} central-difference steps, {:.3g} s wall per simulated "
-                           "second\n",
-                           substeps_total, wall_dyn / std::max(1e-300, m.time()));
-        // where a step's time goes (rank 0; continuum/README.md "MPI")
-        const auto pr = m.explicit_profile();
-        const double us = 1e6 / double(std::max(1L, pr.steps));
-        log << fmt::format(
-            "explicit on {} rank(s), rank 0: {} cells with stresses; per step {:.1f} µs = cells "
-            "{:.1f} + reduction {:.1f} + replicated nodal update {:.1f} µs; steps {:.1f} s of "
-            "{:.1f} s dynamic wall\n",
-            pr.ranks, pr.cells, (pr.cells_s + pr.reduce_s + pr.nodal_s) * us, pr.cells_s * us,
-            pr.reduce_s * us, pr.nodal_s * us, pr.cells_s + pr.reduce_s + pr.nodal_s, wall_dyn);
-      }
-    }
-    for (CheckedStream* f : {&sfile, &wfile, &stepfile, &log}) f->close();
-    for (auto& f : pfiles) f.close();
-    raise_write_errors();
-    summary.ok = true;
-    summary.simulated_time = m.time();
-    summary.substeps = substeps_total;
-    summary.message = fmt::format("{} steps, {} dofs", summary.steps, m.n_dofs());
+    d.finish(summary, top);
   } catch (const std::exception& e) {
     summary.ok = false;
     summary.message = std::string("continuum solver failed: ") + e.what();

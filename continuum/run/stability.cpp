@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "constitutive/soil.hpp"
 #include "demfem/continuum/run.hpp"
 #include "demfem/continuum/verification.hpp"
 #include "demfem/scene/load.hpp"
@@ -162,13 +163,14 @@ StabilityCase bearing_capacity_case(double factor, int degree) {
   pb.mesh.dx = graded(1.0 * Bf, 0.125 * Bf, 5.0 * Bf, 1.3);
   pb.mesh.dz = graded(1.0 * Bf, 0.125 * Bf, 5.0 * Bf, 1.3);
   std::reverse(pb.mesh.dz.begin(), pb.mesh.dz.end());
+  constitutive::Elastic::Parameters elastic;
+  elastic.young = 1.0e7;
+  elastic.poisson = 0.3;
   constitutive::MohrCoulomb::Parameters clay; // undrained: φ = ψ = 0, c = c_u
-  clay.young = 1.0e7;
-  clay.poisson = 0.3;
   clay.friction_angle = 0.0;
   clay.dilation_angle = 0.0;
   clay.cohesion = cu;
-  pb.soil = constitutive::Material(clay);
+  pb.soil = constitutive::Material(constitutive::MohrCoulomb(elastic, clay));
   pb.gravity = 0.0;
   pb.linear_solver = "direct";
   pb.newton_max_iterations = 15;
@@ -225,7 +227,7 @@ StabilityCase scene_locking_case(const scene::Scene& scene, double nu, bool bbar
   s.output.vtk = false;
   s.output.figures = false;
   const auto own = stable_step(s);
-  s.soil.continuum->poisson = nu;
+  constitutive::elastic_block(*s.soil.continuum).poisson = nu;
   s.continuum.bbar = bbar;
   const auto lim = stable_step(s);
   if (!lim) {
@@ -258,9 +260,10 @@ StabilityCase scene_locking_case(const scene::Scene& scene, double nu, bool bbar
         seated.empty() ? std::string("no seated structure (nothing to lock against at rest)")
                        : seated,
         lim->dt,
-        own && own->dt > 0.0 ? fmt::format(" = {:.3f} × the scene's (ν = {:g})", lim->dt / own->dt,
-                                           scene.soil.continuum->poisson)
-                             : std::string(),
+        own && own->dt > 0.0
+            ? fmt::format(" = {:.3f} × the scene's (ν = {:g})", lim->dt / own->dt,
+                          constitutive::elastic_block(*scene.soil.continuum).poisson)
+            : std::string(),
         r.dofs);
   } catch (const scene::SceneError& e) {
     c.outcome = "refused";

@@ -1222,8 +1222,13 @@ PackResult pack_or_load(const scene::Scene& scene, const fs::path& out_dir,
                          d.packing.target_tolerance;
         return r;
       }
-    } catch (const io::IoError&) {
-      // unreadable or stale: deposit again and overwrite
+      spdlog::warn("{}: the packing cache {} holds another packing ({} particles, '{}'): "
+                   "depositing again and replacing it",
+                   scene.label(), path.string(), ck.particles.size() + r.carved, ck.meta.label);
+    } catch (const io::IoError& e) {
+      spdlog::warn("{}: the packing cache {} cannot be read ({}): depositing again and replacing "
+                   "it",
+                   scene.label(), path.string(), e.what());
     }
   }
   return pack(scene, out_dir, progress);

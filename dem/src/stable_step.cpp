@@ -39,7 +39,7 @@
 // This is the exact limit of the densest equal-disk packing, not a rigorous bound for every
 // conceivable network (Gershgorin's Z_max = 6 would be): large initial overlaps (more than 6
 // neighbours) or structures much lighter than the particles can exceed it, and the run's
-// overlap and energy-closure watch (run.cpp) stops them.
+// overlap and energy-closure watch (run/energy_watch.cpp) stops them.
 //
 // Damping. A dashpot of damping ratio ξ lowers the limit of the explicit scheme to
 // Δt_crit = (2/ω_max)(√(1 + ξ²) − ξ) (Belytschko, Liu & Moran 2000, eq. 6.3.36). Contact

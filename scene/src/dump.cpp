@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "demfem/scene/load.hpp"
+#include "demfem/scene/probe_spec.hpp"
 #include "demfem/scene/reader.hpp"
 
 namespace demfem::scene {
@@ -181,25 +182,10 @@ std::string to_toml(const Scene& s) {
     }
   }
   if (const auto& c = s.soil.continuum) {
-    soil.insert("continuum", toml::table{{"model", keyword(kContinuumModelNames, c->model)},
-                                         {"young", c->young},
-                                         {"poisson", c->poisson},
-                                         {"friction_angle", deg(c->friction_angle)},
-                                         {"cohesion", c->cohesion},
-                                         {"dilation_angle", deg(c->dilation_angle)},
-                                         {"tension_cutoff", c->tension_cutoff},
-                                         {"density", c->density},
-                                         {"k0", c->k0}});
+    soil.insert("continuum", toml::table{{"density", c->density}, {"k0", c->k0}});
+    // the constitutive model and its keys, through its parameter blocks
+    for (const auto& m : c->models) write_model(m, *soil.get_as<toml::table>("continuum"));
     if (c->surface) soil.get_as<toml::table>("continuum")->insert("surface", *c->surface);
-    if (c->dilation_cutoff)
-      soil.get_as<toml::table>("continuum")->insert("dilation_cutoff", *c->dilation_cutoff);
-    if (c->modulus_exponent != 0.0)
-      soil.get_as<toml::table>("continuum")->insert("modulus_exponent", c->modulus_exponent);
-    if (c->modulus_reference_stress)
-      soil.get_as<toml::table>("continuum")
-          ->insert("modulus_reference_stress", *c->modulus_reference_stress);
-    if (c->modulus_min_stress)
-      soil.get_as<toml::table>("continuum")->insert("modulus_min_stress", *c->modulus_min_stress);
     if (c->calibrate_dem) soil.get_as<toml::table>("continuum")->insert("calibrate", "dem");
     if (!c->provenance.empty()) { // where each value came from (issue 9)
       toml::table prov;
@@ -305,12 +291,14 @@ std::string to_toml(const Scene& s) {
   }
   if (!s.probes.empty()) {
     toml::array a;
-    for (const auto& p : s.probes)
-      a.push_back(toml::table{{"kind", keyword(kProbeKindNames, p.kind)},
-                              {"target", p.target},
-                              {"interval", p.interval},
-                              {"bins", p.bins},
-                              {"points", pts(p.points)}});
+    for (const auto& p : s.probes) { // the keys its kind takes (probe_spec.hpp)
+      toml::table t{{"kind", keyword(kProbeKindNames, p.kind)}, {"interval", p.interval}};
+      const ProbeSpec& spec = probe_spec(p.kind);
+      if (spec.target) t.insert("target", p.target);
+      if (spec.bins) t.insert("bins", p.bins);
+      if (spec.points) t.insert("points", pts(p.points));
+      a.push_back(t);
+    }
     root.insert("probe", a);
   }
   toml::table load{{"gravity", s.load.gravity}};

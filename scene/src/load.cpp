@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <set>
@@ -15,7 +16,9 @@
 #include <fmt/ranges.h>
 #include <toml++/toml.h>
 
+#include "demfem/scene/names.hpp"
 #include "demfem/scene/particles_file.hpp"
+#include "demfem/scene/probe_spec.hpp"
 #include "demfem/scene/reader.hpp"
 #include "validate_internal.hpp"
 
@@ -24,8 +27,9 @@ namespace demfem::scene {
 std::string Diagnostic::format() const {
   std::string where = file;
   if (line > 0) where += fmt::format(":{}:{}", line, column);
-  if (key.empty()) return fmt::format("{}: error: {}", where, message);
-  return fmt::format("{}: error: {}: {}", where, key, message);
+  const char* what = warning ? "warning" : "error";
+  if (key.empty()) return fmt::format("{}: {}: {}", where, what, message);
+  return fmt::format("{}: {}: {}: {}", where, what, key, message);
 }
 
 namespace {
@@ -328,7 +332,16 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
                           *pf, path.string()));
     } else {
       s.particles_file = std::filesystem::absolute(path, ec).lexically_normal().string();
+      const std::size_t before = r.diags().size();
       s.particles = read_particles_file(path, r.key_path("particles_file"), r.diags());
+      if (const std::size_t n = r.diags().size() - before; n > 0) {
+        // where the scene names the file, before the file's own problems
+        r.error("particles_file", fmt::format("the particle file '{}' is refused ({} problem(s) "
+                                              "in it, listed next)",
+                                              *pf, n));
+        std::rotate(r.diags().begin() + static_cast<std::ptrdiff_t>(before),
+                    std::prev(r.diags().end()), r.diags().end());
+      }
       if (r.has("count") && !s.particles.empty() &&
           static_cast<std::size_t>(s.count) != s.particles.size())
         r.error("count", fmt::format("count = {} but {} holds {} particles; give count = {} or "
@@ -379,22 +392,30 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   return s;
 }
 
-ContinuumSoil read_continuum_soil(Reader& r) {
+// The value of a number key of a choice's blocks; NaN when no block has it or it is unset.
+double number_of(const ModelChoice& choice, std::string_view key) {
+  class Get final : public ParamVisitor {
+  public:
+    explicit Get(std::string_view k) : wanted(k) {}
+    std::string_view wanted;
+    double value = std::numeric_limits<double>::quiet_NaN();
+    void number(const Field& f, double& v, Rule) override {
+      if (f.key == wanted) value = v;
+    }
+    void integer(const Field&, int&, int, int) override {}
+    void flag(const Field&, bool&) override {}
+    void text(const Field&, std::string&) override {}
+  } get(key);
+  for (const auto& b : choice.blocks) b.visit(get);
+  return get.value;
+}
+
+ContinuumSoil read_continuum_soil(Reader& r, const Vocabulary& vocabulary) {
   ContinuumSoil s;
-  s.model = read_enum(r, "model", kContinuumModelNames, s.model);
-  s.young = r.positive("young", s.young);
-  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
-  s.friction_angle = r.in_range("friction_angle", 30.0, 0.0, 89.0) * kDeg;
-  s.cohesion = r.non_negative("cohesion", s.cohesion);
-  s.dilation_angle = r.in_range("dilation_angle", 0.0, 0.0, 89.0) * kDeg;
-  if (s.dilation_angle > s.friction_angle)
-    r.error("dilation_angle", "dilation angle must not exceed the friction angle");
-  s.tension_cutoff = r.non_negative("tension_cutoff", s.tension_cutoff);
-  if (r.has("dilation_cutoff")) s.dilation_cutoff = r.in_range("dilation_cutoff", 0.0, 0.0, 1.0);
-  s.modulus_exponent = r.in_range("modulus_exponent", s.modulus_exponent, 0.0, 1.0);
-  if (r.has("modulus_reference_stress"))
-    s.modulus_reference_stress = r.positive("modulus_reference_stress", 1.0);
-  if (r.has("modulus_min_stress")) s.modulus_min_stress = r.non_negative("modulus_min_stress", 0.0);
+  // the constitutive model and its keys (young, poisson, friction_angle, …), which its parameter
+  // blocks own (continuum/constitutive/)
+  std::vector<std::string> valid;
+  for (const ModelSlot& slot : vocabulary.continuum) s.models.push_back(read_model(r, slot, valid));
   s.density = r.positive("density", s.density);
   s.k0 = r.number("k0", s.k0);
   s.surface = r.opt_number("surface");
@@ -407,21 +428,25 @@ ContinuumSoil read_continuum_soil(Reader& r) {
                                        *cal));
   }
   // E = young (p/p_ref)^n needs p_ref; a calibrated soil gets both from the calibration
-  if (s.modulus_exponent != 0.0 && !s.modulus_reference_stress && !s.calibrate_dem)
-    r.error("modulus_exponent",
-            "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
-            "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
-  for (const char* k :
-       {"young", "poisson", "friction_angle", "cohesion", "dilation_angle", "dilation_cutoff",
-        "modulus_exponent", "modulus_reference_stress", "density", "k0", "surface"})
+  for (const auto& m : s.models) {
+    const double n = number_of(m, "modulus_exponent");
+    if (!std::isnan(n) && n != 0.0 && std::isnan(number_of(m, "modulus_reference_stress")) &&
+        !s.calibrate_dem)
+      r.error("modulus_exponent",
+              "a stress-dependent modulus (modulus_exponent > 0) needs modulus_reference_stress "
+              "[Pa], the mean stress at which `young` holds (or calibrate = \"dem\")");
+  }
+  for (const std::string& k : valid)
+    if (r.has(k)) s.given.push_back(k);
+  for (const char* k : {"density", "k0", "surface"})
     if (r.has(k)) s.given.emplace_back(k);
   // Written by the resolved dump (where each calibrated value came from); informational.
   if (const auto* pv = r.table("provenance"))
     for (auto&& [k, v] : *pv)
       s.provenance.emplace_back(std::string(k.str()), v.value<std::string>().value_or(""));
-  r.finish({"model", "young", "poisson", "friction_angle", "cohesion", "dilation_angle",
-            "dilation_cutoff", "modulus_exponent", "modulus_reference_stress", "modulus_min_stress",
-            "tension_cutoff", "density", "k0", "surface", "calibrate", "provenance"});
+  for (const char* k : {"density", "k0", "surface", "calibrate", "provenance"})
+    valid.emplace_back(k);
+  r.finish(valid);
   return s;
 }
 
@@ -511,6 +536,7 @@ Wall read_wall(Reader& r) {
   Wall w;
   w.name = r.string("name", "");
   if (w.name.empty()) r.error_here("every [[wall]] needs a 'name'");
+  if (const auto why = part_name_problem(w.name)) r.error("name", *why);
   w.points = r.points("points", 2);
   if (!r.has("points")) r.error_here("missing required key 'points' (a polyline [[x, z], …])");
   w.mu_static = friction_opt(r, "mu_static");
@@ -525,6 +551,7 @@ Structure read_structure(Reader& r, const DemSoil* dem) {
   Structure s;
   s.name = r.string("name", "");
   if (s.name.empty()) r.error_here("every [[structure]] needs a 'name'");
+  if (const auto why = part_name_problem(s.name)) r.error("name", *why);
   s.kind = read_enum(r, "kind", kStructureKindNames, s.kind);
   const std::string shape = r.string("shape", "rectangle");
   std::vector<std::string> valid{"name", "kind", "shape"};
@@ -645,17 +672,43 @@ Load read_load(Reader& r) {
   return l;
 }
 
+// A [[probe]]: the keys its kind takes (probe_spec.hpp); a key it does not take is refused.
 Probe read_probe(Reader& r) {
   Probe p;
+  if (const toml::node* n = r.node("kind"); n && n->value<std::string>() == "structure") {
+    r.error("kind", "there is no probe kind 'structure': structures.csv records every structure "
+                    "(settlement, rotation, moment, soil forces) at output.probe_interval in both "
+                    "solvers; delete this [[probe]] (for a wall's thrust: kind = \"wall-thrust\")");
+    for (const char* k : {"target", "interval", "bins", "points"}) r.mark_used(k);
+    return p;
+  }
   p.kind = read_enum(r, "kind", kProbeKindNames, p.kind);
   if (!r.has("kind"))
     r.error_here(
         fmt::format("every [[probe]] needs 'kind'; valid: {}", fmt::join(kProbeKindNames, ", ")));
-  p.target = r.string("target", "");
+  const ProbeSpec& spec = probe_spec(p.kind);
+  std::vector<std::string> keys{"kind", "interval"};
   p.interval = r.non_negative("interval", 0.0);
-  p.bins = r.integer("bins", p.bins, 1, 100000);
-  p.points = r.points("points", 0);
-  r.finish({"kind", "target", "interval", "bins", "points"});
+  if (spec.target) {
+    p.target = r.string("target", "");
+    keys.emplace_back("target");
+  }
+  if (spec.bins) {
+    p.bins = r.integer("bins", p.bins, 1, 100000);
+    keys.emplace_back("bins");
+  }
+  if (spec.points) {
+    p.points = r.points("points", 0);
+    keys.emplace_back("points");
+  }
+  for (const char* k : {"target", "bins", "points"})
+    if (r.has(k) && std::find(keys.begin(), keys.end(), k) == keys.end()) {
+      r.error(k, fmt::format("{} {} probe takes no '{}' (it would have no effect); its keys: {}",
+                             p.kind == ProbeKind::Energy ? "an" : "a",
+                             keyword(kProbeKindNames, p.kind), k, fmt::join(keys, ", ")));
+      r.mark_used(k);
+    }
+  r.finish(keys);
   return p;
 }
 
@@ -670,7 +723,10 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
   if (const auto* t = top.table("scene")) {
     Reader r(*t, "scene", file, diags, t->source());
     sc.info.name = r.string("name", "");
-    if (sc.info.name.empty()) r.error_here("missing required key 'name'");
+    if (sc.info.name.empty())
+      r.error_here("missing required key 'name'");
+    else if (const auto why = name_problem(sc.info.name))
+      r.error("name", *why);
     sc.info.description = r.string("description", "");
     sc.info.duration = r.positive("duration", sc.info.duration, true);
     sc.info.seed = static_cast<unsigned long>(r.integer("seed", 1, 0, 2147483647));
@@ -712,7 +768,7 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
     }
     if (const auto* c = r.table("continuum")) {
       Reader rc(*c, "soil.continuum", file, diags, c->source());
-      sc.soil.continuum = read_continuum_soil(rc);
+      sc.soil.continuum = read_continuum_soil(rc, vocabulary);
     }
     r.finish({"dem", "continuum"});
   }
@@ -732,8 +788,9 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
       for (std::size_t i = 0; i < a->size(); ++i) {
         const auto& tbl = *(*a)[i].as_table();
         const auto nm = tbl["name"].value<std::string>();
-        Reader r(tbl, nm ? fmt::format("{}[{}]", key, *nm) : fmt::format("{}[{}]", key, i), file,
-                 diags, tbl.source());
+        Reader r(tbl,
+                 nm ? fmt::format("{}[{}]", key, printable(*nm)) : fmt::format("{}[{}]", key, i),
+                 file, diags, tbl.source());
         fn(r);
       }
     }
@@ -825,13 +882,33 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
   }
   for (std::size_t i = 0; i < sc.probes.size(); ++i) {
     const auto& p = sc.probes[i];
-    const bool needs_target = p.kind == ProbeKind::Structure || p.kind == ProbeKind::WallThrust ||
-                              p.kind == ProbeKind::PressureProfile;
-    if (needs_target && !sc.structure(p.target) && !sc.wall(p.target))
+    const char* kind = keyword(kProbeKindNames, p.kind);
+    if (probe_spec(p.kind).target && !sc.structure(p.target) && !sc.wall(p.target))
       top.error_at(
           at("probe", i, "target"), fmt::format("probe[{}].target", i),
-          fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither",
-                      keyword(kProbeKindNames, p.kind), p.target));
+          fmt::format("probe '{}' needs 'target' naming a structure or wall; '{}' is neither", kind,
+                      p.target));
+    // One probe of a kind per target: each writes its own file. The wall-thrust probes write one
+    // file (walls.csv) at one interval.
+    for (std::size_t j = 0; j < i; ++j) {
+      const auto& q = sc.probes[j];
+      if (q.kind != p.kind) continue;
+      if (p.kind == ProbeKind::WallThrust) {
+        if (q.interval != p.interval)
+          top.error_at(at("probe", i, "interval"), fmt::format("probe[{}].interval", i),
+                       fmt::format("the wall-thrust probes write one file, walls.csv, at one "
+                                   "interval: probe[{}] gives {} s, this one {} s",
+                                   j, q.interval, p.interval));
+        if (q.target != p.target) continue;
+      } else if (q.target != p.target) {
+        continue;
+      }
+      top.error_at(at("probe", i, "kind"), fmt::format("probe[{}].kind", i),
+                   fmt::format("a second '{}' probe{} (probe[{}] is one): give one", kind,
+                               p.target.empty() ? std::string() : fmt::format(" on '{}'", p.target),
+                               j));
+      break;
+    }
   }
 
   top.finish({"scene", "domain", "soil", "continuum", "wall", "structure", "group", "event",
@@ -996,10 +1073,17 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name,
         const int vline = static_cast<int>(vt.source().begin.line);
         const int vcol = static_cast<int>(vt.source().begin.column);
         const auto name = vt["name"].value<std::string>();
-        const std::string label = name ? *name : fmt::format("#{}", i + 1);
+        const std::string label = name ? printable(*name) : fmt::format("#{}", i + 1);
         if (!name || name->empty()) {
           diags.push_back({source_name, vline, vcol, fmt::format("variant[{}]", i),
                            "every [[variant]] needs a non-empty 'name'"});
+          continue;
+        }
+        if (const auto why = name_problem(*name)) { // it names a run directory: a name, no path
+          const auto& src = vt.get("name")->source();
+          diags.push_back({source_name, static_cast<int>(src.begin.line),
+                           static_cast<int>(src.begin.column), fmt::format("variant[{}].name", i),
+                           *why});
           continue;
         }
         if (!seen.insert(*name).second)
@@ -1053,6 +1137,10 @@ SceneFile parse_scene(std::string_view text, const std::string& source_name,
     }
   }
   dedupe(diags);
+  const auto warn = std::stable_partition(diags.begin(), diags.end(),
+                                          [](const Diagnostic& d) { return !d.warning; });
+  out.warnings.assign(std::make_move_iterator(warn), std::make_move_iterator(diags.end()));
+  diags.erase(warn, diags.end());
   if (!diags.empty()) throw SceneError(std::move(diags));
   return out;
 }

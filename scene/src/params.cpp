@@ -4,6 +4,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -28,6 +30,14 @@ std::string toml_number(double v) {
   return s;
 }
 
+// A number as the file states it (degrees for an angle held in radians), or nothing when unset.
+std::optional<double> as_stated(const Field& f, double v) {
+  if (f.value == Field::Value::optional && std::isnan(v)) return std::nullopt;
+  if (f.value == Field::Value::degrees)
+    return std::round(v * (180.0 / std::numbers::pi) * 1e9) / 1e9;
+  return v;
+}
+
 std::string rule_text(const Rule& r) {
   switch (r.kind) {
   case Rule::Kind::any:
@@ -46,7 +56,8 @@ class Describer final : public ParamVisitor {
 public:
   std::vector<ParamText> out;
   void number(const Field& f, double& v, Rule /*rule*/) override {
-    add(f, with_unit(fmt::format("{:.3g}", v), f.unit));
+    const auto x = as_stated(f, v);
+    add(f, x ? with_unit(fmt::format("{:.3g}", *x), f.unit) : std::string("unset"));
   }
   void integer(const Field& f, int& v, int /*lo*/, int /*hi*/) override {
     add(f, with_unit(fmt::format("{}", v), f.unit));
@@ -66,7 +77,8 @@ public:
   explicit SchemaLister(std::string_view block) : block_(block) {}
   std::vector<ParamSchema> out;
   void number(const Field& f, double& v, Rule rule) override {
-    add(f, "number", toml_number(v), rule_text(rule));
+    const auto x = as_stated(f, v);
+    add(f, "number", x ? toml_number(*x) : std::string("unset"), rule_text(rule));
   }
   void integer(const Field& f, int& v, int lo, int hi) override {
     add(f, "integer", fmt::format("{}", v), fmt::format("in [{}, {}]", lo, hi));

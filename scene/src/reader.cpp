@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 
 namespace demfem::scene {
 
@@ -246,10 +247,32 @@ std::string Reader::type_name(const toml::node& n) {
 }
 namespace {
 
+// An angle the file states in degrees (Field::Value::degrees), as the loader converted it
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+
 class ParamReader final : public ParamVisitor {
 public:
   explicit ParamReader(Reader& r) : r_(r) {}
   void number(const Field& f, double& v, Rule rule) override {
+    if (f.value == Field::Value::degrees) { // the rule in degrees, the value kept in radians
+      if (!r_.has(f.key)) return;
+      double d = 0.0;
+      read(f, d, rule);
+      v = d * kRadPerDeg;
+      return;
+    }
+    read(f, v, rule);
+  }
+  void integer(const Field& f, int& v, int lo, int hi) override {
+    v = r_.integer(f.key, v, lo, hi);
+  }
+  void flag(const Field& f, bool& v) override { v = r_.boolean(f.key, v); }
+  void text(const Field& f, std::string& v) override { v = r_.string(f.key, v); }
+
+private:
+  // an absent key keeps v (the default; NaN for an unset optional value)
+  void read(const Field& f, double& v, Rule rule) {
     switch (rule.kind) {
     case Rule::Kind::any:
       v = r_.number(f.key, v);
@@ -265,13 +288,6 @@ public:
       break;
     }
   }
-  void integer(const Field& f, int& v, int lo, int hi) override {
-    v = r_.integer(f.key, v, lo, hi);
-  }
-  void flag(const Field& f, bool& v) override { v = r_.boolean(f.key, v); }
-  void text(const Field& f, std::string& v) override { v = r_.string(f.key, v); }
-
-private:
   Reader& r_;
 };
 
@@ -288,7 +304,13 @@ public:
 class TomlWriter final : public ParamVisitor {
 public:
   explicit TomlWriter(toml::table& t) : t_(t) {}
-  void number(const Field& f, double& v, Rule) override { t_.insert_or_assign(f.key, v); }
+  void number(const Field& f, double& v, Rule) override {
+    if (f.value == Field::Value::optional && std::isnan(v)) return;
+    if (f.value == Field::Value::nonzero && v == 0.0) return;
+    // degrees rounded to 1e-9° so that 30° does not come back as 29.999999999999996
+    t_.insert_or_assign(
+        f.key, f.value == Field::Value::degrees ? std::round(v * kDegPerRad * 1e9) / 1e9 : v);
+  }
   void integer(const Field& f, int& v, int, int) override {
     t_.insert_or_assign(f.key, static_cast<int64_t>(v));
   }

@@ -143,6 +143,9 @@ bool touches_or_overlaps(const std::vector<Vec2>& a, bool a_closed, const Polygo
     if (inside_closed(p, q, tol)) return true;
   for (const auto& q : p)
     if (a_closed && a.size() >= 3 && inside_closed(a, q, tol)) return true;
+  for (std::size_t i = 0; !a_closed && i + 1 < a.size(); ++i) // a corner of p on the polyline
+    for (const auto& q : p)
+      if (segment_distance(q, a[i], a[i + 1]) <= tol) return true;
   const std::size_t na = a_closed ? a.size() : (a.empty() ? 0 : a.size() - 1);
   for (std::size_t i = 0; i < na; ++i)
     for (std::size_t j = 0; j < p.size(); ++j)
@@ -263,8 +266,10 @@ Estimates estimate(const Scene& sc, const Vocabulary& vocabulary) {
       e.snapshots = std::floor(duration / sc.output.interval) + 1.0;
       e.output_bytes = e.snapshots * n * kSnapshotBytesPerParticle;
     }
-    if (sc.output.probe_interval > 0.0)
-      e.output_bytes += (duration / sc.output.probe_interval) * 25.0 * 12.0; // ~12 columns a row
+    if (sc.output.probe_interval > 0.0) {
+      e.series_bytes = (duration / sc.output.probe_interval) * 25.0 * 12.0; // ~12 columns a row
+      e.output_bytes += e.series_bytes;
+    }
   }
   return e;
 }
@@ -373,9 +378,12 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
 
+  // ---- memory: the continuum mesh and the particles against the machine's available memory
+  const bool mesh_fits = validate_memory(sc, vocabulary, root, file, diags);
+
   // ---- continuum: an explicit step above the stable step (the run refuses the same)
-  if (vocabulary.continuum_step_limit && sc.soil.continuum && sc.uses(Solver::Continuum) &&
-      sc.continuum.integrator == "explicit" && sc.continuum.dt > 0.0)
+  if (mesh_fits && vocabulary.continuum_step_limit && sc.soil.continuum &&
+      sc.uses(Solver::Continuum) && sc.continuum.integrator == "explicit" && sc.continuum.dt > 0.0)
     if (const auto lim = vocabulary.continuum_step_limit(sc); lim && sc.continuum.dt > lim->dt)
       add(locate(root, {"continuum", "dt"}), "continuum.dt",
           continuum_step_refusal(sc.continuum.dt, *lim));
@@ -409,6 +417,7 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
         break;
       }
   }
+  validate_container(sc, root, file, diags); // walls and structures hold the fill
 
   // ---- explicit particles ----------------------------------------------------------------------
   for (std::size_t i = 0; i < d.particles.size(); ++i) {
@@ -482,7 +491,16 @@ void validate_semantics(const Scene& sc, const toml::table& root, const std::str
                         std::max(1.0, e.memory_bytes / kBytesPerParticle) / 1e7 / 86400.0,
                     dt_given ? " or raise soil.dem.dt" : ""));
   }
-  if (!too_long && e.output_bytes > kMaxOutputBytes)
+  if (!too_long && e.output_bytes > kMaxOutputBytes && e.series_bytes > e.output_bytes / 2.0)
+    add(root["output"]["probe_interval"].node() ? locate(root, {"output", "probe_interval"})
+                                                : locate(root, {"scene", "duration"}),
+        "output.probe_interval",
+        fmt::format("time series every {} s over {:.6g} s ({:.4g} rows per file) would write "
+                    "about {}; the ceiling is {}; raise output.probe_interval",
+                    sc.output.probe_interval, sc.info.duration,
+                    sc.info.duration / sc.output.probe_interval, human_bytes(e.output_bytes),
+                    human_bytes(kMaxOutputBytes)));
+  else if (!too_long && e.output_bytes > kMaxOutputBytes)
     add(root["output"]["interval"].node() ? locate(root, {"output", "interval"})
                                           : locate(root, {"scene", "duration"}),
         "output.interval",

@@ -15,4 +15,15 @@ namespace demfem::scene::detail {
 void validate_semantics(const Scene& scene, const toml::table& root, const std::string& file,
                         const Vocabulary& vocabulary, std::vector<Diagnostic>& diags);
 
+// The continuum mesh's and the DEM's estimated memory against the machine's available memory
+// (validate_resources.cpp). False when the continuum mesh is refused: then nothing may build it.
+bool validate_memory(const Scene& scene, const Vocabulary& vocabulary, const toml::table& root,
+                     const std::string& file, std::vector<Diagnostic>& diags);
+
+// The particles' container (validate_geometry.cpp): every fill edge that does not face upwards is
+// held by a wall or a structure, or what leaves through it lands on one (error otherwise); wall
+// corners outside the domain (warning).
+void validate_container(const Scene& scene, const toml::table& root, const std::string& file,
+                        std::vector<Diagnostic>& diags);
+
 } // namespace demfem::scene::detail

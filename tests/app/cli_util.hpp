@@ -67,11 +67,13 @@ inline std::string with_values(std::string text,
 }
 
 // `demfem ARGS…` as a child process (no shell) with stdout and stderr to `log`. A positive
-// `file_size_limit` sets RLIMIT_FSIZE (bytes) in the child before exec; SIGXFSZ is ignored there,
-// so an over-long write fails with EFBIG instead of killing the process.
+// `file_size_limit` sets RLIMIT_FSIZE (bytes) in the child before exec; SIGXFSZ is ignored there
+// (unless `ignore_sigxfsz` is false: then demfem's own handling is what is tested), so an
+// over-long write fails with EFBIG instead of killing the process.
 class Child {
 public:
-  Child(const std::vector<std::string>& args, const fs::path& log, long long file_size_limit = 0)
+  Child(const std::vector<std::string>& args, const fs::path& log, long long file_size_limit = 0,
+        bool ignore_sigxfsz = true)
       : log_(log) {
     std::vector<std::string> argv{DEMFEM_BINARY};
     argv.insert(argv.end(), args.begin(), args.end());
@@ -85,8 +87,9 @@ public:
         ::dup2(::fileno(f), 1);
         ::dup2(::fileno(f), 2);
       }
+      std::signal(SIGXFSZ, SIG_DFL);
       if (file_size_limit > 0) {
-        std::signal(SIGXFSZ, SIG_IGN);
+        if (ignore_sigxfsz) std::signal(SIGXFSZ, SIG_IGN);
         rlimit rl{static_cast<rlim_t>(file_size_limit), static_cast<rlim_t>(file_size_limit)};
         ::setrlimit(RLIMIT_FSIZE, &rl);
       }
@@ -103,6 +106,7 @@ public:
     }
   }
   [[nodiscard]] bool started() const { return pid_ > 0; }
+  [[nodiscard]] pid_t pid() const { return pid_; }
   void signal(int sig) const { ::kill(pid_, sig); }
   // True while the child has not exited (reaps it when it has).
   bool running() {

@@ -1,4 +1,4 @@
-# `mpirun -np 2 demfem study error-vs-time …` (issue 11 item 1, "parallel runs"): the settings are
+# `mpirun -np 2 demfem study error-vs-time …` (parallel runs): the settings are
 # spread over the two ranks (each point records the rank that ran it: both ranks appear), every
 # point completes, the results equal a one-process study's, and the exchange directory is gone.
 file(REMOVE_RECURSE ${OUT}/np1 ${OUT}/np2)

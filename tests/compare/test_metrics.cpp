@@ -1,18 +1,25 @@
-// The metric table (issue 9 item 4): one quantity, one name; the static / increment / oscillation
-// split; divergence measured on increments.
+// The metric table: one quantity, one name, one row; the static / increment / oscillation split;
+// divergence measured on increments.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <set>
+#include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "../scratch.hpp"
 
+#include "demfem/compare/metric_table.hpp"
 #include "demfem/compare/metrics.hpp"
 #include "demfem/compare/report.hpp"
+#include "demfem/output/contract.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem;
@@ -223,4 +230,119 @@ TEST(Metrics, ZeroInOneSolverIsNotComparable) {
   EXPECT_FALSE(row.comparable);
   EXPECT_FALSE(row.diverges);
   EXPECT_NE(row.verdict.find("not comparable"), std::string::npos);
+}
+
+// ---- the metric table -----------------------------------------------------------------------
+
+// Every row is consistent (metric_table.hpp), its key is unique, and the rows one owner gets name
+// different quantities.
+TEST(MetricTable, KeysAreUniqueAndEachOwnerGetsEachQuantityOnce) {
+  using compare::Owners;
+  const auto table = compare::metric_table();
+  std::set<std::string_view> keys;
+  std::map<std::string, std::set<std::string_view>> quantities; // owner kind → quantities
+  for (const auto& m : table) {
+    EXPECT_TRUE(compare::consistent(m)) << m.key;
+    EXPECT_TRUE(keys.insert(m.key).second) << "key twice: " << m.key;
+    std::vector<std::string> kinds;
+    if (m.owners == Owners::Walls || m.owners == Owners::Structures) kinds.push_back("wall");
+    if (m.owners == Owners::Bodies || m.owners == Owners::Structures) kinds.push_back("body");
+    if (m.owners == Owners::Scene) kinds.push_back("scene");
+    if (m.owners == Owners::PressureTargets) kinds.push_back("pressure target");
+    for (const auto& k : kinds)
+      EXPECT_TRUE(quantities[k].insert(m.quantity).second) << k << ": " << m.quantity;
+  }
+  EXPECT_EQ(quantities.size(), 4u);
+}
+
+namespace {
+// Both solvers' coordination.csv in a run: 4 (DEM) and 3 (continuum) at rest, +0.1 from t = 1 s.
+void write_coordination(const fs::path& run) {
+  for (const char* s : {"dem", "continuum"}) {
+    std::ofstream f(run / s / "coordination.csv");
+    f << "time [s],coordination [-]\n";
+    for (int k = 0; k <= 300; ++k)
+      f << fmt::format("{},{}\n", 0.01 * k, (s[0] == 'd' ? 4.0 : 3.0) + (k > 100 ? 0.1 : 0.0));
+  }
+}
+
+bool has_series(const compare::MetricSet& set, const std::string& key) {
+  return std::any_of(set.series.begin(), set.series.end(),
+                     [&](const compare::MetricSeries& m) { return m.def.key == key; });
+}
+} // namespace
+
+// Adding a metric is adding a row: a table with one more row (the coordination number from both
+// solvers' coordination.csv) compares it, records it, lists it in the metric table and draws it;
+// the built-in table does not.
+TEST(MetricTable, AnExtraRowIsOneMoreComparedMetric) {
+  const auto run = wall_run("demfem_test_metrics_extra_row");
+  write_coordination(run);
+  std::vector<compare::Metric> table(compare::metric_table().begin(),
+                                     compare::metric_table().end());
+  table.push_back(
+      {.key = "coordination",
+       .quantity = "coordination number",
+       .source = {compare::Read::Column, output::file::coordination, output::col::coordination},
+       .unit = "-",
+       .meaning = "2 × particle contacts / particles"});
+  ASSERT_TRUE(compare::consistent(table.back()));
+  const auto sc = shaken_scene();
+  EXPECT_FALSE(has_series(compare::collect_metrics(run, &sc), "coordination"));
+  const auto set = compare::collect_metrics(run, &sc, table);
+  ASSERT_TRUE(has_series(set, "coordination"));
+
+  compare::ReportOptions o;
+  o.title = "test";
+  o.scene = &sc;
+  o.fields = false;
+  o.table = table;
+  const auto r = compare::write_report(run, o);
+  const auto row =
+      std::find_if(r.compared.begin(), r.compared.end(),
+                   [](const compare::MetricRow& m) { return m.def.key == "coordination"; });
+  ASSERT_NE(row, r.compared.end());
+  EXPECT_NEAR(row->static_part.dem, 4.0, 1e-9);
+  EXPECT_NEAR(row->static_part.continuum, 3.0, 1e-9);
+  EXPECT_NEAR(row->increment.relative(), 0.0, 1e-9);
+  EXPECT_EQ(compare::outcome_word(*row), "agree") << row->verdict;
+  const auto j = nlohmann::json::parse(std::ifstream(r.metrics_json));
+  bool recorded = false;
+  for (const auto& t : j["metric_table"])
+    if (t["key"] == "coordination") {
+      recorded = true;
+      EXPECT_EQ(t["dem"], "dem/coordination.csv: coordination");
+      EXPECT_EQ(t["continuum"], "continuum/coordination.csv: coordination");
+    }
+  EXPECT_TRUE(recorded);
+  std::ifstream h(r.html);
+  const std::string html((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("<td class=\"l\"><code>coordination</code></td>"), std::string::npos);
+  EXPECT_NE(html.find("<li><b>coordination number</b>: agree"), std::string::npos);
+}
+
+// A check is judged on the same numbers as a verdict, against its own threshold, and says
+// "holds" or "fails". The wall's horizontal reaction: the continuum's mean increment is 0.2× the
+// DEM's (relative −0.8), the oscillations are equal.
+TEST(MetricTable, ACheckHoldsOrFailsAgainstItsOwnThreshold) {
+  const auto run = wall_run("demfem_test_metrics_check_row");
+  const auto sc = shaken_scene();
+  auto word = [&](double threshold) {
+    std::vector<compare::Metric> table{
+        {.key = "reaction_x",
+         .quantity = "horizontal reaction",
+         .owners = compare::Owners::Walls,
+         .source = {compare::Read::Column, output::file::walls, output::col::reaction_x},
+         .unit = "N",
+         .threshold = threshold,
+         .role = compare::Role::Check}};
+    const auto set = compare::collect_metrics(run, &sc, table);
+    EXPECT_EQ(set.series.size(), 1u);
+    const auto o = compare::split_options(&sc, 3.0);
+    const auto row = compare::compare_metric(set.series.at(0), o, 0.2); // 0.2: not the row's
+    EXPECT_EQ(row.verdict.rfind(compare::outcome_word(row), 0), 0u) << row.verdict;
+    return std::string(compare::outcome_word(row));
+  };
+  EXPECT_EQ(word(0.5), "fails");
+  EXPECT_EQ(word(0.9), "holds");
 }

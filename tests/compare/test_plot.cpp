@@ -24,10 +24,10 @@
 
 #include "../scratch.hpp"
 
-#include "../../compare/src/gnuplot_run.hpp"
-#include "../../compare/src/raster.hpp"
 #include "demfem/compare/figures.hpp"
+#include "demfem/compare/gnuplot_run.hpp"
 #include "demfem/compare/plot.hpp"
+#include "demfem/compare/raster.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/state.hpp"
 #include "demfem/scene/write_file.hpp"

@@ -210,6 +210,30 @@ TEST(Report, ComparesWallThrustAndPressureProfiles) {
   EXPECT_NE(html2.find("demfem compare bed.toml --seeds 7,8,9</code>"), std::string::npos) << html2;
 }
 
+// A pressure profile one solver does not write has no values on that side (null in
+// metrics.json), not zeros: three DEM bins, no continuum pressure file.
+TEST(Report, APressureProfileOneSolverLacksIsNullOnItsSide) {
+  const fs::path run = demfem::test::scratch("report-pressure-one-side");
+  write_foot(run, 1e-3, 2e-3);
+  {
+    std::ofstream dp(run / "dem" / "pressure_wall.csv");
+    dp << "time [s],wall.bin0 [Pa],wall.bin1 [Pa],wall.bin2 [Pa]\n";
+    for (int k = 0; k <= 20; ++k) dp << k * 0.1 << ",30,20,10\n";
+  }
+  compare::ReportOptions o;
+  o.title = "test";
+  o.fields = false;
+  const auto r = compare::write_report(run, o);
+  const auto prof =
+      nlohmann::json::parse(std::ifstream(r.metrics_json))["pressure_profiles"]["wall"];
+  ASSERT_EQ(prof.size(), 3u) << prof;
+  for (const auto& b : prof) {
+    EXPECT_NEAR(b["dem_late_Pa"].get<double>(), b["dem_rest_Pa"].get<double>(), 1e-9) << b;
+    EXPECT_TRUE(b["continuum_rest_Pa"].is_null()) << b;
+    EXPECT_TRUE(b["continuum_late_Pa"].is_null()) << b;
+  }
+}
+
 // The subsidence profile's DEM line follows the particles that formed the surface at rest, as the
 // continuum's line follows its top nodes; without particle snapshots at both times it falls back
 // to the top of the bed per bin (surface.csv). Two bins over x 0…1 m: the top of the bed says

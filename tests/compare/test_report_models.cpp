@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../scratch.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/compare/model_differences.hpp"
 #include "demfem/compare/report.hpp"
 
@@ -33,7 +34,7 @@ scene::Scene wall_scene() {
   d.radius.max = 0.075;
   s.soil.dem = d;
   scene::ContinuumSoil c;
-  c.model = scene::ContinuumModel::MohrCoulomb;
+  demfem::continuum::constitutive::choose_model(c, "mohr-coulomb");
   s.soil.continuum = c;
   s.walls.push_back({"base", {{0, 0}, {8, 0}}, {}, {}, {}, false});
   s.walls.push_back({"left", {{0, 5.6}, {0, 0}}, {}, {}, {}, false});
@@ -160,7 +161,7 @@ TEST(ReportModels, SoilModelAndInitialStressRowsFollowTheScene) {
 
   s.soil.continuum->k0 = 0.5; // Jaky-like, not the bed's
   s.soil.continuum->surface = 5.6;
-  s.soil.continuum->model = scene::ContinuumModel::Elastic;
+  demfem::continuum::constitutive::choose_model(*s.soil.continuum, "elastic");
   rows = compare::model_differences(s, f);
   EXPECT_FALSE(row(rows, "initial stress")->matched);
   EXPECT_NE(row(rows, "initial stress")->consequence.find("0.500 against the bed's 0.800"),

@@ -19,13 +19,15 @@ inline continuum::constitutive::Material elastic_soil(double young, double poiss
 inline continuum::constitutive::Material mohr_coulomb_soil(double young, double poisson,
                                                            double friction, double cohesion,
                                                            double dilation = 0.0) {
-  continuum::constitutive::MohrCoulomb::Parameters p;
-  p.young = young;
-  p.poisson = poisson;
+  namespace cst = continuum::constitutive;
+  cst::Elastic::Parameters e;
+  e.young = young;
+  e.poisson = poisson;
+  cst::MohrCoulomb::Parameters p;
   p.friction_angle = friction;
   p.cohesion = cohesion;
   p.dilation_angle = dilation;
-  return continuum::constitutive::Material(p);
+  return cst::Material(cst::MohrCoulomb(e, p));
 }
 
 // Least-squares fit of q(t) = c0 + c1 t + c2 t² to samples; returns 2 c2 (the acceleration).

@@ -1,7 +1,7 @@
-// The hypoplastic soil (constitutive/hypoplastic.hpp) in the explicit integrator, chosen through
-// the registry alone: a fill behind a fixed rigid wall (the wall problem of test_explicit.cpp),
-// placed by the K0 procedure, stays at rest without shaking and compacts when shaken, the thrust
-// on the wall rising.
+// The hypoplastic soil (constitutive/hypoplastic.hpp) in the explicit integrator, chosen by its
+// keyword and keys (the continuum slot's ModelChoice, Material::from): a fill behind a fixed rigid
+// wall (the wall problem of test_explicit.cpp), placed by the K0 procedure, stays at rest without
+// shaking and compacts when shaken, the thrust on the wall rising.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +11,9 @@
 
 #include "fem.hpp"
 #include "helpers.hpp"
+
+#include "constitutive/registry.hpp"
+#include "demfem/scene/params.hpp"
 
 using namespace demfem::continuum;
 using namespace demfem::continuum::fem;
@@ -27,9 +30,13 @@ Problem hypoplastic_wall(double amplitude) {
   pb.mesh.dz = std::vector<double>(4, H / 4);
   pb.mesh.refinement = 1;
   pb.mesh.domain = {{0, 0}, {W, 0}, {W, H}, {0, H}};
-  constitutive::Hypoplastic::Parameters p;
-  p.void_ratio = 0.75;
-  pb.soil = constitutive::Material(constitutive::Parameters(p));
+  // the soil as a scene chooses it: the continuum slot's choice, model = "hypoplastic" with
+  // initial_void_ratio = 0.75 and the other keys at their defaults
+  const demfem::scene::ModelSlot slot = constitutive::model_slot();
+  demfem::scene::ModelChoice soil = demfem::scene::default_choice(slot);
+  EXPECT_TRUE(demfem::scene::choose(soil, slot, "hypoplastic"));
+  EXPECT_TRUE(demfem::scene::set(soil, "initial_void_ratio", 0.75));
+  pb.soil = constitutive::Material::from(soil);
   pb.density = 2170.0;
   pb.gravity = 9.81;
   pb.linear_solver = "direct";

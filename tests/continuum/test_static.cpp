@@ -63,7 +63,7 @@ TEST(ContinuumStatic, GravityColumn) {
 
 // Flamant strip load on an elastic half-plane (Poulos & Davis 1974, strip of half-width b):
 // settlement(centre) − settlement(edge) = (4 ln 2/π)(1 − ν²) q b / E. The problem and its closed
-// form live in continuum/src/verification.cpp (shared with `demfem study error-vs-time flamant`).
+// form live in continuum/run/verification.cpp (shared with `demfem study error-vs-time flamant`).
 TEST(ContinuumStatic, FlamantStripLoad) {
   double prev_err = 0.0;
   for (int r = 0; r <= 2; ++r) {
@@ -238,7 +238,7 @@ TEST(ContinuumStatic, ColumnWithStressDependentModulusSettlesAsTheIntegralOfItsC
     soil.modulus_exponent = n;
     soil.modulus_reference_stress = 5.0e4;
     soil.modulus_min_stress = 2.0e3;
-    pb.soil = constitutive::Material(soil);
+    pb.soil = constitutive::Material(constitutive::Elastic(soil));
     pb.density = rho;
     pb.gravity = g;
     pb.tractions.push_back({{0.0, H}, {1.0, H}, q});

@@ -40,7 +40,6 @@
 #endif
 
 #include "demfem/dem/io.hpp"
-#include "demfem/scene/csv.hpp"
 
 namespace fs = std::filesystem;
 using namespace demfem::dem;
@@ -439,70 +438,6 @@ TEST_F(IoTest, PvdResumeDropsEntriesAfterTheCheckpoint) {
   EXPECT_TRUE(io::PvdCollection::resume(dir_ / "missing.pvd", 1.0).entries().empty());
   std::ofstream(dir_ / "broken.pvd") << "<VTKFile type=\"Collection\"><Collection><DataSet";
   EXPECT_THROW((void)io::PvdCollection::resume(dir_ / "broken.pvd", 1.0), io::IoError);
-}
-
-namespace {
-demfem::scene::TimeSeriesOptions with_comment(const std::string& c) {
-  demfem::scene::TimeSeriesOptions o;
-  o.comments = {c};
-  return o;
-}
-demfem::scene::TimeSeriesOptions resuming_after(double t) {
-  demfem::scene::TimeSeriesOptions o;
-  o.resume_after = t;
-  return o;
-}
-std::vector<std::string> lines_of(const fs::path& p) {
-  std::ifstream in(p);
-  std::vector<std::string> out;
-  for (std::string l; std::getline(in, l);) out.push_back(l);
-  return out;
-}
-} // namespace
-
-TEST_F(IoTest, CsvHeaderAndFullPrecisionRows) {
-  using demfem::scene::TimeSeriesWriter;
-  const fs::path file = dir_ / "structure.csv";
-  {
-    TimeSeriesWriter w(file, {"time [s]", "force [N]", "moment, about pivot [N·m]"},
-                       with_comment("demfem 0.1.0"));
-    w.append({0.0, 1.0 / 3.0, -2.5e-12});
-    // Flushed after every row by default: visible before the writer closes.
-    EXPECT_EQ(lines_of(file).size(), 3u);
-    w.append({0.1, 123456789.123, 1e300});
-    EXPECT_THROW(w.append({1.0, 2.0}), demfem::scene::CsvError);
-    EXPECT_EQ(w.rows(), 2u);
-  }
-  const auto lines = lines_of(file);
-  ASSERT_EQ(lines.size(), 4u);
-  EXPECT_EQ(lines[0], "# demfem 0.1.0");
-  EXPECT_EQ(lines[1], "time [s],force [N],\"moment, about pivot [N·m]\"");
-  EXPECT_EQ(lines[2], "0,0.333333333,-2.5e-12");
-  EXPECT_EQ(lines[3], "0.1,123456789,1e+300");
-  EXPECT_THROW(TimeSeriesWriter(dir_ / "none.csv", {}), demfem::scene::CsvError);
-  EXPECT_THROW(TimeSeriesWriter(dir_ / "no_such_dir" / "x.csv", {"t [s]"}),
-               demfem::scene::CsvError);
-}
-
-TEST_F(IoTest, CsvResumeKeepsRowsUpToTheCheckpoint) {
-  using demfem::scene::TimeSeriesWriter;
-  const fs::path file = dir_ / "energy.csv";
-  {
-    TimeSeriesWriter w(file, {"time [s]", "kinetic [J]"}, with_comment("demfem"));
-    for (int k = 0; k < 6; ++k) w.append({0.1 * k, 2.0 * k});
-  }
-  {
-    TimeSeriesWriter w(file, {"time [s]", "kinetic [J]"}, resuming_after(0.25));
-    EXPECT_EQ(w.rows(), 3u);
-    w.append({0.3, 7.0});
-  }
-  const auto lines = lines_of(file);
-  ASSERT_EQ(lines.size(), 6u);
-  EXPECT_EQ(lines[0], "# demfem");
-  EXPECT_EQ(lines[4], "0.2,4");
-  EXPECT_EQ(lines[5], "0.3,7");
-  EXPECT_THROW(TimeSeriesWriter(file, {"time [s]", "other [J]"}, resuming_after(0.25)),
-               demfem::scene::CsvError);
 }
 
 namespace {

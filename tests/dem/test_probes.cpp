@@ -17,6 +17,7 @@
 #include "demfem/dem/engine.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/run.hpp"
+#include "demfem/output/csv.hpp"
 #include "demfem/scene/load.hpp"
 
 using namespace demfem;
@@ -221,4 +222,43 @@ TEST(DemProbes, ThrustPressureSurfaceLociOnSettledBed) {
     }
     EXPECT_EQ(loci.header[1 + 2 * k], pid(static_cast<std::uint32_t>(best)) + ".x [m]");
   }
+}
+
+// [[probe]] interval: each probe samples at its own interval (0: output.probe_interval), and at
+// the end of the run; the energy watch keeps output.probe_interval.
+TEST(DemProbes, EachProbeSamplesAtItsOwnInterval) {
+  const auto file = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/verification/settle_box.toml",
+                                           demfem::app::vocabulary());
+  auto sc = file.base;
+  sc.info.duration = 0.2;
+  sc.output.vtk = false;
+  sc.output.probe_interval = 0.01;
+  for (auto& p : sc.probes) {
+    if (p.kind == scene::ProbeKind::Energy) p.interval = 0.05;
+    if (p.kind == scene::ProbeKind::Coordination) p.interval = 0.04;
+  }
+  dem::RunOptions o;
+  o.out_dir = demfem::test::scratch("intervals");
+  const auto s = dem::run(sc, o);
+  ASSERT_TRUE(s.ok) << s.message;
+  auto times = [&](const char* f) {
+    const auto t = output::read_csv(o.out_dir / "dem" / f).column("time");
+    std::vector<double> r;
+    for (double v : t) r.push_back(std::round(v * 1e6) / 1e6); // within a step of the grid
+    return r;
+  };
+  auto grid = [](double dt, int n) {
+    std::vector<double> r;
+    for (int k = 0; k <= n; ++k) r.push_back(std::round(k * dt * 1e6) / 1e6);
+    return r;
+  };
+  const double dt = s.dt;
+  auto near = [&](const std::vector<double>& got, const std::vector<double>& want, const char* f) {
+    ASSERT_EQ(got.size(), want.size()) << f;
+    for (std::size_t k = 0; k < got.size(); ++k) EXPECT_NEAR(got[k], want[k], dt) << f << " " << k;
+  };
+  near(times("energy.csv"), grid(0.05, 4), "energy.csv");
+  near(times("coordination.csv"), grid(0.04, 5), "coordination.csv");
+  near(times("surface.csv"), grid(0.01, 20), "surface.csv");
+  near(times("structures.csv"), grid(0.01, 20), "structures.csv");
 }

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <string>
 #include <tuple>
 
@@ -24,6 +25,9 @@
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/scene/load.hpp"
+
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
 
 using namespace demfem;
 
@@ -729,6 +733,31 @@ TEST(DemResume, PackingKeepsContactHistory) {
   EXPECT_GT(with, 10.0 * without) << with << " vs " << without;
 }
 
+// A packing cache that cannot be read (here: cut short) is deposited again, and the log says so:
+// the rebuild (minutes on a large bed) is never silent.
+TEST(DemResume, CorruptPackingCacheIsRebuiltWithALogLine) {
+  auto f = scene::load_scene_file(DEMFEM_SOURCE_DIR "/cases/retaining_wall.toml",
+                                  demfem::app::vocabulary());
+  auto s = f.base;
+  s.soil.dem->packing.cache.clear();
+  s.soil.dem->count = 150;
+  const auto dir = scratch("pack-corrupt");
+  const auto a = dem::pack_or_load(s, dir);
+  ASSERT_FALSE(a.from_cache);
+  const auto size = std::filesystem::file_size(a.path);
+  std::filesystem::resize_file(a.path, size / 2);
+  std::ostringstream log;
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(log);
+  spdlog::default_logger()->sinks().push_back(sink);
+  const auto b = dem::pack_or_load(s, dir);
+  spdlog::default_logger()->sinks().pop_back();
+  EXPECT_FALSE(b.from_cache);
+  EXPECT_EQ(a.particles.x, b.particles.x); // deposited again, the same bed
+  EXPECT_NE(log.str().find("cannot be read"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find(a.path.string()), std::string::npos) << log.str();
+  EXPECT_GT(std::filesystem::file_size(b.path), size / 2); // replaced whole
+}
+
 // The blocked, vectorised pair loop of cundall-rebound (pair_kernel.hpp) computes what the one-pass
 // scalar loop computes, bit for bit: every particle array and every energy, on (a) a shaken bed
 // of two materials with rebounds (first touches, releases and the touch/release spring steps go
@@ -892,7 +921,7 @@ TEST(DemPairKernel, StaysClosedTestImpliesTheLaws) {
   EXPECT_GT(left_to_the_law, 0u); // and the kernel's margin
 }
 
-// The probes' cheap forms (run.cpp, every probe interval): pair_contact_count, the boundary
+// The probes' cheap forms (run/probe_source.cpp): pair_contact_count, the boundary
 // contacts alone, and largest_overlap_ratio give what the full contact list gives.
 TEST(DemContacts, ProbeFormsAgreeWithTheContactList) {
   dem::EngineConfig c;
@@ -979,4 +1008,28 @@ TEST(DemIntegrate, SameBitsWithEveryInstructionSet) {
       EXPECT_EQ(e0.left_scene, en.left_scene);
     }
   }
+}
+
+// Probes with intervals of their own: their schedules go into the checkpoint (run state version
+// 2), and a resumed run equals the straight one.
+TEST(DemResume, ProbesWithTheirOwnIntervalsResumeBitForBit) {
+  auto scene = [](double duration) {
+    auto sc = resume_scene(duration);
+    for (auto& p : sc.probes) {
+      if (p.kind == scene::ProbeKind::Energy) p.interval = 0.03;
+      if (p.kind == scene::ProbeKind::PressureProfile) p.interval = 0.02;
+    }
+    return sc;
+  };
+  dem::RunOptions a;
+  a.out_dir = scratch("straight4");
+  a.threads = 1;
+  ASSERT_TRUE(dem::run(scene(0.3), a).ok);
+  dem::RunOptions b = a;
+  b.out_dir = scratch("split4");
+  ASSERT_TRUE(dem::run(scene(0.1537), b).ok);
+  b.resume = true;
+  const auto s2 = dem::run(scene(0.3), b);
+  ASSERT_TRUE(s2.ok) << s2.message;
+  expect_same_outputs(a.out_dir, b.out_dir);
 }

@@ -128,8 +128,8 @@ Outcome run_scene(const std::string& toml, const std::string& name) {
   std::stringstream ss;
   ss << in.rdbuf();
   // The bound these tests state: the imbalance over the work done (gravity and external). The
-  // run's own closure_error divides by the largest energy put in, springs included (run.cpp),
-  // which is never smaller: this is the stricter of the two.
+  // run's own closure_error divides by the largest energy put in, springs included
+  // (energy_watch.cpp), which is never smaller: this is the stricter of the two.
   r.gravity_work = json_number(ss.str(), "gravity_work");
   r.imbalance = json_number(ss.str(), "imbalance");
   const double work = std::abs(r.gravity_work) + std::abs(json_number(ss.str(), "external_work"));

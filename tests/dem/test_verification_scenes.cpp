@@ -159,8 +159,8 @@ TEST(VerificationScene, FreeRotationUnderConstantMoment) {
     } // set by the first structure update
     // Symplectic Euler from rest integrates I θ̈ = M exactly as θ_n = ½ (M/I) t_n (t_n + Δt). A
     // row at t = t_{n+1} holds the pose the step's loads acted at, θ_n = ½ (M/I) (t − Δt) t, so
-    // that force and pose are one state (run.cpp; with θ_{n+1} the moment–rotation loops lost an
-    // area ∝ Δt).
+    // that force and pose are one state (run/probe_source.cpp; with θ_{n+1} the moment–rotation
+    // loops lost an area ∝ Δt).
     const double theta_discrete = 0.5 * (M / I) * (t - dt) * t;
     EXPECT_NEAR(row[kr], theta_discrete, 1e-6 * theta_discrete + 1e-12) << "t = " << t;
     if (t < 0.5) continue; // the O(Δt/t) integrator offset is below 0.1 % only from here on

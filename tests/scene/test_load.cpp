@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include "constitutive/soil.hpp"
 #include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 
 using namespace demfem::scene;
+namespace cst = demfem::continuum::constitutive;
 
 namespace {
 
@@ -56,6 +58,14 @@ set = { "load.shaking.amplitude" = 8.0 }
 [[variant]]
 name = "rough"
 set = { "soil.dem.mu_static" = 1.0, "soil.dem.mu_dynamic" = 0.5 }
+
+[[wall]]
+name = "base"
+points = [[0, 0], [8, 0]]
+
+[[wall]]
+name = "left"
+points = [[0, 5.6], [0, 0]]
 )";
 
 // Replace the first occurrence of `from` with `to` in the valid scene.
@@ -103,7 +113,8 @@ TEST(SceneLoad, ValidSceneResolves) {
   EXPECT_DOUBLE_EQ(s.soil.dem->rebound, 0.1); // default K (paper §2.1.2)
   EXPECT_EQ(s.soil.dem->fill.size(), 4u);     // defaults to the domain
   ASSERT_TRUE(s.soil.continuum);
-  EXPECT_NEAR(s.soil.continuum->friction_angle, 30.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(cst::strength_block(*s.soil.continuum).friction_angle,
+              30.0 * std::numbers::pi / 180.0, 1e-12);
   ASSERT_EQ(s.structures.size(), 1u);
   EXPECT_EQ(s.structures[0].kind, StructureKind::Wall);
   EXPECT_GT(signed_area(s.structures[0].outline), 0.0);
@@ -138,7 +149,7 @@ TEST(SceneLoad, VariantMayStateACalibratedKeyOnlyWithCalibrateDem) {
   text.replace(text.find(base_keys), base_keys.size(), "calibrate = \"dem\"");
   const auto g = parse_scene(text, "test.toml", demfem::app::vocabulary());
   const auto& c = *g.select("case-2").soil.continuum;
-  EXPECT_NEAR(c.dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(cst::strength_block(c).dilation_angle, 5.0 * std::numbers::pi / 180.0, 1e-12);
   EXPECT_NE(std::find(c.given.begin(), c.given.end(), "dilation_angle"), c.given.end());
   // Without calibrate = "dem" it is a missing key, as any other.
   expect_error(mutate(R"(set = { "load.shaking.amplitude" = 8.0 })",
@@ -265,15 +276,16 @@ TEST(SceneLoad, ContinuumSurfaceBBarAndValidityLimit) {
 }
 TEST(SceneLoad, DilationCutoff) {
   // absent: none; given: kept through the resolved-scene round trip; out of [0, 1]: located error
-  EXPECT_FALSE(parse_scene(kValid, "a.toml", demfem::app::vocabulary())
-                   .base.soil.continuum->dilation_cutoff.has_value());
+  EXPECT_TRUE(
+      std::isnan(cst::strength_block(
+                     *parse_scene(kValid, "a.toml", demfem::app::vocabulary()).base.soil.continuum)
+                     .dilation_cutoff));
   const SceneFile f =
       parse_scene(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = 0.02"),
                   "cut.toml", demfem::app::vocabulary());
-  ASSERT_TRUE(f.base.soil.continuum->dilation_cutoff.has_value());
-  EXPECT_DOUBLE_EQ(*f.base.soil.continuum->dilation_cutoff, 0.02);
+  EXPECT_DOUBLE_EQ(cst::strength_block(*f.base.soil.continuum).dilation_cutoff, 0.02);
   const SceneFile again = parse_scene(to_toml(f.base), "again.toml", demfem::app::vocabulary());
-  EXPECT_DOUBLE_EQ(*again.base.soil.continuum->dilation_cutoff, 0.02);
+  EXPECT_DOUBLE_EQ(cst::strength_block(*again.base.soil.continuum).dilation_cutoff, 0.02);
   expect_error(mutate("friction_angle = 30", "friction_angle = 30\ndilation_cutoff = -0.1"), 22,
                "must be in [0, 1], got -0.1", "soil.continuum.dilation_cutoff");
 }
@@ -413,6 +425,54 @@ TEST(SceneLoad, VtkCompressionKeyword) {
   const std::string bad = std::string(kValid) + "\n[output]\nvtk_compression = \"gzip\"\n";
   const int line = static_cast<int>(std::count(bad.begin(), bad.end(), '\n'));
   expect_error(bad, line, "unknown keyword 'gzip'; valid: zlib, lz4, none");
+}
+
+// ---- probes: every key a kind takes has an effect; the others are refused --------------------
+namespace {
+std::string with_probes(const std::string& probes) {
+  return kValid + "\n" + probes;
+}
+} // namespace
+
+TEST(SceneLoad, ProbeKindStructureSaysWhatToWriteInstead) {
+  expect_error(with_probes("[[probe]]\nkind = \"structure\"\ntarget = \"wall\"\n"), 0,
+               "there is no probe kind 'structure': structures.csv records every structure");
+}
+TEST(SceneLoad, ProbeKeyItsKindDoesNotTakeIsRefused) {
+  expect_error(with_probes("[[probe]]\nkind = \"loci\"\npoints = [[1, 1]]\nbins = 4\n"), 0,
+               "a loci probe takes no 'bins' (it would have no effect); its keys: kind, interval, "
+               "points");
+  expect_error(with_probes("[[probe]]\nkind = \"energy\"\ntarget = \"wall\"\n"), 0,
+               "an energy probe takes no 'target'");
+}
+TEST(SceneLoad, OneProbeOfAKindPerTarget) {
+  expect_error(with_probes("[[probe]]\nkind = \"surface-profile\"\n\n[[probe]]\nkind = "
+                           "\"surface-profile\"\nbins = 8\n"),
+               0, "a second 'surface-profile' probe (probe[0] is one)");
+  expect_error(with_probes("[[probe]]\nkind = \"pressure-profile\"\ntarget = \"wall\"\n\n[[probe]]"
+                           "\nkind = \"pressure-profile\"\ntarget = \"wall\"\n"),
+               0, "a second 'pressure-profile' probe on 'wall'");
+  expect_error(with_probes("[[probe]]\nkind = \"wall-thrust\"\ntarget = \"wall\"\n\n[[probe]]"
+                           "\nkind = \"wall-thrust\"\ntarget = \"wall\"\ninterval = 0.1\n"),
+               0, "the wall-thrust probes write one file, walls.csv, at one interval");
+}
+TEST(SceneLoad, ProbesRoundTripWithTheirKeys) {
+  const auto f = parse_scene(
+      with_probes("[[probe]]\nkind = \"energy\"\ninterval = 0.05\n\n[[probe]]\nkind = "
+                  "\"pressure-profile\"\ntarget = \"wall\"\nbins = 7\ninterval = 0.02\n\n[[probe]]"
+                  "\nkind = \"loci\"\npoints = [[1, 1], [2, 2]]\n"),
+      "test.toml", demfem::app::vocabulary());
+  ASSERT_EQ(f.base.probes.size(), 3u);
+  EXPECT_EQ(f.base.probes[0].interval, 0.05);
+  EXPECT_EQ(f.base.probes[1].bins, 7);
+  EXPECT_EQ(f.base.probes[1].interval, 0.02);
+  const std::string dumped = to_toml(f.base);
+  const auto again = parse_scene(dumped, "dumped.toml", demfem::app::vocabulary());
+  ASSERT_EQ(again.base.probes.size(), 3u);
+  EXPECT_EQ(again.base.probes[1].target, "wall");
+  EXPECT_EQ(again.base.probes[2].points.size(), 2u);
+  auto body = [](const std::string& t) { return t.substr(t.find('\n')); };
+  EXPECT_EQ(body(to_toml(again.base)), body(dumped));
 }
 
 // The step limits come with the vocabulary the loader is given, not from process-wide state: the

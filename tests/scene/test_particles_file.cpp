@@ -1,5 +1,6 @@
 // soil.dem.particles_file: particle sets from a .csv or .npy file named in the scene, with the
 // path taken relative to the scene file and every problem located (file:line:col).
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,6 +13,7 @@
 #include "demfem/app/vocabulary.hpp"
 #include "demfem/scene/load.hpp"
 #include "demfem/scene/particles_file.hpp"
+#include "demfem/scene/validate.hpp"
 
 using namespace demfem::scene;
 namespace fs = std::filesystem;
@@ -83,8 +85,14 @@ TEST_F(ParticlesFile, MissingFileLocatedAtTheKey) {
 
 TEST_F(ParticlesFile, BadRowsLocatedAtFileLineColumn) {
   write("sub/bad.csv", "x,z,r\n0,0,0.1\n1, zz ,0.1\n2,0,-0.1\n3,0\n");
-  const auto d = errors(scene("particles_file = \"bad.csv\""));
-  ASSERT_EQ(d.size(), 3u);
+  auto all = errors(scene("particles_file = \"bad.csv\""));
+  ASSERT_EQ(all.size(), 4u);
+  // first where the scene names the file, then the file's own problems
+  EXPECT_EQ(all[0].line, 9);
+  EXPECT_EQ(fs::path(all[0].file).filename(), "scene.toml");
+  EXPECT_NE(all[0].message.find("'bad.csv' is refused (3 problem(s)"), std::string::npos)
+      << all[0].message;
+  const std::vector<Diagnostic> d(all.begin() + 1, all.end());
   for (const auto& x : d) {
     EXPECT_EQ(fs::path(x.file).filename(), "bad.csv");
     EXPECT_EQ(x.key, "soil.dem.particles_file");
@@ -115,8 +123,8 @@ TEST_F(ParticlesFile, CountMismatchAndBothSources) {
   ASSERT_FALSE(d.empty()); // missing file: located at the key
   write("sub/two.txt", "0,0,0.1\n");
   d = errors(scene("particles_file = \"two.txt\""));
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_NE(d[0].message.find(".csv or .npy"), std::string::npos);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find(".csv or .npy"), std::string::npos);
 }
 
 TEST_F(ParticlesFile, NpyRoundTripIsExact) {
@@ -144,12 +152,12 @@ TEST_F(ParticlesFile, NpyWrongShapeOrType) {
                   std::string(16, '\0');
   write("sub/bad.npy", b);
   auto d = errors(scene("particles_file = \"bad.npy\""));
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_NE(d[0].message.find("shape (N, 3) or (N, 6)"), std::string::npos) << d[0].message;
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("shape (N, 3) or (N, 6)"), std::string::npos) << d[1].message;
   write("sub/bad.npy", "not numpy at all");
   d = errors(scene("particles_file = \"bad.npy\""));
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_NE(d[0].message.find("magic"), std::string::npos);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("magic"), std::string::npos);
 }
 
 TEST_F(ParticlesFile, ResolvedSceneKeepsTheFileNotAnInlineList) {
@@ -184,4 +192,142 @@ TEST_F(ParticlesFile, OverlapsFoundInLargeSets) {
   EXPECT_NE(d[0].message.find("overlaps particle 5 by"), std::string::npos) << d[0].message;
   EXPECT_EQ(d[1].key, "soil.dem.particles[29999]");
   EXPECT_NE(d[1].message.find("overlaps particle 17 by"), std::string::npos) << d[1].message;
+}
+
+namespace {
+
+// A version-1.0 .npy file: the header padded to a multiple of 64 bytes, then `data`.
+std::string npy_bytes(const std::string& header, const std::string& data) {
+  std::string h = header;
+  h.append((64 - (10 + h.size() + 1) % 64) % 64, ' ');
+  h += '\n';
+  return std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size() & 0xff) +
+         static_cast<char>(h.size() >> 8) + h + data;
+}
+
+std::string doubles(std::initializer_list<double> v) {
+  std::string s(v.size() * sizeof(double), '\0');
+  std::size_t k = 0;
+  for (const double x : v) std::memcpy(s.data() + sizeof(double) * k++, &x, sizeof(double));
+  return s;
+}
+
+} // namespace
+
+// Zero particles cannot be run (the run waited at t = 0 for ever): an .npy of shape (0, 3) and a
+// CSV with only a header are refused, located at the scene's key and in the file.
+TEST_F(ParticlesFile, ZeroParticlesRefused) {
+  write("sub/none.npy",
+        npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': (0, 3), }", ""));
+  auto d = errors(scene("particles_file = \"none.npy\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0].line, 9);
+  EXPECT_EQ(fs::path(d[1].file).filename(), "none.npy");
+  EXPECT_NE(d[1].message.find("shape (0, 3): no particles"), std::string::npos) << d[1].message;
+  EXPECT_NE(d[1].message.find("at byte 10"), std::string::npos) << d[1].message;
+  write("sub/none.csv", "# nothing yet\nx,z,r\n\n");
+  d = errors(scene("particles_file = \"none.csv\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("holds no particles"), std::string::npos) << d[1].message;
+}
+
+// A header claiming 2^61 rows (2^61 × 24 bytes wraps 64 bits to 0) is compared with the file's
+// size without forming the product: refused as truncated, nothing allocated; a count beyond 64
+// bits is no shape at all.
+TEST_F(ParticlesFile, NpyHeaderCheckedAgainstTheFileSizeWithoutOverflow) {
+  write("sub/huge.npy", npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': "
+                                  "(2305843009213693952, 3), }",
+                                  doubles({1, 1, 0.05})));
+  auto d = errors(scene("particles_file = \"huge.npy\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("shape (2305843009213693952, 3) needs"), std::string::npos)
+      << d[1].message;
+  EXPECT_NE(d[1].message.find("room for 1 rows"), std::string::npos) << d[1].message;
+  write("sub/huge.npy", npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': "
+                                  "(99999999999999999999999, 3), }",
+                                  doubles({1, 1, 0.05})));
+  d = errors(scene("particles_file = \"huge.npy\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("must have shape (N, 3)"), std::string::npos) << d[1].message;
+}
+
+// Row cap and memory: refused before the rows are read (.npy, from its header) or as soon as
+// they pass the limit (.csv, streamed), with the estimate and where the limit came from.
+TEST_F(ParticlesFile, RowCapAndMemoryEstimateRefuseBeforeReadingEverything) {
+  write("sub/three.csv", "x,z,r\n0,0,0.1\n1,0,0.1\n2,0,0.1\n");
+  std::vector<Diagnostic> d;
+  ParticleFileLimits cap;
+  cap.max_rows = 2;
+  EXPECT_TRUE(read_particles_file(dir_ / "sub/three.csv", "k", d, 20, cap).empty());
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].line, 4);
+  EXPECT_NE(d[0].message.find("more than 2 particles"), std::string::npos) << d[0].message;
+
+  ParticleFileLimits mem;
+  mem.memory_bytes = 2.0 * kBytesPerParticle;
+  mem.memory_source = "the test's limit";
+  d.clear();
+  EXPECT_TRUE(read_particles_file(dir_ / "sub/three.csv", "k", d, 20, mem).empty());
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].line, 4);
+  EXPECT_NE(d[0].message.find("stopped reading here"), std::string::npos) << d[0].message;
+  EXPECT_NE(d[0].message.find("(the test's limit)"), std::string::npos) << d[0].message;
+
+  std::vector<ParticleRow> rows(1000, ParticleRow{1.0, 1.0, 0.05, 0.0, 0.0, 0.0});
+  write_particles_file(dir_ / "sub" / "k.npy", rows);
+  mem.memory_bytes = 10.0 * kBytesPerParticle;
+  d.clear();
+  EXPECT_TRUE(read_particles_file(dir_ / "sub/k.npy", "k", d, 20, mem).empty());
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_NE(d[0].message.find("1000 particles need about 1.02 MB of memory"), std::string::npos)
+      << d[0].message;
+  EXPECT_NE(d[0].message.find("at most about 10 particles fit"), std::string::npos) << d[0].message;
+  mem.memory_bytes = 1000.0 * kBytesPerParticle; // just enough
+  d.clear();
+  EXPECT_EQ(read_particles_file(dir_ / "sub/k.npy", "k", d, 20, mem).size(), 1000u);
+  EXPECT_TRUE(d.empty());
+}
+
+// Lines are read one at a time with a length cap: a file that is no CSV (one 100 kB line) is
+// refused at its first line instead of being held whole.
+TEST_F(ParticlesFile, CsvLinesHaveALengthCap) {
+  write("sub/blob.csv", std::string(100000, '7') + "\n");
+  const auto d = errors(scene("particles_file = \"blob.csv\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[1].line, 1);
+  EXPECT_NE(d[1].message.find("longer than 4096 characters"), std::string::npos) << d[1].message;
+}
+
+// A UTF-8 byte-order mark, as spreadsheets export CSV, is skipped (it was "a bad header"); the
+// columns of line 1 count from after it.
+TEST_F(ParticlesFile, CsvWithAByteOrderMarkIsRead) {
+  write("sub/excel.csv", "\xEF\xBB\xBFx,z,r\r\n0.5,0.1,0.1\r\n1.5,0.1,0.12\r\n");
+  const auto sf =
+      load_scene_file(scene("particles_file = \"excel.csv\""), demfem::app::vocabulary());
+  ASSERT_EQ(sf.base.soil.dem->particles.size(), 2u);
+  EXPECT_DOUBLE_EQ(sf.base.soil.dem->particles[1][2], 0.12);
+  write("sub/excel.csv", "\xEF\xBB\xBF"
+                         "0.5,zz,0.1\n");
+  const auto d = errors(scene("particles_file = \"excel.csv\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[1].line, 1);
+  EXPECT_EQ(d[1].column, 5);
+}
+
+// .npy problems name the byte (and the row) where they are.
+TEST_F(ParticlesFile, NpyErrorsCarryByteAndRow) {
+  write("sub/f4.npy", npy_bytes("{'descr': '<f4', 'fortran_order': False, 'shape': (1, 3), }",
+                                std::string(12, '\0')));
+  auto d = errors(scene("particles_file = \"f4.npy\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("at byte 10 (the header): .npy array must be little-endian"),
+            std::string::npos)
+      << d[1].message;
+  write("sub/row.npy", npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }",
+                                 doubles({1, 1, 0.05, 2, 1, -0.05})));
+  d = errors(scene("particles_file = \"row.npy\""));
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d[1].message.find("row 1 (0-based), at byte 152"), std::string::npos) << d[1].message;
+  EXPECT_EQ(d[1].format().rfind(d[1].file + ": error: soil.dem.particles_file: row 1", 0), 0u)
+      << d[1].format();
 }

@@ -8,10 +8,16 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <string_view>
 #include <vector>
+
+#include <toml++/toml.h>
 
 #include "constitutive/element_test.hpp"
 #include "constitutive/registry.hpp"
+#include "demfem/scene/params.hpp"
+#include "demfem/scene/reader.hpp"
 
 using namespace demfem::continuum::constitutive;
 using hypoplastic::PointState;
@@ -44,8 +50,14 @@ double matsuoka_nakai_angle(const Components& s) {
   return std::asin(std::sqrt((k - 9.0) / (k - 1.0)));
 }
 
+// A hypoplastic point as a scene chooses it: the continuum slot's choice with the keyword and
+// the block's values, through Material::from.
 Material hypoplastic_material(const Hypoplastic::Parameters& p) {
-  return Material(Parameters(p));
+  const demfem::scene::ModelSlot slot = model_slot();
+  demfem::scene::ModelChoice c = demfem::scene::default_choice(slot);
+  demfem::scene::choose(c, slot, "hypoplastic");
+  c.get<Hypoplastic::Parameters>() = p;
+  return Material::from(c);
 }
 
 // A plane-strain point placed at an isotropic stress p [Pa] (σyy = p too).
@@ -68,15 +80,17 @@ double isotropic_closed_form(const Hypoplastic::Parameters& P, double s0, double
     const double f = std::exp(-std::pow(s / hs, n));
     const double ei = P.loosest_void_ratio * f, ec = P.critical_void_ratio * f,
                  ed = P.densest_void_ratio * f;
-    const double fb = hs / n * std::pow(P.loosest_void_ratio / P.critical_void_ratio, P.beta) *
-                      (1.0 + ei) / ei * std::pow(s / hs, 1.0 - n) /
-                      (3.0 + a * a -
-                       a * std::sqrt(3.0) *
-                           std::pow((P.loosest_void_ratio - P.densest_void_ratio) /
-                                        (P.critical_void_ratio - P.densest_void_ratio),
-                                    P.alpha));
-    const double fe = std::pow(ec / e, P.beta);
-    const double fd = std::pow(std::max(e - ed, 0.0) / (ec - ed), P.alpha);
+    const double fb =
+        hs / n *
+        std::pow(P.loosest_void_ratio / P.critical_void_ratio, P.density_stiffness_exponent) *
+        (1.0 + ei) / ei * std::pow(s / hs, 1.0 - n) /
+        (3.0 + a * a -
+         a * std::sqrt(3.0) *
+             std::pow((P.loosest_void_ratio - P.densest_void_ratio) /
+                          (P.critical_void_ratio - P.densest_void_ratio),
+                      P.density_peak_exponent));
+    const double fe = std::pow(ec / e, P.density_stiffness_exponent);
+    const double fd = std::pow(std::max(e - ed, 0.0) / (ec - ed), P.density_peak_exponent);
     return -(1.0 + e) / (fb * fe * (3.0 + a * a - std::sqrt(3.0) * a * fd));
   };
   const int steps = 20000;
@@ -119,7 +133,7 @@ double peak_fd(double phi_c, const Tensor& T, double* dilatancy) {
 // the end of each of `cycles` cycles of amplitude γa, after a first quarter cycle.
 std::vector<double> drained_cyclic_shear(bool igs, double e0, double p, double ga, int cycles) {
   Hypoplastic::Parameters P;
-  P.void_ratio = e0;
+  P.initial_void_ratio = e0;
   P.intergranular_strain = igs;
   const Material m = hypoplastic_material(P);
   ElementTest t(m, placed(m, p));
@@ -136,7 +150,7 @@ std::vector<double> drained_cyclic_shear(bool igs, double e0, double p, double g
 } // namespace
 
 TEST(Hypoplastic, RegisteredByKeyword) {
-  const Material m(Material::parameters("hypoplastic"));
+  const Material m = hypoplastic_material(Hypoplastic::Parameters{});
   EXPECT_STREQ(m.keyword(), "hypoplastic");
   EXPECT_NE(Material::keywords().find("hypoplastic"), std::string::npos);
   EXPECT_FALSE(m.symmetric_tangent());
@@ -150,13 +164,85 @@ TEST(Hypoplastic, RegisteredByKeyword) {
   Hypoplastic::Parameters bad;
   bad.critical_void_ratio = 1.2; // above e_i0
   EXPECT_THROW(Hypoplastic{bad}, std::invalid_argument);
+  bad = Hypoplastic::Parameters{};
+  bad.igs_radius = 0.0; // outside its key's range
+  EXPECT_THROW(Hypoplastic{bad}, std::invalid_argument);
+  // the free out-of-plane point is a hypoplastic one only
+  const Material mc = Material::from(demfem::scene::default_choice(model_slot()));
+  EXPECT_THROW(ElementTest(mc, PointState{}), std::invalid_argument);
+}
+
+namespace {
+// [soil.continuum] keys read through the continuum's slot (the scene's reader), with the
+// diagnostics.
+struct Read {
+  demfem::scene::ModelChoice choice;
+  std::vector<demfem::scene::Diagnostic> diags;
+};
+Read read_soil(const std::string& text) {
+  Read out;
+  const toml::table t = toml::parse(std::string_view(text), std::string_view("f.toml"));
+  demfem::scene::Reader r(t, "soil.continuum", "f.toml", out.diags, t.source());
+  std::vector<std::string> valid;
+  out.choice = demfem::scene::read_model(r, model_slot(), valid);
+  r.finish(valid);
+  return out;
+}
+} // namespace
+
+// The scene's keys reach the model: φ_c in degrees, the void ratios, the intergranular strain
+// switched off; an inconsistent set is refused at its key (e_d0 ≥ e_c0, m_T > m_R, e_0 ≥ e_i0,
+// f_b's denominator not positive), only when the model is the chosen one.
+TEST(Hypoplastic, ReadFromTheSceneKeys) {
+  const Read r = read_soil("model = \"hypoplastic\"\n"
+                           "critical_friction_angle = 30\n"
+                           "granular_hardness = 5.8e9\n"
+                           "compression_exponent = 0.28\n"
+                           "densest_void_ratio = 0.53\n"
+                           "critical_void_ratio = 0.84\n"
+                           "loosest_void_ratio = 1.0\n"
+                           "density_peak_exponent = 0.13\n"
+                           "density_stiffness_exponent = 1.05\n"
+                           "intergranular_strain = false\n"
+                           "initial_void_ratio = 0.7\n"
+                           "substep_tolerance = 1e-4\n");
+  ASSERT_TRUE(r.diags.empty()) << r.diags.front().message;
+  const Material m = Material::from(r.choice);
+  const Hypoplastic* h = m.get_if<Hypoplastic>();
+  ASSERT_NE(h, nullptr);
+  const double s = std::sin(30.0 * kDeg);
+  EXPECT_NEAR(h->k.a, std::sqrt(3.0) * (3 - s) / (2 * std::sqrt(2.0) * s), 1e-12);
+  EXPECT_EQ(h->k.h_s, 5.8e9);
+  EXPECT_EQ(h->k.n, 0.28);
+  EXPECT_EQ(h->k.e_d0, 0.53);
+  EXPECT_EQ(h->k.e_c0, 0.84);
+  EXPECT_EQ(h->k.e_i0, 1.0);
+  EXPECT_EQ(h->k.alpha, 0.13);
+  EXPECT_EQ(h->k.beta, 1.05);
+  EXPECT_FALSE(h->k.igs);
+  EXPECT_EQ(h->k.tolerance, 1e-4);
+  EXPECT_EQ(h->initial_void_ratio(1e5), 0.7);
+
+  const auto refused = [](const std::string& keys, const std::string& key) {
+    const Read q = read_soil("model = \"hypoplastic\"\n" + keys);
+    ASSERT_EQ(q.diags.size(), 1u) << keys;
+    EXPECT_EQ(q.diags[0].key, "soil.continuum." + key) << keys;
+  };
+  refused("densest_void_ratio = 0.96\n", "densest_void_ratio");
+  refused("critical_void_ratio = 1.1\n", "critical_void_ratio");
+  refused("igs_transverse_factor = 6\n", "igs_transverse_factor");
+  refused("initial_void_ratio = 1.06\n", "initial_void_ratio");
+  refused("density_peak_exponent = 2\ndensest_void_ratio = 0.94\n", "density_peak_exponent");
+  refused("critical_friction_angle = 5\n", "critical_friction_angle"); // below its range
+  // another model chosen: the hypoplastic block's cross-key check does not run
+  EXPECT_TRUE(read_soil("model = \"mohr-coulomb\"\ndensest_void_ratio = 0.96\n").diags.empty());
 }
 
 // set_stress gives a point its void ratio once (uniform, or the same relative density at every
 // depth) and keeps the state it has reached on later calls.
 TEST(Hypoplastic, SetStressPlacesOnce) {
   Hypoplastic::Parameters P;
-  P.void_ratio = 0.7;
+  P.initial_void_ratio = 0.7;
   const Material m = hypoplastic_material(P);
   State s = placed(m, 5e4);
   const auto* i = std::get_if<Hypoplastic::Internal>(&s.internal);
@@ -168,8 +254,8 @@ TEST(Hypoplastic, SetStressPlacesOnce) {
   EXPECT_NEAR(e1, 0.7 - 1.7e-3, 1e-6); // Δe = (1 + e) tr Δε
   m.set_stress(s1);
   EXPECT_DOUBLE_EQ(std::get<Hypoplastic::Internal>(s1.internal).e, e1);
-  P.void_ratio = 0.9;
-  P.void_ratio_at_zero_stress = true;
+  P.initial_void_ratio = 0.9;
+  P.initial_void_ratio_at_zero_stress = true;
   const Material mz = hypoplastic_material(P);
   const State sz = placed(mz, 5e4);
   EXPECT_NEAR(std::get<Hypoplastic::Internal>(sz.internal).e,
@@ -183,8 +269,9 @@ TEST(HypoplasticElement, IsotropicCompressionFromLoosestFollowsBauer) {
   for (bool igs : {false, true}) {
     Hypoplastic::Parameters P;
     P.intergranular_strain = igs;
-    P.tolerance = 1e-5;
-    const Hypoplastic H(P);
+    P.substep_tolerance = 1e-5;
+    const Material M = hypoplastic_material(P);
+    const Hypoplastic& H = *M.get_if<Hypoplastic>();
     PointState y;
     y.stress = hypoplastic::isotropic(-1e3);
     y.e = P.loosest_void_ratio * hypoplastic::bauer_factor(H.k, 1e3);
@@ -192,7 +279,7 @@ TEST(HypoplasticElement, IsotropicCompressionFromLoosestFollowsBauer) {
     // N‖D‖); from δ = 0 the first R of strain is m_R times stiffer and the path starts 1.5 %
     // above e_i at 1 kPa
     if (igs) y.delta = hypoplastic::isotropic(-P.igs_radius / std::sqrt(3.0));
-    ElementTest t(H, y);
+    ElementTest t(M, y);
     t.run(Leg::strain({-0.04, -0.04, 0, -0.04}, 4000));
     double worst = 0.0;
     for (const Sample& s : t.history()) {
@@ -215,12 +302,13 @@ TEST(HypoplasticElement, IsotropicCompressionFromLoosestFollowsBauer) {
 TEST(HypoplasticElement, IsotropicCompressionFromDensest) {
   Hypoplastic::Parameters P;
   P.intergranular_strain = false;
-  P.tolerance = 1e-5;
-  const Hypoplastic H(P);
+  P.substep_tolerance = 1e-5;
+  const Material M = hypoplastic_material(P);
+  const Hypoplastic& H = *M.get_if<Hypoplastic>();
   PointState y;
   y.stress = hypoplastic::isotropic(-1e3);
   y.e = P.densest_void_ratio * hypoplastic::bauer_factor(H.k, 1e3);
-  ElementTest t(H, y);
+  ElementTest t(M, y);
   t.run(Leg::strain({-0.015, -0.015, 0, -0.015}, 3000));
   const double p = mean_stress(t.now().stress);
   EXPECT_GT(p, 1e6);
@@ -243,7 +331,7 @@ TEST(HypoplasticElement, IsotropicCompressionFromDensest) {
 TEST(HypoplasticElement, BiaxialCompressionEndsOnCriticalState) {
   for (double e0 : {0.60, 0.75, 0.90}) {
     Hypoplastic::Parameters P;
-    P.void_ratio = e0;
+    P.initial_void_ratio = e0;
     const Material m = hypoplastic_material(P);
     ElementTest t(m, placed(m, 1e5));
     t.run(Leg::strain({0, -1.0, 0, 0}, 10000).stress(kXX, -1e5));
@@ -265,12 +353,13 @@ TEST(HypoplasticElement, TriaxialPeakSatisfiesClosedForm) {
   for (double e0 : {0.60, 0.70}) {
     Hypoplastic::Parameters P;
     P.intergranular_strain = false;
-    P.tolerance = 1e-6;
-    const Hypoplastic H(P);
+    P.substep_tolerance = 1e-6;
+    const Material M = hypoplastic_material(P);
+    const Hypoplastic& H = *M.get_if<Hypoplastic>();
     PointState y;
     y.stress = hypoplastic::isotropic(-1e5);
     y.e = e0;
-    ElementTest t(H, y);
+    ElementTest t(M, y);
     t.run(Leg::strain({0, -0.2, 0, 0}, 20000).stress(kXX, -1e5).stress(kYY, -1e5));
     const auto& h = t.history();
     std::size_t ip = 1;
@@ -280,7 +369,7 @@ TEST(HypoplasticElement, TriaxialPeakSatisfiesClosedForm) {
     const Sample& s = h[ip];
     const double f = hypoplastic::bauer_factor(H.k, mean_stress(s.stress));
     const double ed = P.densest_void_ratio * f, ec = P.critical_void_ratio * f;
-    const double fd = std::pow((s.void_ratio - ed) / (ec - ed), P.alpha);
+    const double fd = std::pow((s.void_ratio - ed) / (ec - ed), P.density_peak_exponent);
     double dil_closed = 0.0;
     const double fd_closed =
         peak_fd(P.critical_friction_angle,
@@ -316,7 +405,7 @@ TEST(HypoplasticElement, IntergranularStrainReducesDrainedRatcheting) {
 TEST(HypoplasticElement, UndrainedCyclicShearMovesTowardsOrigin) {
   for (double ga : {5e-4, 2e-3}) {
     Hypoplastic::Parameters P;
-    P.void_ratio = 0.80;
+    P.initial_void_ratio = 0.80;
     const Material m = hypoplastic_material(P);
     ElementTest t(m, placed(m, 1e5));
     t.run(Leg::strain({0, 0, ga, 0}, 100));
@@ -344,7 +433,7 @@ TEST(HypoplasticElement, UndrainedCyclicShearMovesTowardsOrigin) {
 TEST(HypoplasticElement, NoEnergyGainInSmallClosedLoop) {
   for (double dir : {1.0, -1.0}) {
     Hypoplastic::Parameters P;
-    P.tolerance = 1e-6;
+    P.substep_tolerance = 1e-6;
     const Material m = hypoplastic_material(P);
     State s0 = m.initial_state();
     s0.stress = {-0.5e5, -1e5, 0.0};
@@ -386,9 +475,10 @@ TEST(HypoplasticIntegration, LargeIncrementMatchesSmallOnes) {
     for (double tol : {1e-3, 1e-5}) {
       Hypoplastic::Parameters P;
       P.intergranular_strain = igs;
-      P.tolerance = tol;
-      const Hypoplastic H(P);
-      P.tolerance = 1e-8;
+      P.substep_tolerance = tol;
+      const Material M = hypoplastic_material(P);
+      const Hypoplastic& H = *M.get_if<Hypoplastic>();
+      P.substep_tolerance = 1e-8;
       const Hypoplastic Href(P);
       PointState y0;
       y0.stress = {-1e5, -1.5e5, 1e4, -1e5};
@@ -433,10 +523,10 @@ TEST(HypoplasticIntegration, TensionIsCutAndPointRecovers) {
 // only (10 times shorter: at least 30 times smaller, 100 ideally).
 TEST(HypoplasticIntegration, TangentIsTheDerivative) {
   Hypoplastic::Parameters P;
-  P.void_ratio = 0.7;
+  P.initial_void_ratio = 0.7;
   // well below the second-order term: at the default 1e-3 the sub-steps chosen for the two longer
   // increments differ from the update's and add ≈ 0.03 Pa
-  P.tolerance = 1e-6;
+  P.substep_tolerance = 1e-6;
   const Material m = hypoplastic_material(P);
   State c = placed(m, 1e5), s;
   m.update(c, {1e-4, -3e-4, 1e-4}, s, nullptr); // load in one direction first
@@ -464,12 +554,13 @@ TEST(HypoplasticIntegration, TangentIsTheDerivative) {
 // oedometric leg under stress control (σzz reached linearly, εzz = Δσzz/(λ + 2G)), then drained
 // biaxial compression, which reaches σ1/σ3 = (1 + sin φ)/(1 − sin φ) with ψ's dilation rate.
 TEST(ElementTest, MohrCoulombBiaxial) {
-  MohrCoulomb::Parameters P;
-  P.young = 5e7;
-  P.poisson = 0.3;
+  demfem::scene::ModelChoice c = demfem::scene::default_choice(model_slot());
+  c.get<Elastic::Parameters>().young = 5e7;
+  c.get<Elastic::Parameters>().poisson = 0.3;
+  MohrCoulomb::Parameters& P = c.get<MohrCoulomb::Parameters>();
   P.friction_angle = 30.0 * kDeg;
   P.dilation_angle = 10.0 * kDeg;
-  const Material m(P);
+  const Material m = Material::from(c);
   ElementTest o(m, placed(m, 1e5));
   o.run(Leg::strain({0, 0, 0, 0}, 10).stress(kZZ, -1.2e5));
   const Hooke el{5e7, 0.3};

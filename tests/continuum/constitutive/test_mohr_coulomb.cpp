@@ -213,13 +213,14 @@ TEST(MohrCoulomb, RandomTrialsAdmissibleInAllRegions) {
 // Mohr–Coulomb strength.
 TEST(MohrCoulomb, DilatancyCutOffStopsDilation) {
   auto shear = [](double cutoff) {
+    Elastic::Parameters e;
+    e.young = kElastic.young;
+    e.poisson = kElastic.poisson;
     MohrCoulomb::Parameters p;
-    p.young = kElastic.young;
-    p.poisson = kElastic.poisson;
     p.friction_angle = soil().friction;
     p.dilation_angle = soil().dilation;
     p.dilation_cutoff = cutoff;
-    const Material m(p);
+    const Material m{MohrCoulomb(e, p)};
     State c = m.initial_state();
     const double s0 = -1.0e5; // isotropic compression [Pa]
     c.stress = {{s0, s0, 0.0}};

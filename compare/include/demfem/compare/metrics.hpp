@@ -1,27 +1,36 @@
-// The metric table of a comparison (issue 9): each physical quantity is defined once — a key, a
-// plain name, a unit and how each solver's output yields it — and read from a run directory's
-// dem/ and continuum/ outputs. Every compared series is split into its static value (the state at
-// rest before the loading starts), its increment (series − static) and its oscillation
-// (increment − its moving average over whole loading periods); divergence is measured on the
-// increments, so an at-rest offset between the two models does not hide or fake a divergence.
+// The comparison's series: each metric of the table (metric_table.hpp) that is a time series, read
+// for every owner from a run directory's dem/ and continuum/ outputs. Every compared series is
+// split into its static value (the state at rest before the loading starts), its increment
+// (series − static) and its oscillation (increment − its moving average over whole loading
+// periods); divergence is measured on the increments, so an at-rest offset between the two models
+// does not hide or fake a divergence.
 #pragma once
 
 #include <filesystem>
+#include <limits>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "demfem/compare/metric_table.hpp"
 #include "demfem/scene/scene.hpp"
 
 namespace demfem::compare {
 
-// One quantity, defined once.
+// One row of the metric table applied to one owner.
 struct MetricDef {
   std::string key;              // "wall.thrust": unique over the table
+  std::string owner;            // "wall"; "" for the scene's
   std::string quantity;         // "wall thrust": plain words, unique over the table
   std::string unit;             // "N"
   std::string dem_source;       // how the DEM output yields it
   std::string continuum_source; // how the continuum output yields it
   std::string meaning;          // one line: what it is physically
+  Role role = Role::Verdict;
+  double threshold = std::numeric_limits<double>::quiet_NaN(); // NaN: the caller's
+  int rank = 10;                                               // Metric::rank
+  Scale scale{};                                               // Metric::scale
 };
 
 struct TimeSeries {
@@ -53,16 +62,18 @@ struct MetricSet {
 };
 
 // Reads <run>/dem/*.csv and <run>/continuum/*.csv (+ the continuum's .vtu snapshots for the
-// surface) and builds one series pair per physical quantity. `scene` may be null (then the
-// structure kinds and the domain come from the files alone).
+// surface) and builds one series pair per series row of `table` and owner. `scene` may be null
+// (then the structure kinds and the domain come from the files alone).
 [[nodiscard]] MetricSet collect_metrics(const std::filesystem::path& run_dir,
-                                        const scene::Scene* scene);
+                                        const scene::Scene* scene,
+                                        std::span<const Metric> table = metric_table());
 // The same table for one solver's run alone (the other side of every series stays empty): a
 // quantity is listed when that solver wrote it and it is not 0 throughout; the continuum's surface
 // is binned as the scene's surface-profile probe. Used by `demfem study error-vs-time` to measure
 // a run against the most resolved run of the same solver with the comparison's own metrics.
 [[nodiscard]] MetricSet collect_solver_metrics(const std::filesystem::path& run_dir,
-                                               const scene::Scene* scene, scene::Solver solver);
+                                               const scene::Scene* scene, scene::Solver solver,
+                                               std::span<const Metric> table = metric_table());
 
 // ---- the static / increment / oscillation split -------------------------------------------------
 struct SplitOptions {
@@ -112,13 +123,18 @@ struct MetricRow {
   [[nodiscard]] double largest_response() const;
 };
 
-// Compares one series pair: both split with `o`, divergence on the increments with `threshold`
-// (relative to the DEM's largest |increment|); the verdict compares the late mean increments and
-// the oscillation amplitudes with the same relative threshold. When every mean increment and
+// Compares one series pair: both split with `o`, divergence on the increments with the row's
+// threshold, or `threshold` where the row gives none (relative to the DEM's largest |increment|);
+// the verdict compares the late mean increments and the oscillation amplitudes with the same
+// relative threshold. When every mean increment and
 // amplitude of a force, moment or pressure (not a unit of m or rad) is below kSmallResponseShare
 // of the DEM's static value, the verdict says so (the agree/diverge word does not change).
 inline constexpr double kSmallResponseShare = 0.01;
 [[nodiscard]] MetricRow compare_metric(const MetricSeries& m, const SplitOptions& o,
                                        double threshold);
+
+// The word of a compared row: "agree" / "diverge" (a verdict), "holds" / "fails" (a check), "n/a"
+// (not comparable).
+[[nodiscard]] std::string_view outcome_word(const MetricRow& r);
 
 } // namespace demfem::compare

@@ -1,5 +1,5 @@
-// The comparison report of a run directory: the metric table (metrics.hpp: each physical quantity
-// once, with how each solver's output yields it), each quantity split into static / increment /
+// The comparison report of a run directory: the metric table (metric_table.hpp: each metric one
+// row, with how each solver's output yields it), each series split into static / increment /
 // oscillation and compared with a verdict, pressure and surface profiles, coarse-grained field
 // maps (coarse_grain.hpp), what differs between the two models and both models' parameters with
 // their provenance (model_differences.hpp), the calibration, run times, the reproducing command
@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,10 @@ struct ReportOptions {
   double kernel_width = 0.0;           // coarse-graining support radius [m] (0: 2 mean diameters)
   bool fields = true;                  // coarse-grained field maps (needs both solvers' snapshots)
   std::string command;                 // the reproducing command ("" = demfem compare SCENE …)
+  std::span<const Metric> table;       // the metric table (empty: metric_table())
+  // Solvers whose series end before the scene's duration or come from a failed run, one line
+  // each: shown first in the report and listed in metrics.json ("incomplete") when not empty.
+  std::vector<std::string> incomplete;
 };
 
 // A word of a shell command, single-quoted when it holds anything but [A-Za-z0-9_-./=:+,@%]

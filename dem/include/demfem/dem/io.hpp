@@ -1,6 +1,6 @@
 // DEM output and restart I/O: VTK XML PolyData snapshots (particles, force chains, boundaries),
 // ParaView .pvd collections and versioned binary checkpoints. The engine calls these from its
-// output schedule, never from inside a kernel. CSV time series live in demfem/scene/csv.hpp
+// output schedule, never from inside a kernel. CSV time series live in demfem/output/csv.hpp
 // (shared with the continuum solver).
 //
 // Coordinates: the DEM plane is (x, z) with z up. VTK files place a particle at the 3D point

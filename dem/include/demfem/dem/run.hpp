@@ -29,7 +29,7 @@ struct RunSummary {
   double wall_seconds = 0.0;
   std::size_t particles = 0;
   double dt = 0.0;                // the step used [s] (0: refused before it was set)
-  double closure_error = 0.0;     // end-of-run |imbalance| / energy put in (run.cpp)
+  double closure_error = 0.0;     // end-of-run |imbalance| / energy put in (energy_watch.cpp)
   double max_overlap_ratio = 0.0; // largest δ/r seen at the probes (r the smaller radius)
 };
 

@@ -19,6 +19,8 @@ struct Diagnostic {
   int column = 0;
   std::string key;     // dotted path, e.g. soil.dem.kn or structure[pile].width
   std::string message; // what is wrong, and what would be valid
+  // A warning: the scene is accepted (SceneFile::warnings), but probably not what was meant.
+  bool warning = false;
   [[nodiscard]] std::string format() const; // "file:line:col: error: key: message"
 };
 
@@ -33,8 +35,9 @@ private:
 
 struct SceneFile {
   std::string path;
-  Scene base;                  // the file without any variant applied
-  std::vector<Scene> variants; // one fully resolved scene per [[variant]], in file order
+  Scene base;                       // the file without any variant applied
+  std::vector<Scene> variants;      // one fully resolved scene per [[variant]], in file order
+  std::vector<Diagnostic> warnings; // accepted, but worth a look (every command prints them)
 
   [[nodiscard]] std::vector<std::string> variant_names() const;
   // "" selects the base scene; an unknown name throws SceneError listing the valid names.

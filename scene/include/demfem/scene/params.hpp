@@ -70,6 +70,11 @@ struct Field {
   std::string_view unit;    // "N/m", "Pa", "m/s"; empty when dimensionless
   std::string_view meaning; // one sentence: what it is, where it acts, its source
   Scale scale = Scale::none;
+  // How a number is stated: Value::plain as held; Value::degrees an angle the file states in
+  // degrees (its rule too) and the block holds in radians (written back in degrees to 1e-9°);
+  // Value::optional unset while NaN (not read when absent, not written back); Value::nonzero
+  // written back only when not 0 (a refinement that is off by default).
+  enum class Value { plain, degrees, optional, nonzero } value = Value::plain;
 };
 
 // Visits each key of a block with a reference to its value. The reader writes the value; the

@@ -38,21 +38,10 @@ inline constexpr std::array<const char*, 3> kStructureKindNames = {"pile", "foot
 enum class DofMode { Fixed, Free, Prescribed };
 inline constexpr std::array<const char*, 3> kDofModeNames = {"fixed", "free", "prescribed"};
 
-enum class ContinuumModel { Elastic, MohrCoulomb };
-inline constexpr std::array<const char*, 2> kContinuumModelNames = {"elastic", "mohr-coulomb"};
-
-enum class ProbeKind {
-  Energy,
-  Structure,
-  WallThrust,
-  PressureProfile,
-  SurfaceProfile,
-  Loci,
-  Coordination
-};
-inline constexpr std::array<const char*, 7> kProbeKindNames = {
-    "energy",          "structure", "wall-thrust", "pressure-profile",
-    "surface-profile", "loci",      "coordination"};
+// The [[probe]] kinds; the keys each takes are in probe_spec.hpp.
+enum class ProbeKind { Energy, WallThrust, PressureProfile, SurfaceProfile, Loci, Coordination };
+inline constexpr std::array<const char*, 6> kProbeKindNames = {
+    "energy", "wall-thrust", "pressure-profile", "surface-profile", "loci", "coordination"};
 
 enum class EventAction { SetFriction, OpenWall };
 inline constexpr std::array<const char*, 2> kEventActionNames = {"set-friction", "open-wall"};
@@ -154,29 +143,19 @@ struct DemSoil {
 };
 
 struct ContinuumSoil {
-  ContinuumModel model = ContinuumModel::MohrCoulomb;
-  double young = 3.0e7; // [Pa]
-  double poisson = 0.3;
-  double friction_angle = 0.5236; // [rad] (file: degrees)
-  double cohesion = 0.0;          // [Pa]
-  double dilation_angle = 0.0;    // [rad] (file: degrees)
-  double tension_cutoff = 0.0;    // [Pa]
-  // dilatancy cut-off: plastic volumetric strain (dilation positive) after which a point flows
-  // with ψ = 0 (continuum mohr_coulomb.hpp); unset: none (ψ for ever), unless calibrated
-  std::optional<double> dilation_cutoff;
-  // Stress-dependent modulus (Janbu 1963; Hardin & Richart 1963: G0 ∝ p^n): each point's E is
-  // young × (p/p_ref)^modulus_exponent at its in-plane mean stress p = −(σxx + σzz)/2 after the
-  // initial stresses (K0 procedure, seating), p below modulus_min_stress taken as that; young is
-  // E at p_ref = modulus_reference_stress [Pa]. Exponent 0 (the default): a uniform E. A granular
-  // bed of linear-contact disks stiffens with confinement (measured: the cyclic G0 of the
-  // foundation bed's specimens 18 / 24 / 29 / 32 MPa at 108 / 216 / 540 / 1080 kPa). The
-  // stiffness-proportional Rayleigh damping of the explicit integrator follows each point's E; the
-  // implicit integrator's (β K0) and the Lysmer dashpots use `young` throughout.
-  double modulus_exponent = 0.0;
-  std::optional<double> modulus_reference_stress; // [Pa]; needed when the exponent is not 0
-  std::optional<double> modulus_min_stress;       // [Pa]; unset: p_ref / 100
-  [[nodiscard]] bool stress_dependent_modulus() const {
-    return modulus_exponent != 0.0 && modulus_reference_stress.has_value();
+  // The models of the vocabulary's continuum slots (vocabulary.hpp), in its order, as read: the
+  // constitutive model (soil.continuum.model) with its parameter blocks (young, poisson,
+  // friction_angle, …: continuum/constitutive/, which owns their keys, defaults and meaning).
+  std::vector<ModelChoice> models;
+  [[nodiscard]] const ModelChoice* model(std::string_view key) const {
+    for (const auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
+  }
+  [[nodiscard]] ModelChoice* model(std::string_view key) {
+    for (auto& m : models)
+      if (m.key == key) return &m;
+    return nullptr;
   }
   double density = 1700.0; // [kg/m³]
   double k0 = -1.0;        // lateral earth pressure at rest (<0: 1 − sin φ, Jaky)
@@ -313,8 +292,8 @@ struct Event {
 
 struct Probe {
   ProbeKind kind = ProbeKind::Energy;
-  std::string target;       // structure or wall name where relevant
-  double interval = 0.0;    // [s] (0 = output.probe_interval)
+  std::string target;       // wall-thrust, pressure-profile: a structure or wall name
+  double interval = 0.0;    // [s] this probe samples at (0 = output.probe_interval)
   int bins = 20;            // pressure and surface profiles
   std::vector<Vec2> points; // loci: the particles nearest to these points are traced
 };

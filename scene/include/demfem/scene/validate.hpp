@@ -41,8 +41,9 @@ struct Estimates {
   double steps = 0.0;                   // duration / dt
   double packing_steps = 0.0; // packing.max_time / dt (at most; 0 with explicit particles)
   double memory_bytes = 0.0;
-  double snapshots = 0.0; // duration / output.interval + 1
-  double output_bytes = 0.0;
+  double snapshots = 0.0;    // duration / output.interval + 1
+  double output_bytes = 0.0; // snapshots and time series
+  double series_bytes = 0.0; // the time series' part of it
 };
 
 [[nodiscard]] Estimates estimate(const Scene& scene, const Vocabulary& vocabulary);
