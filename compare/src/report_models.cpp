@@ -958,13 +958,15 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
         {"continuum", "soil.continuum.model", cst::soil_model(c).keyword, "scene (" + file + ")"});
     const auto& el = cst::elastic_block(c);
     const auto& st = cst::strength_block(c);
-    add("young", pa(el.young));
-    if (el.modulus_exponent != 0.0) {
-      add("modulus_exponent", g3(el.modulus_exponent));
-      if (!std::isnan(el.modulus_reference_stress))
-        add("modulus_reference_stress", pa(el.modulus_reference_stress));
+    if (cst::soil_model(c).chosen_uses(cst::Elastic::Parameters::kName)) {
+      add("young", pa(el.young));
+      if (el.modulus_exponent != 0.0) {
+        add("modulus_exponent", g3(el.modulus_exponent));
+        if (!std::isnan(el.modulus_reference_stress))
+          add("modulus_reference_stress", pa(el.modulus_reference_stress));
+      }
+      add("poisson", fmt::format("{:.3f}", el.poisson));
     }
-    add("poisson", fmt::format("{:.3f}", el.poisson));
     if (mohr_coulomb(c)) {
       add("friction_angle", deg(st.friction_angle));
       add("cohesion", pa(st.cohesion));
@@ -976,9 +978,8 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
           add(p.key.c_str(), p.value);
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
-    add("k0", c.k0 >= 0.0
-                  ? fmt::format("{:.3f}", c.k0)
-                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::jaky_k0(st.friction_angle)));
+    add("k0", c.k0 >= 0.0 ? fmt::format("{:.3f}", c.k0)
+                          : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::soil_k0(c)));
     add("surface", c.surface ? g4(*c.surface) + " m" : std::string("(none: the domain's top)"));
     for (const auto& [name, dz] : c.structure_offsets) {
       const std::string key = "structure." + name + ".base";
