@@ -362,7 +362,8 @@ void write_params(const ParamBlock& block, toml::table& t) {
 void write_model(const ModelChoice& c, toml::table& t) {
   if (!c.written()) return;
   t.insert_or_assign(c.key, c.keyword);
-  for (const auto& b : c.blocks) write_params(b, t);
+  for (const auto& b : c.blocks)
+    if (c.chosen_uses(b.name())) write_params(b, t); // the chosen model's keys only
 }
 
 } // namespace demfem::scene

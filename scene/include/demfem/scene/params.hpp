@@ -179,9 +179,10 @@ struct ModelSlot {
   std::string key;             // the scene key, e.g. "contact"
   std::string meaning;         // one line for the docs
   std::string default_keyword; // the model when the key is absent
-  // true: the resolved scene always states the slot and every key of every model of the slot
-  // (so that a variant may switch the model and set its keys); false: a slot left at its default
-  // is not written at all (an optional sub-model that is off).
+  // true: the resolved scene always states the slot and the chosen model's keys; false: a slot
+  // left at its default is not written at all (an optional sub-model that is off). The keys of
+  // the slot's other models are read (a variant may switch the model and set its keys) but not
+  // written.
   bool always_written = true;
   std::vector<ModelEntry> entries;
   [[nodiscard]] const ModelEntry* find(std::string_view keyword) const {
