@@ -413,7 +413,7 @@ BedStress bed_stress(const dem::Engine& e, const StressWindow& w, double thickne
     const auto j = static_cast<std::size_t>(c.j);
     const double lx = p.x[i] - p.x[j], lz = p.z[i] - p.z[j]; // branch vector j → i
     const double d = std::hypot(lx, lz);
-    const double nx = lx / d, nz = lz / d, tx = -nz, tz = nx; // contact_laws.hpp convention
+    const double nx = lx / d, nz = lz / d, tx = -nz, tz = nx; // dem/contact/contact.hpp convention
     const double fx = c.fn * nx + c.fs * tx, fz = c.fn * nz + c.fs * tz; // force on i
     out.sxx += fx * lx; // Love–Weber: σ_ij = (1/V) Σ_c f_i l_j
     out.szz += fz * lz;

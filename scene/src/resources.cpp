@@ -37,7 +37,7 @@ std::optional<std::string> cgroup_dir() {
   return std::nullopt;
 }
 
-// Coarse steps through every break (sorted) of at most h each: continuum/src/run.cpp's
+// Coarse steps through every break (sorted) of at most h each: continuum/run/run.cpp's
 // steps_through, as cell boundaries (the first break included).
 std::vector<double> uniform_nodes(const std::set<double>& breaks, double h) {
   std::vector<double> b(breaks.begin(), breaks.end()), nodes;
@@ -52,7 +52,7 @@ std::vector<double> uniform_nodes(const std::set<double>& breaks, double h) {
   return nodes;
 }
 
-// The graded steps of continuum/src/mesh_grading.hpp (graded_steps_through; a test in
+// The graded steps of continuum/run/mesh_grading.hpp (graded_steps_through; a test in
 // tests/continuum keeps the two equal): per interval between breaks n = ⌈∫ dx/h⌉ cells, h(x) =
 // min(h0, h_near + (g − 1)·d(x)), placed at equal increments of ∫ dx/h. With `count_only`, the
 // number of cells without their positions (for grids too large to list).

@@ -329,7 +329,7 @@ void write_stability_study(const std::vector<StabilityRow>& rows, const scene::S
           dem_body);
   if (!cont_body.empty())
     table("Continuum",
-          "Built-in problems with a closed form or bound (continuum/src/stability.cpp), at the "
+          "Built-in problems with a closed form or bound (continuum/run/stability.cpp), at the "
           "scene's degree, and the scene's own continuum for the explicit step. Outcome: "
           "completed, refused at setup (the located diagnostic), or stopped (the diagnostic). "
           "Residuals: the final Newton residual of each load step; iterations: Newton iterations "

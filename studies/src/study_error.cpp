@@ -398,7 +398,7 @@ ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o)
   // The engine's symplectic Euler (paper eqs. 2.16–2.18: velocity first, then position) gives
   // the same positions as Störmer–Verlet (leapfrog, velocities at half steps; Hairer, Lubich &
   // Wanner 2006, §I.3), which is second order; the energy-consistent touch and release of the
-  // linear spring (contact_laws.hpp) remove the first-order error of seeing first touch up to one
+  // linear spring (dem/contact/linear_spring.hpp) remove the first-order error of seeing first touch up to one
   // Δt late, so positions after the collision converge at order 2.
   st.expected_order = 2.0;
   st.expected_order_note =
@@ -491,7 +491,7 @@ ErrorStudy flamant_error_study(const ErrorStudyOptions& o) {
   ErrorStudy st;
   st.solver = "continuum";
   st.scene = "flamant";
-  st.source = "built-in (continuum/src/verification.cpp)";
+  st.source = "built-in (continuum/run/verification.cpp)";
   st.repeats = o.repeats;
   st.jobs = o.jobs;
   st.reference = "Flamant strip load on an elastic half-plane (Poulos & Davis 1974): "

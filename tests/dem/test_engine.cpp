@@ -642,7 +642,7 @@ TEST(DemTimeStep, BlowUpIsDetected) {
 // tens of thousands of times in 1e5 steps. Energy = kinetic + spring, drift = change between the
 // averages over the first and the last 2000 steps.
 // At Δt = 0.4√(m/k) (≈ 5.5 steps per contact) f_n = K_n δ heated the
-// gas × 6.8 to a blow-up; the energy-consistent switch (contact_laws.hpp) made head-on impacts
+// gas × 6.8 to a blow-up; the energy-consistent switch (dem/contact/linear_spring.hpp) made head-on impacts
 // exact but the gas still lost 28 %. At the default Δt = 0.1√(m_min/k) (≈ 22 steps per contact,
 // scene.hpp dt_safety) it keeps its energy to 0.17 %.
 namespace {

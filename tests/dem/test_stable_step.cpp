@@ -36,7 +36,7 @@ double omega2_max(int n, double m, double I, double r, double kn, double ks,
     bn[3 * b.i + 1] -= b.ez;
     bt[3 * b.i] -= tx;
     bt[3 * b.i + 1] -= tz;
-    bt[3 * b.i + 2] -= r; // s = (u_j − u_i)·t − r θ_i − r θ_j (contact_laws.hpp)
+    bt[3 * b.i + 2] -= r; // s = (u_j − u_i)·t − r θ_i − r θ_j (dem/contact/linear_spring.hpp)
     if (b.j >= 0) {
       bn[3 * b.j] += b.ex;
       bn[3 * b.j + 1] += b.ez;

@@ -83,7 +83,7 @@ struct ParticleSnapshot {
 // lines existed give particle pairs only.
 [[nodiscard]] std::vector<CgContact> read_force_chains_vtp(const std::filesystem::path& vtp);
 
-// A continuum .pvtu/.vtu snapshot (continuum/src/fem.cpp write_vtu): points (reference
+// A continuum .pvtu/.vtu snapshot (continuum/fem/output.cpp Model::write_vtu): points (reference
 // coordinates) with their data — "displacement_x", "displacement_z", "stress_xx", "stress_zz",
 // "stress_xz", "volumetric_strain", "material", … (deal.II writes its cell data per patch point, so
 // every array is per point) — and cells as point ids in VTK order.

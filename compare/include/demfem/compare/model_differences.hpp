@@ -6,7 +6,7 @@
 // solver recorded about its run (<run>/run_<solver>.json, written by the app) and from the
 // calibration and packing the run used (<run>/calibration/calibration.json, <run>/dem/
 // packing.json) — never from fixed prose: each row states what the code does for this scene
-// (continuum boundaries: continuum/src/run.cpp and fem.hpp; DEM walls: dem/src/engine.cpp).
+// (continuum boundaries: continuum/run/run.cpp and fem.hpp; DEM walls: dem/src/engine.cpp).
 #pragma once
 
 #include <filesystem>

@@ -388,7 +388,7 @@ private:
   void compute_forces();
   // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
   // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
-  // contact_laws.hpp, cundall-rebound), added to the forces as P/Δt; books the rebound energy.
+  // dem/contact/rebound.hpp, cundall-rebound), added to the forces as P/Δt; books the rebound energy.
   void apply_rebounds();
   void integrate();
   void update_structures();

@@ -25,9 +25,9 @@ struct MemoryAvailable {
 // "1.23 GB" (decimal units).
 [[nodiscard]] std::string format_bytes(double bytes);
 
-// Continuum mesh of a scene (continuum/src/run.cpp build_problem): the coarse grid through every
+// Continuum mesh of a scene (continuum/run/run.cpp build_problem): the coarse grid through every
 // corner of the domain (below soil.continuum.surface) and of the structures, cells of
-// min(W, H)/4 or graded from continuum.mesh_size_near (continuum/src/mesh_grading.hpp), the cells
+// min(W, H)/4 or graded from continuum.mesh_size_near (continuum/run/mesh_grading.hpp), the cells
 // whose centre lies in the soil or a structure meshed, then `refinement` global refinements.
 // Degrees of freedom of FE_Q(degree)² on it: 2 (p² cells + p (Nx + Nz) + 1), exact for a
 // rectangle of Nx × Nz cells.
