@@ -410,6 +410,10 @@ output::ProbeSetOptions probe_options(const scene::Scene& scene, bool root,
   return o;
 }
 
+// An explicit run writes a checkpoint at least this often [s of wall time], so that a kill
+// without a stop signal (SIGKILL, a power cut) loses at most this much of a long run.
+constexpr double kCheckpointWallSeconds = 600.0;
+
 // One run's model and hooks (run/hooks.hpp), set up in this order.
 class Driver {
 public:
@@ -469,13 +473,19 @@ public:
     return {};
   }
 
-  // The checkpoint after step `step` (explicit integrator): at output.checkpoint_interval, and
-  // when `now` (a stop). Every output's rows so far are flushed first, so that a resume keeps
-  // them.
+  // The checkpoint after step `step` (explicit integrator): at output.checkpoint_interval of
+  // simulated time, after kCheckpointWallSeconds of wall time since the last one (the root's clock:
+  // every rank writes after the same step), and when `now` (a stop). Every output's rows so far
+  // are flushed first, so that a resume keeps them.
   void checkpoint(long long step, bool now) {
     const double t = m.time();
     const bool due = checkpoint_interval_ > 0.0 && t >= next_checkpoint_ - 1e-9 * dt;
-    if (!due && !now) return;
+    const auto wall = std::chrono::steady_clock::now();
+    const bool late = fem::MpiScope::any(
+        root_ &&
+        std::chrono::duration<double>(wall - last_checkpoint_).count() >= kCheckpointWallSeconds);
+    if (!due && !now && !late) return;
+    last_checkpoint_ = wall;
     while (checkpoint_interval_ > 0.0 && t >= next_checkpoint_ - 1e-9 * dt)
       next_checkpoint_ += checkpoint_interval_;
     probes_.flush();
@@ -618,7 +628,7 @@ private:
   run_detail::StepRecord steps_;
   run_detail::Totals totals_;
   double checkpoint_interval_, next_checkpoint_;
-  std::chrono::steady_clock::time_point t_dyn_;
+  std::chrono::steady_clock::time_point t_dyn_, last_checkpoint_ = std::chrono::steady_clock::now();
 };
 
 } // namespace
