@@ -18,8 +18,7 @@ int main(int argc, char** argv) {
   const int n = argc > 1 ? std::atoi(argv[1]) : 10000;
   const long steps = argc > 2 ? std::atol(argv[2]) : 2000;
   EngineConfig c;
-  c.kn = 1.0e7;
-  c.ks = 3.0e6;
+  c.law = contact::make_law("cundall-rebound", {{"kn", 1.0e7}, {"ks", 3.0e6}});
   c.damping_c = 2.0;
   if (argc > 3) c.skin_factor = std::atof(argv[3]);
   c.threads = argc > 4 ? std::atoi(argv[4]) : 1;

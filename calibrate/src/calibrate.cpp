@@ -707,7 +707,9 @@ Calibration calibrate(const scene::Scene& scene, const CalibrateOptions& o) {
   // E' = 4G(λ + G)/(λ + 2G).
   {
     const double kap = 2.0 * c.coordination * (1.0 - c.porosity) / (kPi * d.thickness);
-    const double lam = kap * (d.kn - d.ks) / 8.0, G = kap * (d.kn + d.ks) / 8.0;
+    const auto k = dem::contact::reference_stiffness(dem::contact::make_law(d),
+                                                     0.5 * (d.radius.min + d.radius.max));
+    const double lam = kap * (k.kn - k.ks) / 8.0, G = kap * (k.kn + k.ks) / 8.0;
     c.affine_g = G;
     c.affine_e = 4.0 * G * (lam + G) / (lam + 2.0 * G);
   }

@@ -143,15 +143,18 @@ Box bounds(const dem::Particles& p) {
 // P-wave travel time across the specimen with the affine modulus as an upper bound of the
 // stiffness: the time scale for quasi-static checks.
 double wave_time(const Specimen& sp, double size) {
-  double solid = 0.0, mass = 0.0;
+  double solid = 0.0, mass = 0.0, rsum = 0.0;
   for (std::size_t i = 0; i < sp.particles.size(); ++i) {
     solid += std::numbers::pi * sp.particles.radius[i] * sp.particles.radius[i];
     mass += sp.particles.mass[i];
+    rsum += sp.particles.radius[i];
   }
+  const double r_mean = rsum / static_cast<double>(std::max<std::size_t>(sp.particles.size(), 1));
   const Box b = bounds(sp.particles);
   const double area = (b.xr - b.xl) * (b.zt - b.zb);
   const double rho = mass / (area * sp.thickness);
-  const double modulus = std::max(sp.config.kn, 1.0) / sp.thickness; // ≥ the 2D modulus
+  const double kn = dem::contact::reference_stiffness(sp.config.law, r_mean).kn;
+  const double modulus = std::max(kn, 1.0) / sp.thickness; // ≥ the 2D modulus
   (void)solid;
   return size / std::sqrt(modulus / rho);
 }
@@ -176,7 +179,11 @@ Consolidated consolidate(const Specimen& sp, double sigma_c, const ElementSettin
   double m_mean = 0.0;
   for (double m : sp.particles.mass) m_mean += m;
   m_mean /= static_cast<double>(std::max<std::size_t>(sp.particles.size(), 1));
-  const double damp = 2.0 * 0.1 * std::sqrt(cfg.kn / m_mean); // C = 2ζ√(k/m) (SDOF oscillator)
+  double r_mean = 0.0;
+  for (double r : sp.particles.radius) r_mean += r;
+  r_mean /= static_cast<double>(std::max<std::size_t>(sp.particles.size(), 1));
+  const double kn = dem::contact::reference_stiffness(cfg.law, r_mean).kn; // the law's K_n
+  const double damp = 2.0 * 0.1 * std::sqrt(kn / m_mean); // C = 2ζ√(k/m) (SDOF oscillator)
   cfg.damping_c += damp;
   cfg.damping_d += damp;
   const Box b0 = bounds(sp.particles);

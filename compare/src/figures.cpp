@@ -16,6 +16,7 @@
 
 #include "demfem/compare/plot.hpp"
 #include "demfem/compare/series.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/output/contract.hpp"
@@ -393,6 +394,17 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
     try {
       const auto ck = dem::io::read_checkpoint(dem / file::final_state);
       const auto& p = ck.particles;
+      // Particles that left the scene, and those of them that left while no wall was open
+      // (through a gap the scene did not plan; dem::run warns above 1 % of the count).
+      {
+        std::size_t left = 0, unplanned = 0;
+        for (const auto f : p.flags) {
+          left += (f & dem::kFlagRemoved) ? 1 : 0;
+          unplanned += (f & dem::kFlagLeftUnplanned) ? 1 : 0;
+        }
+        sum["particles_left"] = left;
+        sum["particles_left_unplanned"] = unplanned;
+      }
       // Size segregation (Ontake: "large particles gather at the toe"): mean radius of the leading
       // tenth of the particles still in the model (largest x) over the mean radius of all of them.
       {
@@ -419,16 +431,24 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
                                 {"void_ratio", m.void_ratio},
                                 {"coordination", m.coordination}};
       }
-      // Chains from the overlaps: f_n = K_n δ (linear normal spring, paper eq. 2.6).
-      const double kn = scene.soil.dem ? scene.soil.dem->kn : 1.0;
+      // Chains from the overlaps: the law's elastic force at each overlap (K_n δ for the linear
+      // laws, paper eq. 2.6; the Hertz force for hertz-mindlin).
+      const auto law = dem::contact::make_law(scene.soil.dem ? *scene.soil.dem : scene::DemSoil{});
       std::vector<dem::ContactView> cv;
-      for (const auto& [i, j] : dem::overlapping_pairs(p)) {
-        dem::ContactView c;
-        c.i = i;
-        c.j = static_cast<std::int64_t>(j);
-        c.fn = kn * (p.radius[i] + p.radius[j] - std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]));
-        cv.push_back(c);
-      }
+      std::visit(
+          [&](const auto& m) {
+            for (const auto& [i, j] : dem::overlapping_pairs(p)) {
+              dem::ContactView c;
+              c.i = i;
+              c.j = static_cast<std::int64_t>(j);
+              const double delta =
+                  p.radius[i] + p.radius[j] - std::hypot(p.x[i] - p.x[j], p.z[i] - p.z[j]);
+              c.fn =
+                  m.elastic_force(delta, p.radius[i] * p.radius[j] / (p.radius[i] + p.radius[j]));
+              cv.push_back(c);
+            }
+          },
+          law);
       std::vector<dem::BoundaryView> bv;
       for (const auto& w : scene.walls) {
         dem::BoundaryView b;
@@ -450,8 +470,8 @@ RunFigures write_run_figures(const scene::Scene& scene, const fs::path& run_dir,
         bv.push_back(b);
       }
       SnapshotSpec ss;
-      ss.title = fmt::format("end of run (t = {:.3g} s), colour = speed, chains = K_n·δ — {}",
-                             ck.meta.time, scene.label());
+      ss.title = fmt::format("end of run (t = {:.3g} s), colour = speed, chains = {} — {}",
+                             ck.meta.time, dem::contact::force_formula(law), scene.label());
       std::string err;
       if (!plot_particles(p, cv, bv, ss, fig / "snapshot_final.png", &err, &queue))
         out.problems.push_back("snapshot_final: " + err);

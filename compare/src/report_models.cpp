@@ -11,11 +11,13 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "constitutive/k0.hpp"
 #include "constitutive/registry.hpp"
 #include "constitutive/soil.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/output/contract.hpp"
 #include "demfem/scene/params.hpp"
 #include "demfem/scene/write_file.hpp"
@@ -85,34 +87,21 @@ bool calibrated(const scene::ContinuumSoil& c, const char* key) {
   return p && p->rfind("dem calibration", 0) == 0;
 }
 
-const char* law_name(scene::ContactLaw l) {
-  return scene::keyword(scene::kContactLawNames, l);
+// The keys of a model as "K_n = 1e+06 N/m, K_s = …" (its parameter blocks, scene/params.hpp).
+std::string model_keys(const scene::ModelChoice& m) {
+  std::vector<std::string> parts;
+  for (const auto& t : scene::describe(m)) parts.push_back(t.text());
+  return fmt::format("{}", fmt::join(parts, ", "));
 }
 
-// The DEM contact law with the parameters that law reads (dem/src/contact_laws.hpp).
+// The DEM contact law with the parameters it reads (dem/contact/), and rolling resistance.
 std::string contact_law(const scene::DemSoil& d) {
-  std::string s = fmt::format("disks, contact law {}: K_n = {} N/m", law_name(d.law), g3(d.kn));
-  switch (d.law) {
-  case scene::ContactLaw::CundallRebound:
-    s += fmt::format(
-        ", K_s = {} N/m, μ_s {} / μ_D {}, rebound K = {} at impacts above V_0 = {} m/s", g3(d.ks),
-        g3(d.mu_static), g3(d.mu_dynamic), g3(d.rebound), g3(d.rebound_speed));
-    break;
-  case scene::ContactLaw::CundallDashpot:
-    s += fmt::format(", K_s = {} N/m, μ_s {} / μ_D {}, dashpots η_n = {}, η_s = {} N·s/m", g3(d.ks),
-                     g3(d.mu_static), g3(d.mu_dynamic), g3(d.eta_n), g3(d.eta_s));
-    break;
-  case scene::ContactLaw::LinearRestitution:
-    s += fmt::format(", K_s = {} N/m, μ_s {} / μ_D {}, restitution e = {}", g3(d.ks),
-                     g3(d.mu_static), g3(d.mu_dynamic), g3(d.restitution));
-    break;
-  case scene::ContactLaw::HertzMindlin:
-    s = fmt::format("disks, contact law hertz-mindlin: E = {}, ν = {}, μ_s {} / μ_D {}",
-                    pa(d.young), g3(d.poisson), g3(d.mu_static), g3(d.mu_dynamic));
-    break;
-  }
-  s += d.tension ? fmt::format("; tension up to {} N", g3(d.tensile_strength))
-                 : "; no tension (contacts open)";
+  const auto law = dem::contact::law_of(d);
+  std::string s = fmt::format("disks, contact law {}: {}, μ_s {} / μ_D {}", law.keyword,
+                              model_keys(law), g3(d.mu_static), g3(d.mu_dynamic));
+  const auto rolling = dem::contact::rolling_of(d);
+  if (rolling.written())
+    s += fmt::format("; rolling resistance {}: {}", rolling.keyword, model_keys(rolling));
   return s;
 }
 
@@ -669,14 +658,11 @@ void structure_faces(const DiffContext& x, std::vector<DiffRow>& rows) {
 void damping(const DiffContext& x, std::vector<DiffRow>& rows) {
   const auto& [s, f, d, c, co, mc, g, dom, mesh, tol] = x;
   std::string dem = "Coulomb sliding at contacts (μ_D) at every amplitude";
-  if (d.law == scene::ContactLaw::CundallRebound)
-    dem += fmt::format("; rebound K = {} only at impacts faster than V_0 = {} m/s (slower "
-                       "contacts are elastic; dem/contact_laws.hpp)",
-                       g3(d.rebound), g3(d.rebound_speed));
-  else if (d.law == scene::ContactLaw::CundallDashpot)
-    dem += "; contact dashpots";
-  else if (d.law == scene::ContactLaw::LinearRestitution)
-    dem += fmt::format("; restitution e = {}", g3(d.restitution));
+  const auto law = dem::contact::law_of(d);
+  const auto slot = dem::contact::law_slot();
+  if (const auto* e = slot.find(law.keyword))
+    dem += fmt::format("; contact law {} ({}; dem/contact/): {}", law.keyword, e->summary,
+                       model_keys(law));
   dem +=
       d.damping_c > 0.0 || d.damping_d > 0.0
           ? fmt::format("; global damping C = {} /s, D = {} /s", g3(d.damping_c), g3(d.damping_d))
@@ -924,22 +910,14 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
     add("soil.dem.radius", rad);
     add("soil.dem.density", g4(d.density) + " kg/m³ (grains)");
     add("soil.dem.thickness", g3(d.thickness) + " m");
-    add("soil.dem.contact", law_name(d.law));
-    if (d.law == scene::ContactLaw::HertzMindlin) {
-      add("soil.dem.young", pa(d.young));
-      add("soil.dem.poisson", g3(d.poisson));
-    } else {
-      add("soil.dem.kn", g3(d.kn) + " N/m");
-      add("soil.dem.ks", g3(d.ks) + " N/m");
-    }
+    const auto law = dem::contact::law_of(d);
+    add("soil.dem.contact", law.keyword);
+    for (const auto& t : scene::describe(law)) add("soil.dem." + t.key, t.value);
     add("soil.dem.mu_static / mu_dynamic", g3(d.mu_static) + " / " + g3(d.mu_dynamic));
-    if (d.law == scene::ContactLaw::CundallRebound)
-      add("soil.dem.rebound / rebound_speed", g3(d.rebound) + " / " + g3(d.rebound_speed) + " m/s");
-    if (d.law == scene::ContactLaw::CundallDashpot)
-      add("soil.dem.eta_n / eta_s", g3(d.eta_n) + " / " + g3(d.eta_s) + " N·s/m");
-    if (d.law == scene::ContactLaw::LinearRestitution)
-      add("soil.dem.restitution", g3(d.restitution));
-    add("soil.dem.tension", d.tension ? "yes, " + g3(d.tensile_strength) + " N" : "no");
+    if (const auto rolling = dem::contact::rolling_of(d); rolling.written()) {
+      add("soil.dem.rolling", rolling.keyword);
+      for (const auto& t : scene::describe(rolling)) add("soil.dem." + t.key, t.value);
+    }
     add("soil.dem.damping_c / damping_d", g3(d.damping_c) + " / " + g3(d.damping_d) + " 1/s");
     add("soil.dem.dt", d.dt > 0.0
                            ? g3(d.dt) + " s"
@@ -980,13 +958,15 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
         {"continuum", "soil.continuum.model", cst::soil_model(c).keyword, "scene (" + file + ")"});
     const auto& el = cst::elastic_block(c);
     const auto& st = cst::strength_block(c);
-    add("young", pa(el.young));
-    if (el.modulus_exponent != 0.0) {
-      add("modulus_exponent", g3(el.modulus_exponent));
-      if (!std::isnan(el.modulus_reference_stress))
-        add("modulus_reference_stress", pa(el.modulus_reference_stress));
+    if (cst::soil_model(c).chosen_uses(cst::Elastic::Parameters::kName)) {
+      add("young", pa(el.young));
+      if (el.modulus_exponent != 0.0) {
+        add("modulus_exponent", g3(el.modulus_exponent));
+        if (!std::isnan(el.modulus_reference_stress))
+          add("modulus_reference_stress", pa(el.modulus_reference_stress));
+      }
+      add("poisson", fmt::format("{:.3f}", el.poisson));
     }
-    add("poisson", fmt::format("{:.3f}", el.poisson));
     if (mohr_coulomb(c)) {
       add("friction_angle", deg(st.friction_angle));
       add("cohesion", pa(st.cohesion));
@@ -998,9 +978,8 @@ std::vector<ParamRow> model_parameters(const scene::Scene& s, const ModelFacts& 
           add(p.key.c_str(), p.value);
     }
     add("density", g4(c.density) + " kg/m³ (bulk)");
-    add("k0", c.k0 >= 0.0
-                  ? fmt::format("{:.3f}", c.k0)
-                  : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::jaky_k0(st.friction_angle)));
+    add("k0", c.k0 >= 0.0 ? fmt::format("{:.3f}", c.k0)
+                          : fmt::format("{:.3f} (Jaky 1 − sin φ)", cst::soil_k0(c)));
     add("surface", c.surface ? g4(*c.surface) + " m" : std::string("(none: the domain's top)"));
     for (const auto& [name, dz] : c.structure_offsets) {
       const std::string key = "structure." + name + ".base";

@@ -15,6 +15,7 @@
 #include <variant>
 
 #include "elastic.hpp"
+#include "hypoplastic.hpp"
 #include "mohr_coulomb.hpp"
 #include "seam.hpp"
 
@@ -25,7 +26,7 @@ struct ModelSlot;
 namespace demfem::continuum::constitutive {
 
 // The registered models.
-using Registry = ModelList<Elastic, MohrCoulomb>;
+using Registry = ModelList<Elastic, MohrCoulomb, Hypoplastic>;
 
 // soil.continuum.model: the registered models by keyword (default "mohr-coulomb"), each with its
 // parameter blocks; every block of every model is read and written (scene/vocabulary.hpp).
@@ -45,7 +46,7 @@ public:
   // The model a scene chose (its keyword and parameter blocks, model_slot()); throws
   // std::invalid_argument for a keyword no model has, naming the registered ones.
   [[nodiscard]] static Material from(const scene::ModelChoice& choice);
-  // "elastic, mohr-coulomb"
+  // "elastic, mohr-coulomb, hypoplastic"
   [[nodiscard]] static std::string keywords();
 
   [[nodiscard]] const char* keyword() const {

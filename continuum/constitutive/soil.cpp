@@ -47,6 +47,10 @@ void choose_model(scene::ContinuumSoil& soil, std::string_view keyword) {
 }
 
 double soil_k0(const scene::ContinuumSoil& soil) {
+  const scene::ModelChoice& m = soil_model(soil);
+  // a hypoplastic soil: Jaky's K0 from its critical friction angle
+  if (m.keyword == Hypoplastic::keyword)
+    return k0_at_rest(soil.k0, m.get<Hypoplastic::Parameters>().critical_friction_angle);
   return k0_at_rest(soil.k0, strength_block(soil).friction_angle);
 }
 

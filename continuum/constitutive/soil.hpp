@@ -24,7 +24,8 @@ namespace demfem::continuum::constitutive {
 [[nodiscard]] MohrCoulomb::Parameters& strength_block(scene::ContinuumSoil& soil);
 // A soil built in code: the slot at its defaults with `keyword` chosen (an unknown one throws).
 void choose_model(scene::ContinuumSoil& soil, std::string_view keyword);
-// K0 of the initial stresses: soil.k0 when stated, else Jaky's from the friction angle.
+// K0 of the initial stresses: soil.k0 when stated, else Jaky's from the friction angle (the
+// critical friction angle φ_c of a hypoplastic soil, Mohr–Coulomb's friction_angle otherwise).
 [[nodiscard]] double soil_k0(const scene::ContinuumSoil& soil);
 
 } // namespace demfem::continuum::constitutive

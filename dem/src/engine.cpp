@@ -27,18 +27,7 @@ EngineConfig make_config(const scene::Scene& scene) {
   EngineConfig c;
   if (!scene.soil.dem) return c;
   const auto& d = *scene.soil.dem;
-  c.law = d.law;
-  c.kn = d.kn;
-  c.ks = d.ks;
-  c.rebound = d.rebound;
-  c.rebound_speed = d.rebound_speed;
-  c.tension = d.tension;
-  c.tensile_strength = d.tensile_strength;
-  c.eta_n = d.eta_n;
-  c.eta_s = d.eta_s;
-  c.restitution = d.restitution;
-  c.young = d.young;
-  c.poisson = d.poisson;
+  c.law = contact::make_law(d); // the law of the scene's `contact` and `rolling` (registry.hpp)
   c.damping_c = d.damping_c;
   c.damping_d = d.damping_d;
   c.density = d.density;
@@ -56,25 +45,10 @@ EngineConfig make_config(const scene::Scene& scene) {
   return c;
 }
 
-AnyContactLaw make_contact_law(const EngineConfig& c) {
-  switch (c.law) {
-  case scene::ContactLaw::CundallDashpot:
-    return CundallDashpot{{c.kn, c.ks, c.eta_n, c.eta_s}};
-  case scene::ContactLaw::LinearRestitution:
-    return LinearRestitution{{c.kn, c.ks, LinearRestitution::damping_ratio(c.restitution)}};
-  case scene::ContactLaw::HertzMindlin: {
-    const double E = c.young, nu = c.poisson;
-    return HertzMindlin{{E / (2.0 * (1.0 - nu * nu)),           // E* for equal materials
-                         E / (4.0 * (2.0 - nu) * (1.0 + nu))}}; // G/(2(2−ν)), G = E/(2(1+ν))
-  }
-  case scene::ContactLaw::CundallRebound:
-    break;
-  }
-  return CundallRebound{{c.kn, c.ks, c.rebound, c.rebound_speed, c.tension, c.tensile_strength}};
-}
-
-Engine::Engine(EngineConfig config) : config_(std::move(config)), law_(make_contact_law(config_)) {
+Engine::Engine(EngineConfig config) : config_(std::move(config)) {
   if (config_.materials.empty()) config_.materials.push_back(Material{});
+  xh_ = std::visit([](const auto& law) { return std::decay_t<decltype(law)>::kHistory; },
+                   config_.law);
 }
 
 std::uint16_t Engine::add_material(Material m) {
@@ -744,7 +718,7 @@ std::size_t Engine::overlapping_pair_count() const {
   return n;
 }
 
-double Engine::largest_overlap_ratio(double kn) const {
+double Engine::largest_overlap_ratio() const {
   double worst = 0.0;
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
@@ -761,13 +735,16 @@ double Engine::largest_overlap_ratio(double kn) const {
       if (c > 0.0 && d2 >= c * c * (1.0 + 1e-9)) continue;
       worst = std::max(worst, (rsum - std::sqrt(d2)) / rmin); // δ (eq. 2.3)
     }
-  if (kn > 0.0)
-    for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
-      const auto& h = bnd_hist_[k];
-      const double fn = h.fn;
-      if ((h.flags & kHistActive) && fn > 0.0)
-        worst = std::max(worst, fn / kn / rad[bnd_i_[k]]); // δ = f_n / K_n (eq. 2.6)
-    }
+  std::visit(
+      [&](const auto& law) {
+        for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
+          const auto& h = bnd_hist_[k];
+          const double fn = h.fn, ri = rad[bnd_i_[k]];
+          if ((h.flags & kHistActive) && fn > 0.0) // the law's δ(f_n), R* = r_i at a boundary
+            worst = std::max(worst, law.overlap(fn, ri) / ri);
+        }
+      },
+      config_.law);
   return worst;
 }
 
@@ -802,7 +779,7 @@ Engine::MemoryUse Engine::memory_use() const {
                 cap(p_.fx) + cap(p_.fz) + cap(p_.torque) + cap(p_.radius) + cap(p_.mass) +
                 cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) +
                 cap(p_.flags);
-  m.contact_history = cap(nbr_hist_) + cap(bnd_hist_);
+  m.contact_history = cap(nbr_hist_) + cap(bnd_hist_) + cap(nbr_xh_) + cap(bnd_xh_);
   m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(nbr_i_) + cap(bnd_i_) + cap(bnd_f_) +
                       cap(x_ref_) + cap(z_ref_);
   m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);

@@ -25,7 +25,7 @@ using namespace detail;
 
 // ---- forces -------------------------------------------------------------------------------------
 
-// Geometry and kinematics of the pair (i, j) for the law (sign convention: contact_laws.hpp).
+// Geometry and kinematics of the pair (i, j) for the law (sign convention: contact/contact.hpp).
 // One definition for the one-pass loop and the blocked loop's scalar path, so both compute the
 // same bits. dx, dz = x_i − x_j; rsum = r_i + r_j; d2 = dx² + dz².
 struct PairGeometry {
@@ -50,6 +50,7 @@ inline PairGeometry pair_geometry(const Particles& p, std::uint32_t i, std::uint
   g.in.vs = dvx * tx + dvz * tz - (g.li * p.omega[i] + g.lj * p.omega[j]); // eq. 2.5, slip
   g.in.m_eff = p.mass[i] * p.mass[j] / (p.mass[i] + p.mass[j]);
   g.in.r_eff = ri * rj / rsum;
+  g.in.wr = p.omega[i] - p.omega[j]; // relative rolling rate
   return g;
 }
 
@@ -66,17 +67,18 @@ struct PairEnergies {
   }
 };
 
-// One pair (i, j) through the law: its energies are added to `en`, a rebound at first touch to
-// `events`; false when the contact ended (no force), else the force on i (fx, fz: eq. 2.15,
-// t = (−n_z, n_x)) and the torque terms l_i f_t, l_j f_t.
+// One pair (i, j) through the law (its extra history: `extra`): its energies are added to `en`, a
+// rebound at first touch to `events`; false when the contact ended (no force), else the force on
+// i (fx, fz: eq. 2.15, t = (−n_z, n_x)) and the torque terms l_i f_t − m_r, l_j f_t + m_r (the
+// torques are −ti on i and −tj on j).
 struct PairForce {
   double fx, fz, ti, tj;
 };
 template <class Law>
 inline bool law_on_pair(const Law& law, const PairGeometry& g, const ContactInput& in,
-                        ContactHistory& h, PairEnergies& en, PairForce& f,
+                        ContactHistory& h, double* extra, PairEnergies& en, PairForce& f,
                         std::vector<ReboundEvent>& events, std::uint32_t i, std::uint32_t j) {
-  const ContactResult r = law.evaluate(in, h);
+  const ContactResult r = law.evaluate(in, h, extra);
   en.fric += r.e_friction;
   if (!r.touching) return false;
   en.damp += r.e_damping;
@@ -95,6 +97,10 @@ inline bool law_on_pair(const Law& law, const PairGeometry& g, const ContactInpu
   f.fz = fnt * g.nz + r.ft * g.nx;
   f.ti = g.li * r.ft;
   f.tj = g.lj * r.ft;
+  if constexpr (Law::Rolling::kActive) { // the rolling couple: +m_r on i, −m_r on j
+    f.ti -= r.mr;
+    f.tj += r.mr;
+  }
   return true;
 }
 
@@ -115,8 +121,8 @@ inline void note_overlap(double delta, double limit, std::uint32_t i, std::uint3
 template <class Law>
 void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
                         double* energies, std::uint32_t* fail_pair) {
-  if constexpr (std::is_same_v<Law, CundallRebound>) {
-    if (!law.p.tension && config_.pair_kernel != EngineConfig::PairKernel::scalar) {
+  if constexpr (std::is_same_v<Law, ReboundModel>) {
+    if (!law.law.normal.bond.tension && config_.pair_kernel != EngineConfig::PairKernel::scalar) {
       pair_range_rebound(law, i0, i1, out, energies, fail_pair);
       return;
     }
@@ -141,6 +147,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
     for (std::uint32_t k = kb; k < ke; ++k) {
       const std::uint32_t j = nbr_j_[k];
       ContactHistory& h = nbr_hist_[k];
+      double* extra = Law::kHistory > 0 ? nbr_xh_.data() + k * Law::kHistory : nullptr;
       const double dx = xi - x[j], dz = zi - z[j];
       const double rsum = ri + rad[j];
       const double d2 = dx * dx + dz * dz;
@@ -158,7 +165,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
       }
       in.dt = dt;
       PairForce f;
-      if (!law_on_pair(law, g, in, h, en, f, *out.events, static_cast<std::uint32_t>(i), j))
+      if (!law_on_pair(law, g, in, h, extra, en, f, *out.events, static_cast<std::uint32_t>(i), j))
         continue;
       note_overlap(in.delta, max_ov * std::min(ri, rad[j]), static_cast<std::uint32_t>(i), j,
                    failed, fail_pair);
@@ -177,7 +184,7 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
 // The same pair loop for cundall-rebound without tension, in blocks of compacted entries:
 // gather, the vectorised kernel, scatter in list order (pair_kernel.hpp). Bit-identical to
 // pair_range's one-pass loop.
-void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
+void Engine::pair_range_rebound(const ReboundModel& law, std::size_t i0, std::size_t i1,
                                 const ForceTarget& out, double* energies,
                                 std::uint32_t* fail_pair) {
   double* __restrict fx = out.fx;
@@ -186,8 +193,13 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
   detail::PairBlock b; // scratch, written before it is read
   const auto& mats = config_.materials;
   const bool one_material = friction_uniform_; // every pair: friction_mus_, friction_mud_
-  const detail::ReboundConstants kc{law.p.kn,     law.p.ks,      dt_,          config_.max_overlap,
-                                    one_material, friction_mus_, friction_mud_};
+  const detail::ReboundConstants kc{law.law.normal.spring.p.kn,
+                                    law.law.tangential.p.ks,
+                                    dt_,
+                                    config_.max_overlap,
+                                    one_material,
+                                    friction_mus_,
+                                    friction_mud_};
   const detail::ParticleArrays pa{p_.vx.data(), p_.vz.data(), p_.omega.data(), p_.radius.data(),
                                   p_.mass.data()};
   const detail::Isa isa = detail::kernel_isa(config_.pair_kernel);
@@ -277,7 +289,7 @@ void Engine::pair_range_rebound(const CundallRebound& law, std::size_t i0, std::
           in.mu_s = one_material ? kc.mus0 : b.mus[e];
           in.mu_d = one_material ? kc.mud0 : b.mud[e];
           in.dt = kc.dt;
-          if (!law_on_pair(law, g, in, h, en, f, *o.events, i, j)) continue;
+          if (!law_on_pair(law, g, in, h, nullptr, en, f, *o.events, i, j)) continue;
           note_overlap(in.delta, kc.max_overlap * std::min(rad[i], rad[j]), i, j, failed,
                        fail_pair);
         }
@@ -481,8 +493,8 @@ long long Engine::run_until(double t_stop, long long max_steps) {
   long long k = 0;
   while (k < max_steps && failure_.empty()) {
     if (dt_ > 0.0 && !(time_ < t_stop - 0.5 * dt_)) break;
-    const long long m =
-        std::visit([&](const auto& law) { return team_steps(law, max_steps - k, t_stop); }, law_);
+    const long long m = std::visit(
+        [&](const auto& law) { return team_steps(law, max_steps - k, t_stop); }, config_.law);
     if (m > 0) {
       k += m;
       continue;
@@ -695,8 +707,10 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     const Feature& F = features_[bnd_f_[k]];
     Boundary& B = boundaries_[F.boundary];
     ContactHistory& h = bnd_hist_[k];
+    double* extra = Law::kHistory > 0 ? bnd_xh_.data() + k * Law::kHistory : nullptr;
     if (!B.active) {
       h = ContactHistory{};
+      for (std::size_t q = 0; q < Law::kHistory; ++q) extra[q] = 0.0;
       continue;
     }
     const double px = p_.x[i], pz = p_.z[i], ri = p_.radius[i];
@@ -759,6 +773,7 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     in.vs = dvx * tx + dvz * tz - li * p_.omega[i];
     in.m_eff = p_.mass[i];
     in.r_eff = ri;
+    in.wr = p_.omega[i] - (st ? st->omega : 0.0); // a wall does not turn
     if (B.own_friction) {
       in.mu_s = B.mu_s;
       in.mu_d = B.mu_d;
@@ -768,7 +783,7 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     }
     in.dt = dt;
     if (!valid && h.flags == 0) continue;
-    const ContactResult r = law.evaluate(in, h);
+    const ContactResult r = law.evaluate(in, h, extra);
     e_fric += r.e_friction;
     if (!r.touching) continue;
     e_damp += r.e_damping;
@@ -793,6 +808,7 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     p_.fx[i] += Fx;
     p_.fz[i] += Fz;
     p_.torque[i] -= li * r.ft;
+    if constexpr (Law::Rolling::kActive) p_.torque[i] += r.mr; // the rolling couple on i
     s.reaction[2 * F.boundary] -= Fx;
     s.reaction[2 * F.boundary + 1] -= Fz;
     if (st) {
@@ -800,7 +816,8 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
       so[0] -= Fx;
       so[1] -= Fz;
       const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
-      so[2] += rx * (-Fz) - rz * (-Fx); // (q − P) × (−F)
+      so[2] += rx * (-Fz) - rz * (-Fx);                   // (q − P) × (−F)
+      if constexpr (Law::Rolling::kActive) so[2] -= r.mr; // and the rolling couple's reaction
     }
   }
   s.e_friction = e_fric;
@@ -837,8 +854,8 @@ void Engine::update_pair_friction() {
 
 void Engine::compute_forces() {
   if (friction_dirty_) update_pair_friction();
-  std::visit( // the law chosen once (make_contact_law); one instantiation of the loops per law
-      [this](const auto& law) { contact_forces(law); }, law_);
+  std::visit( // the law chosen once (contact::make_law); one instantiation of the loops per law
+      [this](const auto& law) { contact_forces(law); }, config_.law);
   apply_rebounds();
 }
 
@@ -884,7 +901,7 @@ void Engine::apply_rebounds() {
                                                                                               : 0;
   }
   // Each contact's impulse P_k ≥ 0 brings its approach w_k to K v_n (Newton restitution,
-  // contact_laws.hpp) given the others' impulses: projected Gauss–Seidel sweeps in event order.
+  // contact/rebound.hpp) given the others' impulses: projected Gauss–Seidel sweeps in event order.
   // One event: P = m*(1 − K) v_n in the first sweep. Several on one particle: the sweeps share
   // the collision between them (two coincident floors: one impulse; a disk on two disks: the
   // symmetric split, to 1e-12 of m* v_n).

@@ -7,7 +7,6 @@
 #include <numeric>
 #include <vector>
 
-#include "demfem/dem/contact_laws.hpp"
 #include "demfem/dem/engine.hpp"
 #include "pair_kernel.hpp"
 
@@ -20,13 +19,15 @@ inline Isa kernel_isa(EngineConfig::PairKernel k) {
   return isa_up_to(k == PK::simd ? Isa::avx512 : k == PK::avx2 ? Isa::avx2 : Isa::portable);
 }
 
-// Active pairs (owner i < partner j) with their contact history, stored as the CSR neighbour list
-// (sorted by owner, then partner) that rebuild() merges with the new candidates.
+// Active pairs (owner i < partner j) with their contact history and w extra history values each
+// (px, w per pair; w = 0: none), stored as the CSR neighbour list (sorted by owner, then partner)
+// that rebuild() merges with the new candidates.
 inline void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
                             const std::vector<std::uint32_t>& pj,
-                            const std::vector<ContactHistory>& ph,
-                            std::vector<std::uint32_t>& start, std::vector<std::uint32_t>& partner,
-                            std::vector<ContactHistory>& hist) {
+                            const std::vector<ContactHistory>& ph, const std::vector<double>& px,
+                            std::size_t w, std::vector<std::uint32_t>& start,
+                            std::vector<std::uint32_t>& partner, std::vector<ContactHistory>& hist,
+                            std::vector<double>& extra) {
   std::vector<std::uint32_t> ord(pi.size());
   std::iota(ord.begin(), ord.end(), 0u);
   std::sort(ord.begin(), ord.end(), [&](std::uint32_t x, std::uint32_t y) {
@@ -35,10 +36,12 @@ inline void store_pairs_csr(std::size_t n, const std::vector<std::uint32_t>& pi,
   start.assign(n + 1, 0);
   partner.resize(ord.size());
   hist.resize(ord.size());
+  extra.resize(ord.size() * w);
   for (std::size_t k = 0; k < ord.size(); ++k) {
     ++start[pi[ord[k]] + 1];
     partner[k] = pj[ord[k]];
     hist[k] = ph[ord[k]];
+    for (std::size_t q = 0; q < w; ++q) extra[k * w + q] = px[ord[k] * w + q];
   }
   for (std::size_t i = 0; i < n; ++i) start[i + 1] += start[i];
 }
@@ -69,6 +72,14 @@ inline constexpr std::size_t kReorderFirstMin = 4096; // particles: reorder at t
 template <class T> void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order) {
   std::vector<T> out(v.size());
   for (std::size_t k = 0; k < order.size(); ++k) out[k] = v[order[k]];
+  v.swap(out);
+}
+// The same for w consecutive values per entry.
+template <class T>
+void permute(std::vector<T>& v, const std::vector<std::uint32_t>& order, std::size_t w) {
+  std::vector<T> out(v.size());
+  for (std::size_t k = 0; k < order.size(); ++k)
+    for (std::size_t q = 0; q < w; ++q) out[k * w + q] = v[order[k] * w + q];
   v.swap(out);
 }
 

@@ -140,18 +140,24 @@ void Engine::reorder() {
   // Re-key the pair history: (owner, partner) → new indices, owner < partner.
   std::vector<std::uint32_t> pi, pj;
   std::vector<ContactHistory> ph;
+  std::vector<double> px;
   for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
     for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
       if (nbr_hist_[k].flags != 0) {
-        // Swapping the owner flips both n and t, so f_t (force on the owner along t) is unchanged.
+        // Swapping the owner flips both n and t, so f_t (force on the owner along t) is unchanged;
+        // the extra history may change (a rolling moment on the owner changes sign).
         std::uint32_t a = new_of[i], b = new_of[nbr_j_[k]];
-        if (a > b) std::swap(a, b);
+        const bool swapped = a > b;
+        if (swapped) std::swap(a, b);
         pi.push_back(a);
         pj.push_back(b);
         ph.push_back(nbr_hist_[k]);
+        px.insert(px.end(), nbr_xh_.begin() + static_cast<std::ptrdiff_t>(k * xh_),
+                  nbr_xh_.begin() + static_cast<std::ptrdiff_t>((k + 1) * xh_));
+        if (swapped && xh_ > 0) flip_owner(px.data() + px.size() - xh_);
       }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
-  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  store_pairs_csr(n, pi, pj, ph, px, xh_, nbr_start_, nbr_j_, nbr_hist_, nbr_xh_);
   set_owners();
   for (auto& bi : bnd_i_) bi = new_of[bi];
   {
@@ -163,6 +169,7 @@ void Engine::reorder() {
     permute(bnd_i_, o);
     permute(bnd_f_, o);
     permute(bnd_hist_, o);
+    permute(bnd_xh_, o, xh_);
   }
   permute(p_.x, order);
   permute(p_.z, order);
@@ -288,11 +295,13 @@ void Engine::rebuild() {
       bz1 = std::max(bz1, bvz_[k]);
     }
     const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
+    const bool any_open = std::any_of(boundaries_.begin(), boundaries_.end(),
+                                      [](const Boundary& b) { return !b.active; });
     for (std::size_t i = 0; i < n; ++i)
       if (!(p_.flags[i] & kFlagRemoved) &&
           (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
            p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
-        p_.flags[i] |= kFlagRemoved;
+        p_.flags[i] |= any_open ? kFlagRemoved : (kFlagRemoved | kFlagLeftUnplanned);
         // what it takes out of the budget (EnergyBudget::left_scene, engine.cpp energy())
         e_left_ += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]) +
                    0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
@@ -417,6 +426,7 @@ void Engine::rebuild() {
   // Carry the history over: both lists are sorted by (owner, partner).
   if (new_j.size() > new_hist.capacity()) new_hist.reserve(history_capacity(new_j.size()));
   new_hist.resize(new_j.size());
+  std::vector<double> new_xh(new_j.size() * xh_, 0.0);
   if (nbr_start_.size() == n + 1) {
 #pragma omp parallel for num_threads(team_size()) schedule(static) if (T > 1)
     for (std::size_t i = 0; i < n; ++i) {
@@ -424,13 +434,17 @@ void Engine::rebuild() {
       const std::uint32_t ae = nbr_start_[i + 1];
       for (std::uint32_t k = new_start[i]; k < new_start[i + 1] && a < ae; ++k) {
         while (a < ae && nbr_j_[a] < new_j[k]) ++a;
-        if (a < ae && nbr_j_[a] == new_j[k]) new_hist[k] = nbr_hist_[a];
+        if (a < ae && nbr_j_[a] == new_j[k]) {
+          new_hist[k] = nbr_hist_[a];
+          for (std::size_t q = 0; q < xh_; ++q) new_xh[k * xh_ + q] = nbr_xh_[a * xh_ + q];
+        }
       }
     }
   }
   nbr_start_.swap(new_start);
   nbr_j_.swap(new_j);
   nbr_hist_.swap(new_hist);
+  nbr_xh_.swap(new_xh);
   set_owners();
 
   std::vector<std::uint32_t> ni, nf;
@@ -447,17 +461,22 @@ void Engine::rebuild() {
     }
   }
   std::vector<ContactHistory> nh(ni.size());
+  std::vector<double> nx(ni.size() * xh_, 0.0);
   {
     std::size_t a = 0;
     for (std::size_t k = 0; k < ni.size(); ++k) {
       while (a < bnd_i_.size() && (bnd_i_[a] < ni[k] || (bnd_i_[a] == ni[k] && bnd_f_[a] < nf[k])))
         ++a;
-      if (a < bnd_i_.size() && bnd_i_[a] == ni[k] && bnd_f_[a] == nf[k]) nh[k] = bnd_hist_[a];
+      if (a < bnd_i_.size() && bnd_i_[a] == ni[k] && bnd_f_[a] == nf[k]) {
+        nh[k] = bnd_hist_[a];
+        for (std::size_t q = 0; q < xh_; ++q) nx[k * xh_ + q] = bnd_xh_[a * xh_ + q];
+      }
     }
   }
   bnd_i_.swap(ni);
   bnd_f_.swap(nf);
   bnd_hist_.swap(nh);
+  bnd_xh_.swap(nx);
 
   x_ref_ = p_.x;
   disp_valid_ = false;

@@ -20,6 +20,7 @@ namespace {
 constexpr std::uint32_t kStateMagic = 0x44454d53;   // "DEMS"
 constexpr std::uint32_t kStateVersion = 2;          // 2: the energy removed particles carried out
 constexpr std::uint32_t kHistoryMagic = 0x44454d48; // "DEMH"
+constexpr std::uint32_t kExtraMagic = 0x44454d58;   // "DEMX": the extra history
 
 void write_hist(detail::ByteWriter& w, const std::vector<ContactHistory>& h) {
   w.value(static_cast<std::uint64_t>(h.size()));
@@ -82,6 +83,10 @@ std::vector<std::byte> Engine::save_state() const {
   w.vec(bnd_i_);
   w.vec(bnd_f_);
   write_hist(w, bnd_hist_);
+  if (xh_ > 0) { // the sub-models' extra history (a law without any writes nothing)
+    w.vec(nbr_xh_);
+    w.vec(bnd_xh_);
+  }
   w.vec(x_ref_);
   w.vec(z_ref_);
   for (double v : {skin_, r_min_, r_max_, m_min_}) w.value(v);
@@ -142,6 +147,13 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   r.vec(bnd_i_);
   r.vec(bnd_f_);
   read_hist(r, bnd_hist_);
+  if (xh_ > 0) {
+    r.vec(nbr_xh_);
+    r.vec(bnd_xh_);
+  } else {
+    nbr_xh_.clear();
+    bnd_xh_.clear();
+  }
   r.vec(x_ref_);
   r.vec(z_ref_);
   for (double* v : {&skin_, &r_min_, &r_max_, &m_min_}) r.value(*v);
@@ -154,7 +166,8 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   pe_ref_set_ = r.value<std::uint8_t>() != 0;
   if (!r.at_end()) detail::ByteReader::fail("trailing bytes");
   if (nbr_j_.size() != nbr_hist_.size() || bnd_i_.size() != bnd_f_.size() ||
-      bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1))
+      bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1) ||
+      nbr_xh_.size() != nbr_hist_.size() * xh_ || bnd_xh_.size() != bnd_hist_.size() * xh_)
     detail::ByteReader::fail("inconsistent neighbour lists");
   set_owners();
   friction_dirty_ = true;
@@ -169,12 +182,18 @@ std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const 
   w.value(kHistoryMagic);
   std::vector<std::uint32_t> a, b;
   std::vector<ContactHistory> h;
+  std::vector<double> xp, xb; // the extra history of the pairs and boundary contacts written
+  auto extra = [&](std::vector<double>& to, const std::vector<double>& from, std::size_t k) {
+    to.insert(to.end(), from.begin() + static_cast<std::ptrdiff_t>(k * xh_),
+              from.begin() + static_cast<std::ptrdiff_t>((k + 1) * xh_));
+  };
   for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
     for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
       if (nbr_hist_[k].flags != 0) {
         a.push_back(p_.id[i]);
         b.push_back(p_.id[nbr_j_[k]]);
         h.push_back(nbr_hist_[k]);
+        extra(xp, nbr_xh_, k);
       }
   w.vec(a);
   w.vec(b);
@@ -187,10 +206,17 @@ std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const 
       a.push_back(p_.id[bnd_i_[k]]);
       b.push_back(bnd_f_[k]);
       h.push_back(bnd_hist_[k]);
+      extra(xb, bnd_xh_, k);
     }
   w.vec(a);
   w.vec(b);
   write_hist(w, h);
+  if (xh_ > 0) { // a law with extra history: a tagged section (a blob without one reads as zeros)
+    w.value(kExtraMagic);
+    w.value(static_cast<std::uint64_t>(xh_));
+    w.vec(xp);
+    w.vec(xb);
+  }
   return std::move(w.buffer());
 }
 
@@ -207,6 +233,22 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
   read_hist(r, hb);
   if (a.size() != b.size() || a.size() != h.size() || c.size() != d.size() || c.size() != hb.size())
     detail::ByteReader::fail("inconsistent contact history");
+  // The extra history, when the blob has it for this law's width; else (a packing deposited
+  // without the sub-model that keeps it) zeros.
+  std::vector<double> xp(h.size() * xh_, 0.0), xb(hb.size() * xh_, 0.0);
+  if (!r.at_end()) {
+    if (r.value<std::uint32_t>() != kExtraMagic) detail::ByteReader::fail("trailing bytes");
+    const auto width = r.value<std::uint64_t>();
+    std::vector<double> fp, fb;
+    r.vec(fp);
+    r.vec(fb);
+    if (fp.size() != h.size() * width || fb.size() != hb.size() * width)
+      detail::ByteReader::fail("inconsistent extra contact history");
+    if (width == xh_) {
+      xp.swap(fp);
+      xb.swap(fb);
+    }
+  }
   const std::size_t n = p_.size();
   std::uint32_t max_id = 0;
   for (std::size_t i = 0; i < n; ++i) max_id = std::max(max_id, p_.id[i]);
@@ -216,20 +258,27 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
   // Same layout reorder() leaves: a CSR list of the history entries, merged by rebuild().
   std::vector<std::uint32_t> pi, pj;
   std::vector<ContactHistory> ph;
+  std::vector<double> px;
   for (std::size_t k = 0; k < a.size(); ++k) {
     std::uint32_t u = idx(a[k]), v = idx(b[k]);
     if (u == ~0u || v == ~0u || u == v) continue;
-    if (u > v) std::swap(u, v); // swapping the owner flips n and t: f_t is unchanged
+    // Swapping the owner flips n and t: f_t is unchanged. A rolling moment on the owner is
+    // against ω_owner − ω_partner: swapped, it changes sign.
+    const bool swapped = u > v;
+    if (swapped) std::swap(u, v);
     pi.push_back(u);
     pj.push_back(v);
     ph.push_back(h[k]);
+    for (std::size_t q = 0; q < xh_; ++q) px.push_back(xp[k * xh_ + q]);
+    if (swapped && xh_ > 0) flip_owner(px.data() + px.size() - xh_);
   }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
-  store_pairs_csr(n, pi, pj, ph, nbr_start_, nbr_j_, nbr_hist_);
+  store_pairs_csr(n, pi, pj, ph, px, xh_, nbr_start_, nbr_j_, nbr_hist_, nbr_xh_);
   set_owners();
   bnd_i_.clear();
   bnd_f_.clear();
   bnd_hist_.clear();
+  bnd_xh_.clear();
   std::vector<std::uint32_t> o;
   for (std::size_t k = 0; k < c.size(); ++k)
     if (idx(c[k]) != ~0u && d[k] < features_.size()) o.push_back(static_cast<std::uint32_t>(k));
@@ -240,6 +289,7 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
     bnd_i_.push_back(idx(c[k]));
     bnd_f_.push_back(d[k]);
     bnd_hist_.push_back(hb[k]);
+    for (std::size_t q = 0; q < xh_; ++q) bnd_xh_.push_back(xb[k * xh_ + q]);
   }
   need_rebuild_ = true;
 }

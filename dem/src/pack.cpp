@@ -83,6 +83,47 @@ constexpr int kPackingFormat = 2; // bump when the placement or deposition algor
 
 bool carved(const scene::Scene& scene, const scene::Structure& st); // below
 
+// The contact law's part of the key: the law's place in the registry (contact/registry.hpp) and
+// its version when above 1 (Law::kVersion), the
+// keys of the four linear and Hertz laws with the soil's friction and time-step settings in a
+// fixed order, then any other key of the chosen law and rolling model by name (so a new law's or
+// sub-model's keys enter the key; a model that is off enters nothing).
+void law_key(Fnv& f, const scene::DemSoil& d) {
+  const std::vector<scene::ModelChoice> defaults = contact::default_models();
+  const scene::ModelChoice* law = contact::law_choice(d);
+  const scene::ModelChoice* rolling = contact::rolling_choice(d);
+  if (!law) law = &defaults[0];
+  if (!rolling) rolling = &defaults[1];
+  const auto laws = contact::law_slot().keywords();
+  f.integer(std::find(laws.begin(), laws.end(), law->keyword) - laws.begin());
+  if (const int v = contact::law_version(law->keyword); v > 1) { // a law whose results changed
+    f.str("law-version");
+    f.integer(v);
+  }
+  auto num = [&](const char* key) { f.num(scene::value_of(*law, key).value_or(-1.0)); };
+  static constexpr const char* kFixed[] = {
+      "kn",    "ks",          "rebound", "rebound_speed", "tensile_strength", "eta_n",
+      "eta_s", "restitution", "young",   "poisson",       "tension"};
+  num("kn");
+  num("ks");
+  f.num(d.mu_static);
+  f.num(d.mu_dynamic);
+  for (const char* k : {"rebound", "rebound_speed", "tensile_strength", "eta_n", "eta_s",
+                        "restitution", "young", "poisson"})
+    num(k);
+  for (double v : {d.damping_c, d.damping_d, d.dt, d.dt_safety}) f.num(v);
+  f.integer(scene::value_of(*law, "tension").value_or(0.0) != 0.0 ? 1 : 0);
+  for (const scene::ModelChoice* m : {law, rolling}) {
+    if (m == rolling && !m->written()) continue; // rolling resistance off
+    if (m == rolling) f.str(m->keyword);
+    for (const auto& k : scene::chosen_keys(*m)) {
+      if (std::find(std::begin(kFixed), std::end(kFixed), k) != std::end(kFixed)) continue;
+      f.str(k);
+      f.num(scene::value_of(*m, k).value_or(0.0));
+    }
+  }
+}
+
 } // namespace
 
 std::string packing_key(const scene::Scene& scene) {
@@ -105,12 +146,7 @@ std::string packing_key(const scene::Scene& scene, const std::string& engine) {
   }
   f.num(d.density);
   f.num(d.thickness);
-  f.integer(static_cast<int>(d.law));
-  for (double v : {d.kn, d.ks, d.mu_static, d.mu_dynamic, d.rebound, d.rebound_speed,
-                   d.tensile_strength, d.eta_n, d.eta_s, d.restitution, d.young, d.poisson,
-                   d.damping_c, d.damping_d, d.dt, d.dt_safety})
-    f.num(v);
-  f.integer(d.tension ? 1 : 0);
+  law_key(f, d);
   f.num(d.packing.ke_ratio);
   f.num(d.packing.max_time);
   f.num(d.packing.damping);
@@ -663,12 +699,18 @@ Trial deposit(const scene::Scene& scene, const Placement& pl, double scale,
   if (d.packing.damping > 0.0) {
     // Deposition only: global viscous damping (eqs. 2.1, 2.2 with C = D per unit mass/inertia)
     // at ratio ζ = packing.damping of critical for the mean particle on one normal spring:
-    // C = 2ζ√(K_n/m̄) (single-degree-of-freedom oscillator). It caps the fall speed at g/C.
-    double m_mean = 0.0;
-    for (double r : pl.r)
+    // C = 2ζ√(k_n/m̄) (single-degree-of-freedom oscillator), k_n the law's normal stiffness for
+    // two mean particles (K_n for the linear laws, contact::reference_stiffness). It caps the fall
+    // speed at g/C.
+    double m_mean = 0.0, r_mean = 0.0;
+    for (double r : pl.r) {
       m_mean += d.density * 3.14159265358979323846 * r * r * d.thickness; // m = ρπr²t
+      r_mean += r;
+    }
     m_mean /= static_cast<double>(std::max<std::size_t>(pl.r.size(), 1));
-    const double extra = 2.0 * d.packing.damping * std::sqrt(d.kn / m_mean);
+    r_mean /= static_cast<double>(std::max<std::size_t>(pl.r.size(), 1));
+    const double kn = contact::reference_stiffness(c.law, r_mean).kn;
+    const double extra = 2.0 * d.packing.damping * std::sqrt(kn / m_mean);
     c.damping_c += extra;
     c.damping_d += extra;
   }

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "demfem/dem/contact_laws.hpp"
+#include "demfem/dem/contact/cundall_rebound.hpp"
 
 namespace demfem::dem::detail {
 
@@ -15,7 +15,7 @@ namespace {
 constexpr std::int64_t kSlideBit = kHistSliding;
 
 // One pass over the block, written without branches so that it vectorises. Each line is the
-// scalar loop's (engine_forces.cpp, pair_range) or the law's (contact_laws.hpp) operation.
+// scalar loop's (engine_forces.cpp, pair_range) or the law's (dem/contact/) operation.
 template <bool OneMaterial>
 [[gnu::always_inline]] inline void kernel_body(const ReboundConstants& c, const ParticleArrays& p,
                                                PairBlock& __restrict b, std::size_t m) {
@@ -47,16 +47,17 @@ template <bool OneMaterial>
     const std::int64_t fl = b.fl[e];
     const double rmin = ri < rj ? ri : rj;
     const bool fast = ((fl & kHistActive) >= 1) & (delta > 0.0) & (fc > 0.0) &
-                      detail::stays_closed(delta, vn, dt, dt2, fc, mi, mj) &
+                      contact::detail::stays_closed(delta, vn, dt, dt2, fc, mi, mj) &
                       !(delta > max_ov * rmin);
-    // Shear spring and Coulomb limit (eqs. 2.9, 2.13; detail::coulomb with f_n > 0)
+    // Shear spring and Coulomb limit (eqs. 2.9, 2.13; contact::detail::coulomb with f_n > 0)
     const double ft_trial = b.ft[e] - ks * vs * dt;
     const bool sliding = (fl & kHistSliding) != 0;
     const double mus = OneMaterial ? c.mus0 : b.mus[e], mud = OneMaterial ? c.mud0 : b.mud[e];
     const double limit = (sliding ? mud : mus) * fc;
     const bool over = std::abs(ft_trial) > limit;
     const double ftc = std::copysign(mud * fc, ft_trial);
-    // detail::coulomb's two energies share its division: (s ? a : b)/k = s ? a/k : b/k exactly
+    // contact::detail::coulomb's two energies share its division: (s ? a : b)/k = s ? a/k : b/k
+    // exactly
     const double ef_num =
         sliding ? std::abs(ftc * (ft_trial - ftc)) : 0.5 * (ft_trial * ft_trial - ftc * ftc);
     const double ft = over ? ftc : ft_trial;

@@ -13,13 +13,14 @@
 //      max_overlap) is marked kSlow;
 //   3. scatter (engine_forces.cpp): in list order, the forces are added to the particles and the
 //      histories written back; a kSlow entry is evaluated there by the scalar law
-//      (CundallRebound::evaluate) on the geometry the one-pass loop computes (pair_geometry).
+//      (contact::CundallRebound, its evaluate) on the geometry the one-pass loop computes
+//      (pair_geometry).
 // Every operation of the kernel that reaches a result is the scalar law's, in the same order and
 // without contraction into fused multiply-adds, and the scatter adds in the scalar loop's order:
 // results are bit-identical to the one-pass loop (test
 // DemPairKernel.BlockedLoopBitIdenticalToScalar). Only the kernel's test of its case differs: it
 // drops the law's two divisions of m* and A with a margin that leaves every doubtful entry to the
-// scalar law (detail::stays_closed).
+// scalar law (contact::detail::stays_closed).
 #pragma once
 
 #include <cstddef>

@@ -8,7 +8,8 @@
 // Finite Elements, 2000, eq. 6.3.10). Per disk the degrees of freedom are x, z and θ with masses m,
 // m and I; a contact adds a normal spring k_n on the relative normal displacement and a shear
 // spring k_s on the relative displacement of the contact points, s = (u_j − u_i)·t − r_i θ_i − r_j
-// θ_j (contact_laws.hpp; the engine's arms r − δ/2 are shorter, which only lowers the frequencies).
+// θ_j (contact/contact.hpp; the engine's arms r − δ/2 are shorter, which only lowers the
+// frequencies).
 //
 // One contact between two particles (the pair, its reduced mass m* = m_i m_j/(m_i + m_j)):
 //   normal mode         ω_n² = k_n (1/m_i + 1/m_j)                      (= k_n/m*)
@@ -47,9 +48,16 @@
 // ζ = −ln e/√(π² + ln² e) (linear-restitution); global damping (eqs. 2.1, 2.2: C, D per unit
 // mass/inertia): ξ = max(C, D)/(2ω_max). The largest ξ is used.
 //
+// Rolling resistance. A rolling spring k_r [N·m/rad] on the relative rotation θ_i − θ_j of a pair
+// (contact/contact.hpp) adds the mode ω_r² = k_r (1/I_i + 1/I_j) = 2k_r/I_min for two of the
+// smallest particles; with Z_max = 6 contacts turning a particle against its neighbours, its
+// share of ω_max² is at most 6ω_r² (Gershgorin, as above), added to the translational and
+// shear–rotation bound: ω_max² = C ω_pair² + 6ω_r². Without rolling resistance (k_r = 0) the bound
+// is the one above.
+//
 // Hertz–Mindlin: the tangent stiffnesses at 5 % overlap of r_min, R* = r_min/2 (as
-// HertzMindlin::step_stiffness): k_n = 2E*√(R*δ), k_s = 8G*√(R*δ) (Johnson, Contact Mechanics,
-// 1985, §4.2; Mindlin 1949), E* = E/(2(1 − ν²)), G* = E/(4(2 − ν)(1 + ν)).
+// contact/hertz.hpp, contact/mindlin.hpp): k_n = 2E*√(R*δ), k_s = 8G*√(R*δ) (Johnson, Contact
+// Mechanics, 1985, §4.2; Mindlin 1949), E* = E/(2(1 − ν²)), G* = E/(4(2 − ν)(1 + ν)).
 #include "demfem/dem/stable_step.hpp"
 
 #include <algorithm>
@@ -64,6 +72,11 @@
 #include "demfem/scene/load.hpp"
 
 namespace demfem::dem {
+
+namespace {
+// Contacts of one particle that a rolling mode loads at once (Gershgorin, Z_max = 6, above).
+constexpr double kRollingMargin = 6.0;
+} // namespace
 
 double coordination_margin(double inertia_factor) {
   const double g = 1.0 / inertia_factor; // m r²/I
@@ -84,7 +97,12 @@ StepBound critical_step(const StepParams& p) {
   if (!(wp2 > 0.0)) return b;
   b.shear_mode = ws2 > wn2;
   b.omega_pair = std::sqrt(wp2);
-  b.omega_max = std::sqrt(coordination_margin(p.inertia_factor) * wp2);
+  double wmax2 = coordination_margin(p.inertia_factor) * wp2;
+  if (p.kr > 0.0) { // a rolling spring's mode, added (see above)
+    b.omega_rolling = std::sqrt(2.0 * p.kr / (p.inertia_factor * p.m_min * p.r_min * p.r_min));
+    wmax2 += kRollingMargin * b.omega_rolling * b.omega_rolling;
+  }
+  b.omega_max = std::sqrt(wmax2);
   // Damping ratios (see the derivation above): the contact's (from the law) and global damping's.
   double xi = p.xi;
   xi = std::max(xi, std::max(p.damping_c, p.damping_d) / (2.0 * b.omega_max));
@@ -94,6 +112,17 @@ StepBound critical_step(const StepParams& p) {
 }
 
 std::string StepBound::formula() const {
+  if (omega_rolling > 0.0)
+    return fmt::format(
+        "2/ω_max{}, ω_max² = C·ω_pair² + 6ω_r², ω_pair = {:.4g} rad/s ({} mode of a pair of the "
+        "smallest particles: max(2k_n, 2(1 + mr²/I)k_s)/m_min with k_n = {:.4g}, k_s = {:.4g} "
+        "N/m), C = {:.3g} for coordination, ω_r = {:.4g} rad/s (rolling spring: 2k_r/I_min)",
+        damping_factor < 1.0 ? fmt::format("·{:.4f} (damping)", damping_factor) : "", omega_pair,
+        shear_mode ? "shear–rotation" : "normal", kn, ks,
+        omega_pair > 0.0 ? (omega_max * omega_max - 6.0 * omega_rolling * omega_rolling) /
+                               (omega_pair * omega_pair)
+                         : 0.0,
+        omega_rolling);
   return fmt::format("2/ω_max{}, ω_max² = C·ω_pair², ω_pair = {:.4g} rad/s ({} mode of a pair of "
                      "the smallest particles: max(2k_n, 2(1 + mr²/I)k_s)/m_min with k_n = {:.4g}, "
                      "k_s = {:.4g} N/m), C = {:.3g} for coordination",
@@ -104,11 +133,12 @@ std::string StepBound::formula() const {
 
 StepParams step_params(const EngineConfig& c, double m_min, double r_min) {
   StepParams p;
-  const auto k = std::visit([&](const auto& law) { return law.step_stiffness(r_min, 0.5 * m_min); },
-                            make_contact_law(c));
+  const auto k =
+      std::visit([&](const auto& law) { return law.step_stiffness(r_min, 0.5 * m_min); }, c.law);
   p.kn = k.kn;
   p.ks = k.ks;
   p.xi = k.xi;
+  p.kr = k.kr;
   p.damping_c = c.damping_c;
   p.damping_d = c.damping_d;
   p.m_min = m_min;

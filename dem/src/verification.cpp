@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "demfem/dem/contact/registry.hpp"
+
 namespace demfem::dem {
 
 std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& s, std::string* why) {
@@ -13,7 +15,9 @@ std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& s, std::
   if (!s.soil.dem) return fail("the scene has no [soil.dem]");
   const auto& d = *s.soil.dem;
   if (d.particles.size() != 2) return fail("not two listed particles");
-  if (d.law != scene::ContactLaw::CundallRebound) return fail("contact law is not cundall-rebound");
+  const scene::ModelChoice law = contact::law_of(d);
+  if (law.keyword != contact::CundallRebound::name)
+    return fail("contact law is not cundall-rebound");
   if (s.load.gravity != 0.0 || s.load.shaking || !s.walls.empty() || !s.structures.empty())
     return fail("gravity, shaking, walls or structures act on the pair");
   if (d.damping_c != 0.0 || d.damping_d != 0.0) return fail("global damping");
@@ -34,14 +38,16 @@ std::optional<HeadOnClosedForm> head_on_closed_form(const scene::Scene& s, std::
   if (d.sphere_mass) return fail("sphere mass convention");
   c.m_star = m1 * m2 / (m1 + m2); // reduced mass of the pair
   c.approach = vn;
-  // Newton restitution above V_0 (paper §2.1.2 iv, contact_laws.hpp CundallRebound): the pair
-  // separates at K v_n; slower contacts are elastic.
-  const double k = vn > d.rebound_speed ? d.rebound : 1.0;
+  // Newton restitution above V_0 (paper §2.1.2 iv, dem/contact/rebound.hpp): the pair separates
+  // at K v_n; slower contacts are elastic.
+  const auto& rebound = law.get<contact::Rebound::Params>();
+  const double k = vn > rebound.rebound_speed ? rebound.rebound : 1.0;
   c.separation = k * vn;
   c.dissipated = 0.5 * c.m_star * vn * vn * (1.0 - k * k); // ½ m* v² (1 − K²)
   c.touch_time = (dist - rs) / vn;
   // half period of the linear pair oscillator, π √(m*/K_n) (paper §2.1.2), amplitude-free
-  c.contact_time = std::numbers::pi * std::sqrt(c.m_star / d.kn);
+  c.contact_time =
+      std::numbers::pi * std::sqrt(c.m_star / law.get<contact::LinearSpring::Params>().kn);
   c.radius_sum = rs;
   const double vcx = (m1 * a[3] + m2 * b[3]) / (m1 + m2), vcz = (m1 * a[4] + m2 * b[4]) / (m1 + m2);
   c.kinetic_cm = 0.5 * (m1 + m2) * (vcx * vcx + vcz * vcz);

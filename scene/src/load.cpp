@@ -232,28 +232,14 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
   s.radius = read_radius(r);
   s.density = r.positive("density", s.density);
   s.thickness = r.positive("thickness", s.thickness);
-  s.law = read_enum(r, "contact", kContactLawNames, s.law);
-  std::vector<std::string> slot_keys; // the models' keys (params.hpp), for finish()
-  for (const auto& slot : vocabulary.dem) s.models.push_back(read_model(r, slot, slot_keys));
-  s.kn = r.positive("kn", s.kn);
-  s.ks = r.positive("ks", s.ks);
   s.mu_static = r.non_negative("mu_static", s.mu_static);
   s.mu_dynamic = r.non_negative("mu_dynamic", s.mu_dynamic);
   if (s.mu_dynamic > s.mu_static)
     r.error("mu_dynamic", fmt::format("dynamic friction {} exceeds static friction {}; need "
                                       "mu_dynamic ≤ mu_static",
                                       s.mu_dynamic, s.mu_static));
-  s.rebound = r.in_range("rebound", s.rebound, 0.0, 1.0);
-  s.rebound_speed = r.non_negative("rebound_speed", s.rebound_speed);
-  s.tension = r.boolean("tension", s.tension);
-  s.tensile_strength = r.non_negative("tensile_strength", s.tensile_strength);
-  s.eta_n = r.non_negative("eta_n", s.eta_n);
-  s.eta_s = r.non_negative("eta_s", s.eta_s);
-  s.restitution = r.in_range("restitution", s.restitution, 0.0, 1.0);
-  if (s.law == ContactLaw::LinearRestitution && !(s.restitution > 0.0))
-    r.error("restitution", "linear-restitution needs restitution in (0, 1]");
-  s.young = r.positive("young", s.young);
-  s.poisson = r.in_range("poisson", s.poisson, -1.0, 0.5, true);
+  std::vector<std::string> slot_keys; // the models' keys (params.hpp), for finish()
+  for (const auto& slot : vocabulary.dem) s.models.push_back(read_model(r, slot, slot_keys));
   s.damping_c = r.non_negative("damping_c", s.damping_c);
   s.damping_d = r.non_negative("damping_d", s.damping_d);
   s.dt = r.non_negative("dt", s.dt);
@@ -357,37 +343,11 @@ DemSoil read_dem_soil(Reader& r, const Vocabulary& vocabulary) {
       r.error("particle_mass",
               fmt::format("unknown mass convention '{}'; valid: disk, sphere", *pm));
   }
-  std::vector<std::string> valid{"count",
-                                 "radius",
-                                 "density",
-                                 "thickness",
-                                 "contact",
-                                 "kn",
-                                 "ks",
-                                 "mu_static",
-                                 "mu_dynamic",
-                                 "rebound",
-                                 "rebound_speed",
-                                 "tension",
-                                 "tensile_strength",
-                                 "eta_n",
-                                 "eta_s",
-                                 "restitution",
-                                 "young",
-                                 "poisson",
-                                 "damping_c",
-                                 "damping_d",
-                                 "dt",
-                                 "dt_safety",
-                                 "max_overlap",
-                                 "energy_warning",
-                                 "energy_limit",
-                                 "fill",
-                                 "packing",
-                                 "particles",
-                                 "particles_file",
-                                 "particle_mass"};
-  valid.insert(valid.end(), slot_keys.begin(), slot_keys.end());
+  std::vector<std::string> valid{
+      "count",        "radius",    "density", "thickness", "mu_static",      "mu_dynamic",
+      "damping_c",    "damping_d", "dt",      "dt_safety", "max_overlap",    "energy_warning",
+      "energy_limit", "fill",      "packing", "particles", "particles_file", "particle_mass"};
+  valid.insert(valid.begin() + 6, slot_keys.begin(), slot_keys.end()); // after the friction
   r.finish(valid);
   return s;
 }
@@ -822,6 +782,21 @@ Scene resolve(const toml::table& root, const std::string& file, const Vocabulary
     sc.events.push_back(std::move(e));
   });
   each("probe", [&](Reader& r) { sc.probes.push_back(read_probe(r)); });
+  // record = ["pressure-profile"] on a structure: its pressure-profile probe (default bins), unless
+  // a [[probe]] already profiles it.
+  for (const auto& st : sc.structures) {
+    if (std::find(st.record.begin(), st.record.end(), "pressure-profile") == st.record.end())
+      continue;
+    const bool probed = std::any_of(sc.probes.begin(), sc.probes.end(), [&](const Probe& p) {
+      return p.kind == ProbeKind::PressureProfile && p.target == st.name;
+    });
+    if (!probed) {
+      Probe p;
+      p.kind = ProbeKind::PressureProfile;
+      p.target = st.name;
+      sc.probes.push_back(std::move(p));
+    }
+  }
 
   if (const auto* t = top.table("load")) {
     Reader r(*t, "load", file, diags, t->source());

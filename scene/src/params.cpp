@@ -134,7 +134,39 @@ private:
   double value_;
 };
 
+class KeyGetter final : public ParamVisitor {
+public:
+  explicit KeyGetter(std::string_view key) : key_(key) {}
+  std::optional<double> value;
+  std::vector<std::string> keys;
+  void number(const Field& f, double& v, Rule /*rule*/) override { see(f, v); }
+  void integer(const Field& f, int& v, int /*lo*/, int /*hi*/) override { see(f, v); }
+  void flag(const Field& f, bool& v) override { see(f, v ? 1.0 : 0.0); }
+  void text(const Field&, std::string&) override {}
+
+private:
+  void see(const Field& f, double v) {
+    keys.emplace_back(f.key);
+    if (f.key == key_ && !value) value = v;
+  }
+  std::string_view key_;
+};
+
 } // namespace
+
+std::optional<double> value_of(const ModelChoice& choice, std::string_view key) {
+  KeyGetter g(key);
+  for (const auto& b : choice.blocks) b.visit(g);
+  return g.value;
+}
+
+std::vector<std::string> chosen_keys(const ModelChoice& choice) {
+  KeyGetter g("");
+  for (const auto& name : choice.uses)
+    for (const auto& b : choice.blocks)
+      if (b.name() == name) b.visit(g);
+  return std::move(g.keys);
+}
 
 bool set(ModelChoice& choice, std::string_view key, double value) {
   KeySetter s(key, value);

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/run.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -46,9 +47,7 @@ std::vector<Variant> dem_variants(const scene::Scene& base) {
                  fmt::format("K_n and K_s (hertz-mindlin: E) × {:g}, automatic Δt", f),
                  [f](scene::Scene& s) {
                    auto& d = *s.soil.dem;
-                   d.kn *= f;
-                   d.ks *= f;
-                   d.young *= f;
+                   dem::contact::scale_stiffness(d, f);
                    d.dt = 0.0;
                    return std::string();
                  }});

@@ -25,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/plot.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/stable_step.hpp"
 #include "demfem/dem/verification.hpp"
@@ -468,9 +469,7 @@ ErrorStudy dem_error_study(const scene::Scene& base, const ErrorStudyOptions& o)
   for (const double f : o.kn_factors) {
     scene::Scene s = base;
     auto& d = *s.soil.dem;
-    d.kn *= f;
-    d.ks *= f;
-    d.young *= f;
+    dem::contact::scale_stiffness(d, f);
     d.dt = 0.0; // automatic
     jobs.push_back(make_job("kn", fmt::format("kn-x{:g}", f), f, s));
   }

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "demfem/compare/metrics.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/io.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/dem/stable_step.hpp"
@@ -226,9 +227,7 @@ ErrorStudy scene_error_study(const scene::Scene& base0, const ErrorStudyOptions&
       scene::Scene s = base;
       s.output.vtk = false;
       auto& d = *s.soil.dem;
-      d.kn *= f;
-      d.ks *= f;
-      d.young *= f;
+      dem::contact::scale_stiffness(d, f);
       d.dt = 0.0; // automatic
       double porosity = NAN;
       if (d.particles.empty() && o.kn_same_packing) {

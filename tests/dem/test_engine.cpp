@@ -19,16 +19,25 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+constexpr double kRebound = 0.1; // base_config's K
+
+// cundall-rebound with K_n, K_s and the rebound coefficient K (V_0 = 1 m/s).
+AnyContactLaw rebound_law(double kn, double ks, double rebound = kRebound) {
+  return contact::make_law("cundall-rebound",
+                           {{"kn", kn}, {"ks", ks}, {"rebound", rebound}, {"rebound_speed", 1.0}});
+}
+
 EngineConfig base_config() {
   EngineConfig c;
-  c.law = scene::ContactLaw::CundallRebound;
-  c.kn = 1.0e6;
-  c.ks = 3.0e5;
+  c.law = rebound_law(1.0e6, 3.0e5);
   c.gravity = 0.0;
   c.materials = {Material{0.5, 0.2}};
-  c.rebound = 0.1;
-  c.rebound_speed = 1.0;
   return c;
+}
+
+// The linear law's K_n.
+double kn_of(const EngineConfig& c) {
+  return contact::reference_stiffness(c.law, 1.0).kn;
 }
 
 double disk_mass(const EngineConfig& c, double r) {
@@ -52,7 +61,7 @@ Collision head_on(EngineConfig c, double r, double v, double dt_fraction) {
   e.add_particle(-r - gap / 2, 0.0, r, v, 0.0);
   e.add_particle(r + gap / 2, 0.0, r, -v, 0.0);
   const double m = disk_mass(c, r);
-  const double tc = kPi * std::sqrt(0.5 * m / c.kn);
+  const double tc = kPi * std::sqrt(0.5 * m / kn_of(c));
   e.set_dt(tc * dt_fraction);
   std::vector<ContactView> cv;
   long in_contact = 0;
@@ -76,7 +85,7 @@ TEST(DemCollision, HeadOnBelowReboundSpeedIsElastic) {
   const auto c = base_config();
   const double r = 0.05, v = 0.4; // relative approach 0.8 m/s < V_0 = 1 m/s
   const auto res = head_on(c, r, v, 1.0 / 500.0);
-  const double tc = kPi * std::sqrt(0.5 * disk_mass(c, r) / c.kn);
+  const double tc = kPi * std::sqrt(0.5 * disk_mass(c, r) / kn_of(c));
   std::printf("contact duration %.6g s, closed form %.6g s, rel. error %.2e\n", res.duration, tc,
               std::abs(res.duration - tc) / tc);
   EXPECT_NEAR(res.duration, tc, 0.01 * tc);
@@ -91,8 +100,8 @@ TEST(DemCollision, HeadOnAboveReboundSpeedReboundsWithK) {
   const double r = 0.05, v = 0.8; // relative approach 1.6 m/s > V_0
   const auto res = head_on(c, r, v, 1.0 / 200.0);
   const double ratio = (res.v2 - res.v1) / (2 * v);
-  std::printf("rebound ratio %.6g (K = %.3g)\n", ratio, c.rebound);
-  EXPECT_NEAR(ratio, c.rebound, 0.02 * c.rebound);
+  std::printf("rebound ratio %.6g (K = %.3g)\n", ratio, kRebound);
+  EXPECT_NEAR(ratio, kRebound, 0.02 * kRebound);
   EXPECT_NEAR(res.v1 + res.v2, 0.0, 1e-12);
 }
 
@@ -113,8 +122,8 @@ TEST(DemCollision, SimultaneousFirstTouchesReboundOnce) {
     const double vz = e.particles().vz[0];
     const double reb = e.energy().rebound, expected = 0.5 * m * v * v * (1 - 0.01);
     std::printf("%d floor(s): leaves at %.5g m/s (K v = %.3g), rebound %.5g J (expected %.5g)\n",
-                floors, vz, c.rebound * v, reb, expected);
-    EXPECT_NEAR(vz, c.rebound * v, 0.03 * c.rebound * v) << floors << " floor(s)";
+                floors, vz, kRebound * v, reb, expected);
+    EXPECT_NEAR(vz, kRebound * v, 0.03 * kRebound * v) << floors << " floor(s)";
     EXPECT_NEAR(reb, expected, 0.01 * expected) << floors << " floor(s)";
     EXPECT_EQ(e.stats().rebound_contacts, floors);
     EXPECT_EQ(e.stats().rebound_shared, floors == 1 ? 0 : 2);
@@ -172,15 +181,14 @@ TEST(DemCollision, FirstTouchesAlongTwoNormalsShareOneCollision) {
 // within 1 %; elastic, speeds restored within 0.1 %.
 TEST(DemCollision, HertzDurationMatchesClosedForm) {
   auto c = base_config();
-  c.law = scene::ContactLaw::HertzMindlin;
-  c.young = 1.0e8;
-  c.poisson = 0.3;
+  const double young = 1.0e8, poisson = 0.3;
+  c.law = contact::make_law("hertz-mindlin", {{"young", young}, {"poisson", poisson}});
   const double r = 0.05, v = 0.5;
   Engine e(c);
   e.add_particle(-r - 0.001, 0.0, r, v, 0.0);
   e.add_particle(r + 0.001, 0.0, r, -v, 0.0);
   const double m_star = 0.5 * disk_mass(c, r), r_star = 0.5 * r;
-  const double e_star = c.young / (2 * (1 - c.poisson * c.poisson));
+  const double e_star = young / (2 * (1 - poisson * poisson));
   const double tc = 2.9432 * std::pow(15 * m_star / (16 * e_star * std::sqrt(r_star)), 0.4) *
                     std::pow(2 * v, -0.2);
   e.set_dt(tc / 1000);
@@ -203,8 +211,7 @@ namespace {
 double incline_acceleration(double mu_s, double mu_d, double theta) {
   auto c = base_config();
   c.gravity = 9.81;
-  c.kn = 1.0e8;
-  c.ks = 3.0e7;
+  c.law = rebound_law(1.0e8, 3.0e7);
   c.materials = {Material{mu_s, mu_d}};
   Engine e(c);
   const double L = 3.0, r = 0.05;
@@ -212,7 +219,7 @@ double incline_acceleration(double mu_s, double mu_d, double theta) {
   const double nx = std::sin(theta), nz = std::cos(theta);  // upward normal
   e.add_wall({{0.0, 0.0}, {L * dx, L * dz}}, "slope");
   const double m = disk_mass(c, r);
-  const double d0 = r - m * c.gravity * std::cos(theta) / c.kn; // static normal overlap
+  const double d0 = r - m * c.gravity * std::cos(theta) / kn_of(c); // static normal overlap
   const double s0 = 0.2;
   e.add_particle(s0 * dx + d0 * nx, s0 * dz + d0 * nz, r);
   e.set_dt(e.auto_dt());
@@ -259,13 +266,12 @@ TEST(DemIncline, SlidesAtGSinThetaMinusMuCosTheta) {
 TEST(DemFriction, SlidingDiskEndsRollingAtTwoThirds) {
   auto c = base_config();
   c.gravity = 9.81;
-  c.kn = 1.0e8;
-  c.ks = 3.0e7;
+  c.law = rebound_law(1.0e8, 3.0e7);
   c.materials = {Material{0.5, 0.3}};
   Engine e(c);
   const double r = 0.05, v0 = 2.0;
   e.add_wall({{-1.0, 0.0}, {10.0, 0.0}}, "floor");
-  e.add_particle(0.0, r - disk_mass(c, r) * c.gravity / c.kn, r, v0, 0.0, 0.0);
+  e.add_particle(0.0, r - disk_mass(c, r) * c.gravity / kn_of(c), r, v0, 0.0, 0.0);
   e.set_dt(e.auto_dt());
   double sum = 0, wsum = 0;
   long n = 0;
@@ -339,7 +345,7 @@ TEST(DemConservation, AngularMomentumInFrictionalCollision) {
 TEST(DemConservation, ElasticEnergyDriftBelowOnePermille) {
   auto c = base_config();
   c.materials = {Material{0.0, 0.0}};
-  c.rebound = 1.0;
+  c.law = rebound_law(1.0e6, 3.0e5, 1.0);
   Engine e(c);
   const double r = 0.05, a = 0.0995; // spacing < 2r: every neighbour pair is compressed
   const double L = 5 * a + 2 * r - 0.001;
@@ -466,7 +472,7 @@ TEST(DemStructure, AngularAccelerationUnderKnownMoment) {
 TEST(DemConvergence, CollisionErrorFallsWithTimeStep) {
   const auto c = base_config();
   const double r = 0.05, v = 0.3, gap = 0.0123;
-  const double m = disk_mass(c, r), w = std::sqrt(c.kn / (0.5 * m));
+  const double m = disk_mass(c, r), w = std::sqrt(kn_of(c) / (0.5 * m));
   const double t0 = gap / (2 * v), t_end = t0 + kPi / w + 0.01;
   const double exact = -r - v * (t_end - t0 - kPi / w);
   std::vector<double> dts, errs;
@@ -643,7 +649,7 @@ namespace {
 double gas_drift(long steps, bool& failed, std::string& why) {
   auto c = base_config();
   c.materials = {Material{0.0, 0.0}};
-  c.rebound = 1.0;
+  c.law = rebound_law(1.0e6, 3.0e5, 1.0);
   Engine e(c);
   const double r = 0.05, L = 1.6;
   e.add_wall({{0, 0}, {L, 0}, {L, L}, {0, L}, {0, 0}}, "box");

@@ -112,3 +112,52 @@ TEST(DemEvents, OpenWallAndSetFriction) {
   while (e.time() < 0.4) e.step(); // free fall for 0.2 s: ½ g t² = 0.196 m
   EXPECT_LT(e.particles().z[0], z_before - 0.05);
 }
+
+// Particles that leave while no wall is open went through a gap the scene did not plan: the run
+// counts them (RunSummary; the kFlagLeftUnplanned flag, which summary.json counts). A disk at rest
+// on a trapdoor that opens at t = 0.05 s falls and leaves: planned. With the trapdoor moved out of
+// its way and never opened, the same disk falls through the gap: unplanned (1 of 2 > 1 %).
+TEST(DemRun, ParticlesLeavingThroughAnUnplannedGapAreCounted) {
+  const std::string text = R"(
+[scene]
+name = "gap"
+solvers = ["dem"]
+duration = 0.5
+
+[domain]
+polygon = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]
+
+[soil.dem]
+count = 2
+radius = { equal = 0.05 }
+density = 2650
+kn = 1.0e6
+ks = 3.0e5
+particles = [[-0.3, 0.05, 0.05, 0.0, 0.0, 0.0], [0.3, 0.05, 0.05, 0.0, 0.0, 0.0]]
+
+[[wall]]
+name = "floor"
+points = [[-0.5, 0.0], [0.0, 0.0]]
+
+[[wall]]
+name = "trapdoor"
+points = [[0.0, 0.0], [0.5, 0.0]]
+opens_at = 0.05
+
+[output]
+interval = 0.1
+probe_interval = 0.01
+
+[[variant]]
+name = "gap"
+set = { "wall.trapdoor.points" = [[0.4, 0.4], [0.5, 0.4]], "wall.trapdoor.opens_at" = 1.0e3 }
+)";
+  const auto file = scene::parse_scene(text, "gap.toml", demfem::app::vocabulary());
+  for (const std::string v : {"", "gap"}) {
+    dem::RunOptions o;
+    o.out_dir = scratch("gap_" + v);
+    const auto s = dem::run(v.empty() ? file.base : file.select(v), o);
+    ASSERT_TRUE(s.ok) << s.message;
+    EXPECT_EQ(s.particles_left_unplanned, v.empty() ? 0u : 1u) << v;
+  }
+}

@@ -245,17 +245,15 @@ TEST(DemStability, TwentyPercentInitialOverlapCompletes) {
   EXPECT_LT(std::abs(o.imbalance), 0.01 * o.max_kinetic);
 }
 
-// The friction cap sees the spring force, not the rebound impulse (contact_laws.hpp,
-// CundallRebound): a disk hitting a floor at 2 m/s normal and 1 m/s tangential speed (μ = 0.5,
-// K = 0.1) keeps 0.80 of its tangential speed; Newton restitution with Coulomb friction on the
-// impulse would keep at most 2/3 (the rolling limit of a disk). A modelling choice, documented.
+// The friction cap sees the spring force, not the rebound impulse (dem/contact/rebound.hpp): a disk
+// hitting a floor at 2 m/s normal and 1 m/s tangential speed (μ = 0.5, K = 0.1) keeps 0.80 of its
+// tangential speed; Newton restitution with Coulomb friction on the impulse would keep at most 2/3
+// (the rolling limit of a disk). A modelling choice, documented.
 TEST(DemStability, FrictionCapSeesTheSpringForceNotTheReboundImpulse) {
   dem::EngineConfig c;
-  c.kn = 1.0e6;
-  c.ks = 3.0e5;
+  c.law = dem::contact::make_law(
+      "cundall-rebound", {{"kn", 1.0e6}, {"ks", 3.0e5}, {"rebound", 0.1}, {"rebound_speed", 1.0}});
   c.gravity = 0.0;
-  c.rebound = 0.1;
-  c.rebound_speed = 1.0;
   c.materials = {dem::Material{0.5, 0.5}};
   dem::Engine e(c);
   e.add_wall({{-1.0, 0.0}, {1.0, 0.0}}, "floor");

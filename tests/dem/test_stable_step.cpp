@@ -123,18 +123,17 @@ TEST(StableStep, CoordinationMarginCoversTheTriangularLattice) {
 
 // Dashpots lower the limit by √(1 + ξ²) − ξ (Belytschko et al. 2000, eq. 6.3.36).
 TEST(StableStep, DampingLowersTheLimit) {
-  EngineConfig c; // the laws' own step data (contact_laws.hpp), through step_params
-  c.kn = 1.0e6;
-  c.ks = 3.0e5;
+  EngineConfig c; // the laws' own step data (dem/contact/), through step_params
+  c.law = contact::make_law("cundall-rebound", {{"kn", 1.0e6}, {"ks", 3.0e5}});
   const double undamped = critical_step(step_params(c, 1.0, 1.0)).dt;
-  c.law = scene::ContactLaw::LinearRestitution;
-  c.restitution = 0.5;
-  const double le = std::log(0.5),
-               xi = -le / std::sqrt(std::numbers::pi * std::numbers::pi + le * le);
+  c.law =
+      contact::make_law("linear-restitution", {{"kn", 1.0e6}, {"ks", 3.0e5}, {"restitution", 0.5}});
+  const double xi = contact::Restitution::damping_ratio(0.5); // ζ(e) of the clamped dashpot
   EXPECT_NEAR(critical_step(step_params(c, 1.0, 1.0)).dt, undamped * (std::sqrt(1 + xi * xi) - xi),
               1e-15);
-  c.law = scene::ContactLaw::CundallDashpot;
-  c.eta_n = 2.0 * 0.3 * std::sqrt(0.5 * 1.0e6); // ξ_n = 0.3 at m* = m/2
+  c.law = contact::make_law(
+      "cundall-dashpot", // ξ_n = 0.3 at m* = m/2
+      {{"kn", 1.0e6}, {"ks", 3.0e5}, {"eta_n", 2.0 * 0.3 * std::sqrt(0.5 * 1.0e6)}});
   EXPECT_NEAR(critical_step(step_params(c, 1.0, 1.0)).dt, undamped * (std::sqrt(1.09) - 0.3),
               1e-15);
 }

@@ -139,7 +139,8 @@ TEST(CaseFiles, AllPaperScenesLoad) {
   }
   // The kn-scaled variants change the load amplitude only, × K_n / 1.0e6 (the
   // paper's K_n), and share the row's packing.
-  const double kn_scale = rock.base.soil.dem->kn / 1.0e6;
+  const double kn_scale =
+      scene::value_of(*rock.base.soil.dem->model("contact"), "kn").value() / 1.0e6;
   for (const auto& [scaled, row] :
        {std::pair{"kn-scaled-1-A", "1-A"}, std::pair{"kn-scaled-1-B", "1-B"},
         std::pair{"kn-scaled-2-A", "2-A"}, std::pair{"kn-scaled-2-B", "2-B"}}) {

@@ -109,9 +109,10 @@ TEST(SceneLoad, ValidSceneResolves) {
   EXPECT_EQ(s.soil.dem->count, 100);
   EXPECT_DOUBLE_EQ(s.soil.dem->radius.min, 0.04);
   EXPECT_DOUBLE_EQ(s.soil.dem->radius.max, 0.075);
-  EXPECT_EQ(s.soil.dem->law, ContactLaw::CundallRebound);
-  EXPECT_DOUBLE_EQ(s.soil.dem->rebound, 0.1); // default K (paper §2.1.2)
-  EXPECT_EQ(s.soil.dem->fill.size(), 4u);     // defaults to the domain
+  ASSERT_NE(s.soil.dem->model("contact"), nullptr);
+  EXPECT_EQ(s.soil.dem->model("contact")->keyword, "cundall-rebound");
+  EXPECT_EQ(value_of(*s.soil.dem->model("contact"), "rebound"), 0.1); // default K (§2.1.2)
+  EXPECT_EQ(s.soil.dem->fill.size(), 4u);                             // defaults to the domain
   ASSERT_TRUE(s.soil.continuum);
   EXPECT_NEAR(cst::strength_block(*s.soil.continuum).friction_angle,
               30.0 * std::numbers::pi / 180.0, 1e-12);
@@ -498,4 +499,27 @@ TEST(SceneLoad, StepLimitsComeWithTheVocabulary) {
       EXPECT_NE(e.diagnostics().at(0).message.find("a test's limit"), std::string::npos);
     }
   }
+}
+
+// record = ["pressure-profile"] on a structure profiles it (a pressure-profile probe with the
+// default bins), once: a [[probe]] that already profiles it is not doubled.
+TEST(SceneLoad, StructureRecordPressureProfileAddsItsProbe) {
+  const auto count = [](const Scene& s) {
+    return std::count_if(s.probes.begin(), s.probes.end(), [](const Probe& p) {
+      return p.kind == ProbeKind::PressureProfile && p.target == "wall";
+    });
+  };
+  const auto plain = parse_scene(kValid, "test.toml", demfem::app::vocabulary());
+  EXPECT_EQ(count(plain.base), 0);
+  const auto recorded =
+      parse_scene(mutate("record = [\"thrust\"]", "record = [\"thrust\", \"pressure-profile\"]"),
+                  "test.toml", demfem::app::vocabulary());
+  ASSERT_EQ(count(recorded.base), 1);
+  EXPECT_EQ(recorded.base.probes.back().bins, Probe{}.bins);
+  const auto both =
+      parse_scene(mutate("record = [\"thrust\"]", "record = [\"thrust\", \"pressure-profile\"]") +
+                      "\n[[probe]]\nkind = \"pressure-profile\"\ntarget = \"wall\"\nbins = 7\n",
+                  "test.toml", demfem::app::vocabulary());
+  ASSERT_EQ(count(both.base), 1);
+  EXPECT_EQ(both.base.probes.back().bins, 7);
 }

@@ -51,12 +51,28 @@ std::string EnergyWatch::check(Engine& e, const EnergyBudget& b, RunSummary& sum
   if (ls_.e0_set) {
     if (auto stop = closure(e, b.total() - ls_.e0, t); !stop.empty()) return stop;
   }
-  // Largest overlap ratio δ/r: pairs from the positions, boundary contacts from the linear
-  // spring force δ = f_n/K_n (eq. 2.6).
-  const bool linear = e.config().law != scene::ContactLaw::HertzMindlin && e.config().kn > 0.0;
-  summary.max_overlap_ratio =
-      std::max(summary.max_overlap_ratio, e.largest_overlap_ratio(linear ? e.config().kn : 0.0));
+  leaving(e, summary);
+  // Largest overlap ratio δ/r: pairs from the positions, boundary contacts from the force the
+  // law recorded (Engine::largest_overlap_ratio).
+  summary.max_overlap_ratio = std::max(summary.max_overlap_ratio, e.largest_overlap_ratio());
   return {};
+}
+
+// Particles that left while no wall was open (kFlagLeftUnplanned): above 1 % of the count the
+// container has a gap the scene did not plan; warned once.
+void EnergyWatch::leaving(const Engine& e, RunSummary& summary) {
+  const auto& flags = e.particles().flags;
+  const auto n = static_cast<std::size_t>(
+      std::count_if(flags.begin(), flags.end(), [](auto f) { return f & kFlagLeftUnplanned; }));
+  summary.particles_left_unplanned = n;
+  if (leave_warned_ || 100 * n <= flags.size()) return;
+  leave_warned_ = true;
+  spdlog::warn("{} of {} particles ({:.3g} %) have left the scene by t = {:.6g} s while no wall "
+               "was open: the particles' container has a gap the scene does not plan (a wall "
+               "short of its neighbour, particles thrown over a side wall?); summary.json counts "
+               "them (particles_left_unplanned)",
+               n, flags.size(), 100.0 * static_cast<double>(n) / static_cast<double>(flags.size()),
+               e.time());
 }
 
 // Energy-closure watch: |imbalance| over the largest energy put in so far.

@@ -78,7 +78,7 @@ private:
 // Watches the energy budget at every base probe time (output.probe_interval): an energy jump
 // (kinetic energy above 10 × the energy put in) or a closure error above soil.dem.energy_limit
 // stops the run; above soil.dem.energy_warning it warns once. Also records the largest overlap
-// ratio seen.
+// ratio seen, and warns once when more than 1 % of the particles left while no wall was open.
 class EnergyWatch {
 public:
   EnergyWatch(const scene::Scene& scene, LoopState& ls);
@@ -97,9 +97,10 @@ public:
 
 private:
   std::string closure(Engine& e, double imbalance, double t);
+  void leaving(const Engine& e, RunSummary& summary);
   LoopState& ls_;
   double warn_, stop_;
-  bool warned_ = false;
+  bool warned_ = false, leave_warned_ = false;
 };
 
 // ---- probe_source.cpp ---------------------------------------------------------------------------

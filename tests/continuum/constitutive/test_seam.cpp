@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -11,6 +12,7 @@
 
 #include "constitutive/k0.hpp"
 #include "constitutive/registry.hpp"
+#include "constitutive/soil.hpp"
 #include "demfem/scene/params.hpp"
 #include "demfem/scene/reader.hpp"
 
@@ -22,7 +24,7 @@ constexpr double kPi = 3.14159265358979323846;
 } // namespace
 
 TEST(ConstitutiveRegistry, ModelsAreChosenByKeywordWithTheirBlocks) {
-  EXPECT_EQ(Material::keywords(), "elastic, mohr-coulomb");
+  EXPECT_EQ(Material::keywords(), "elastic, mohr-coulomb, hypoplastic");
   const scene::ModelSlot slot = model_slot();
   EXPECT_EQ(slot.key, "model");
   EXPECT_EQ(slot.default_keyword, "mohr-coulomb");
@@ -43,12 +45,13 @@ TEST(ConstitutiveRegistry, ModelsAreChosenByKeywordWithTheirBlocks) {
   EXPECT_EQ(m.elasticity().hooke.young, 4.0e7);
   ASSERT_NE(m.get_if<MohrCoulomb>(), nullptr);
   EXPECT_EQ(m.get_if<MohrCoulomb>()->strength.cohesion, 7.0);
-  c.keyword = "hypoplastic";
+  c.keyword = "sanisand";
   try {
     (void)Material::from(c);
     FAIL() << "an unknown model was accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("valid: elastic, mohr-coulomb"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("valid: elastic, mohr-coulomb, hypoplastic"),
+              std::string::npos);
   }
 }
 
@@ -57,10 +60,42 @@ TEST(ConstitutiveRegistry, ModelsAreChosenByKeywordWithTheirBlocks) {
 TEST(ConstitutiveRegistry, BlocksOwnTheSoilKeys) {
   std::vector<std::string> keys;
   for (const auto& row : scene::schema(model_slot())) keys.push_back(row.key);
-  EXPECT_EQ(keys, (std::vector<std::string>{"model", "young", "poisson", "modulus_exponent",
-                                            "modulus_reference_stress", "modulus_min_stress",
-                                            "friction_angle", "cohesion", "dilation_angle",
-                                            "tension_cutoff", "dilation_cutoff"}));
+  EXPECT_EQ(keys, (std::vector<std::string>{"model",
+                                            "young",
+                                            "poisson",
+                                            "modulus_exponent",
+                                            "modulus_reference_stress",
+                                            "modulus_min_stress",
+                                            "friction_angle",
+                                            "cohesion",
+                                            "dilation_angle",
+                                            "tension_cutoff",
+                                            "dilation_cutoff",
+                                            "critical_friction_angle",
+                                            "granular_hardness",
+                                            "compression_exponent",
+                                            "densest_void_ratio",
+                                            "critical_void_ratio",
+                                            "loosest_void_ratio",
+                                            "density_peak_exponent",
+                                            "density_stiffness_exponent",
+                                            "intergranular_strain",
+                                            "igs_radius",
+                                            "igs_reversal_factor",
+                                            "igs_transverse_factor",
+                                            "igs_beta_r",
+                                            "igs_chi",
+                                            "initial_void_ratio",
+                                            "initial_void_ratio_at_zero_stress",
+                                            "minimum_mean_stress",
+                                            "substep_tolerance"}));
+  // every block of every model is read from the one [soil.continuum] table and written back into
+  // it: a key two blocks listed would be read by both and written twice, so each is listed once,
+  // and none is one of the table's own keys (scene/src/load.cpp read_continuum_soil)
+  std::set<std::string> once(keys.begin(), keys.end());
+  EXPECT_EQ(once.size(), keys.size());
+  for (const char* own : {"density", "k0", "surface", "calibrate", "provenance"})
+    EXPECT_EQ(once.count(own), 0u) << own;
   scene::ModelChoice c = scene::default_choice(model_slot());
   toml::table t;
   scene::write_model(c, t);
@@ -201,4 +236,18 @@ TEST(ConstitutiveK0, JakyUnlessStated) {
   EXPECT_NEAR(jaky_k0(30.0 * kPi / 180.0), 0.5, 1e-15);
   EXPECT_EQ(k0_at_rest(0.4, 30.0 * kPi / 180.0), 0.4);
   EXPECT_NEAR(k0_at_rest(-1.0, 30.0 * kPi / 180.0), 0.5, 1e-15);
+}
+
+// A scene's soil: Jaky's K0 from Mohr–Coulomb's friction_angle, or from the critical friction
+// angle φ_c of a hypoplastic soil; a stated k0 wins.
+TEST(ConstitutiveK0, SoilK0FromTheChosenModel) {
+  scene::ContinuumSoil soil;
+  choose_model(soil, "mohr-coulomb");
+  strength_block(soil).friction_angle = 30.0 * kPi / 180.0;
+  soil_model(soil).get<Hypoplastic::Parameters>().critical_friction_angle = 36.0 * kPi / 180.0;
+  EXPECT_NEAR(soil_k0(soil), 0.5, 1e-15);
+  choose_model(soil, "hypoplastic");
+  EXPECT_NEAR(soil_k0(soil), 1.0 - std::sin(36.0 * kPi / 180.0), 1e-15);
+  soil.k0 = 0.7;
+  EXPECT_EQ(soil_k0(soil), 0.7);
 }

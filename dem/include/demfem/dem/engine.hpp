@@ -1,6 +1,6 @@
 // The DEM engine core: particles (disks), contact laws, persistent contact history, cell-grid
 // neighbour search with a Verlet skin, line walls / polylines, rigid structures, loads and a
-// symplectic Euler integrator (paper eqs. 2.1–2.18). Sign convention: contact_laws.hpp.
+// symplectic Euler integrator (paper eqs. 2.1–2.18). Sign convention: dem/contact/contact.hpp.
 //
 // Usage (tests, run.cpp):
 //   Engine e(config);                    // config from the scene (make_config) or by hand
@@ -26,7 +26,7 @@
 #include <utility>
 #include <vector>
 
-#include "demfem/dem/contact_laws.hpp"
+#include "demfem/dem/contact/registry.hpp"
 #include "demfem/dem/state.hpp"
 #include "demfem/scene/scene.hpp"
 
@@ -37,15 +37,12 @@ struct Material {
   double mu_d = 0.2; // dynamic friction
 };
 
+using contact::AnyContactLaw;
+
 struct EngineConfig {
-  scene::ContactLaw law = scene::ContactLaw::CundallRebound;
-  double kn = 1.0e6, ks = 3.0e5; // [N/m]
-  double rebound = 0.1, rebound_speed = 1.0;
-  bool tension = false;
-  double tensile_strength = 0.0;
-  double eta_n = 0.0, eta_s = 0.0;
-  double restitution = 0.5;
-  double young = 7.0e10, poisson = 0.25;
+  // The contact law with its rolling sub-model and their parameters (dem/contact/registry.hpp:
+  // make_law); the default: cundall-rebound at its defaults, no rolling resistance.
+  AnyContactLaw law;
   double damping_c = 0.0, damping_d = 0.0; // global damping (eqs. 2.1, 2.2) [1/s]
   double density = 2650.0, thickness = 1.0;
   // false: disks m = ρπr²t, I = ½mr² (PFC2D); true: spheres m = ρ(4/3)πr³, I = (2/5)mr² (LAMMPS
@@ -77,11 +74,11 @@ struct EngineConfig {
   // team of 1 takes over when the full team is slower (a core shared with another process makes
   // every barrier wait for a descheduled thread). false: always the full team.
   bool adaptive_threads = true;
-  // Pair loop of cundall-rebound without tension: `simd` the blocked, vectorised
-  // loop with the widest instruction set the processor has (AVX-512, AVX2 or the baseline;
-  // pair_kernel.hpp); `avx2` the same with AVX2 at most; `portable` built for the baseline
-  // instruction set only; `scalar` the one-pass loop of the other laws. All give bit-identical
-  // results; the switch is for benchmarks and tests.
+  // Pair loop of cundall-rebound without tension or rolling resistance: `simd` the blocked,
+  // vectorised loop with the widest instruction set the processor has (AVX-512, AVX2 or the
+  // baseline; pair_kernel.hpp); `avx2` the same with AVX2 at most; `portable` built for the
+  // baseline instruction set only; `scalar` the one-pass loop of the other laws. All give
+  // bit-identical results; the switch is for benchmarks and tests.
   enum class PairKernel { simd, avx2, portable, scalar } pair_kernel = PairKernel::simd;
 };
 
@@ -91,9 +88,6 @@ struct StepRefused : std::runtime_error {
   double dt, limit, auto_dt;
   std::string formula; // how the limit was computed (stable_step.hpp)
 };
-
-// The contact law of a configuration, with its parameters (contact_laws.hpp).
-[[nodiscard]] AnyContactLaw make_contact_law(const EngineConfig& config);
 
 // Engine configuration from a scene's [soil.dem] and [load] sections.
 [[nodiscard]] EngineConfig make_config(const scene::Scene& scene);
@@ -339,9 +333,12 @@ public:
   // contact/atom counts. A pass over the neighbour list, no square roots.
   [[nodiscard]] std::size_t overlapping_pair_count() const;
   // The largest overlap ratio δ / min(r_i, r_j) of the contacts touching now (what contacts()
-  // lists): pairs from the positions; boundary contacts from the linear spring, δ = f_n / K_n,
-  // when kn > 0 (pass 0 for a law without a linear spring: pairs only).
-  [[nodiscard]] double largest_overlap_ratio(double kn) const;
+  // lists): pairs from the positions; boundary contacts from the normal force their history
+  // recorded, through the law's inverse of its elastic force (δ = f_n / K_n for the linear
+  // laws; the Hertz overlap for hertz-mindlin).
+  [[nodiscard]] double largest_overlap_ratio() const;
+  // Extra history values per contact of the law's sub-models (contact.hpp, ContactHistory).
+  [[nodiscard]] std::size_t history_width() const { return xh_; }
   void boundary_views(std::vector<BoundaryView>& out) const;
   // Current world vertices of a boundary.
   void boundary_vertices(int b, std::vector<scene::Vec2>& out) const;
@@ -407,7 +404,8 @@ private:
   template <class Law>
   void pair_range(const Law& law, std::size_t i0, std::size_t i1, const ForceTarget& out,
                   double* energies, std::uint32_t* fail_pair);
-  void pair_range_rebound(const CundallRebound& law, std::size_t i0, std::size_t i1,
+  using ReboundModel = contact::ContactModel<contact::CundallRebound, contact::NoRolling>;
+  void pair_range_rebound(const ReboundModel& law, std::size_t i0, std::size_t i1,
                           const ForceTarget& out, double* energies, std::uint32_t* fail_pair);
   // One part's integration: its external work and damping loss, its first non-finite particle,
   // and the two largest squared displacements since the last rebuild (the next step's rebuild
@@ -459,7 +457,7 @@ private:
   int others_idle(std::chrono::steady_clock::time_point now);
 
   EngineConfig config_;
-  AnyContactLaw law_; // built once from config_
+  std::size_t xh_ = 0; // the law's extra history values per contact (its kHistory)
   Particles p_;
   double dt_ = 0.0, time_ = 0.0;
   std::string failure_;
@@ -479,12 +477,18 @@ private:
   // Verlet neighbour list (CSR, owner i < partner j) with contact history per entry.
   std::vector<std::uint32_t> nbr_start_, nbr_j_;
   std::vector<ContactHistory> nbr_hist_;
+  std::vector<double> nbr_xh_;       // xh_ extra history values per entry (empty when xh_ = 0)
   std::vector<std::uint32_t> nbr_i_; // owner of each entry (the blocked pair loop's flat walk)
   void set_owners();                 // after every change of nbr_start_
-  void first_step_setup();           // Δt and the potential energy's reference, once
+  // A pair's extra history when its owner and partner swap (the law's ContactModel::flip_owner).
+  void flip_owner(double* extra) const {
+    std::visit([extra](const auto& law) { law.flip_owner(extra); }, config_.law);
+  }
+  void first_step_setup(); // Δt and the potential energy's reference, once
   // Boundary candidates: (particle, feature) sorted by particle, with history.
   std::vector<std::uint32_t> bnd_i_, bnd_f_;
   std::vector<ContactHistory> bnd_hist_;
+  std::vector<double> bnd_xh_; // xh_ per entry, as nbr_xh_
   std::vector<double> x_ref_, z_ref_;
   // The largest two squared displacements since the rebuild, from the integration (valid until
   // the positions or x_ref_ change otherwise; check_rebuild then passes over them itself).

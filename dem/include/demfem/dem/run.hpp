@@ -31,6 +31,7 @@ struct RunSummary {
   double dt = 0.0;                // the step used [s] (0: refused before it was set)
   double closure_error = 0.0;     // end-of-run |imbalance| / energy put in (energy_watch.cpp)
   double max_overlap_ratio = 0.0; // largest δ/r seen at the probes (r the smaller radius)
+  std::size_t particles_left_unplanned = 0; // left while no wall was open (kFlagLeftUnplanned)
 };
 
 // Runs the scene's DEM model. Throws scene::SceneError for a scene the engine cannot build

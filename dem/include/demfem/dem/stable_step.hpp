@@ -18,11 +18,12 @@ struct EngineConfig;
 class Engine;
 
 // What the bound needs: the contact law's stiffnesses and damping ratio for a pair of the
-// smallest particles (StepStiffness, from the law itself: contact_laws.hpp), global damping and
+// smallest particles (StepStiffness, from the law itself: dem/contact/), global damping and
 // the smallest particle.
 struct StepParams {
   double kn = 0.0, ks = 0.0;               // contact stiffnesses [N/m]
   double xi = 0.0;                         // the contact's damping ratio
+  double kr = 0.0;                         // rolling spring [N·m/rad] (0: none)
   double damping_c = 0.0, damping_d = 0.0; // global damping [1/s]
   double m_min = 0.0;                      // mass of the smallest particle [kg]
   double r_min = 0.0;                      // its radius [m]
@@ -33,6 +34,7 @@ struct StepBound {
   double dt = 0.0;             // critical step [s] (+inf when no particle or no stiffness)
   double omega_pair = 0.0;     // stiffest mode of one contact between two smallest particles
   double omega_max = 0.0;      // with the coordination margin [rad/s]
+  double omega_rolling = 0.0;  // the rolling spring's pair mode √(2k_r/I_min) (0: none) [rad/s]
   double damping_factor = 1.0; // √(1 + ξ²) − ξ
   bool shear_mode = false;     // the pair's stiffest mode is shear–rotation, not normal
   double kn = 0.0, ks = 0.0;   // stiffnesses used (Hertz: tangent at 5 % overlap) [N/m]

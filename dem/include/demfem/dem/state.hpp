@@ -13,6 +13,8 @@ enum ParticleFlag : std::uint32_t {
   kFlagNone = 0,
   kFlagRemoved = 1u << 0, // fell out through an opened wall; no longer integrated
   kFlagTagged = 1u << 1,  // traced by a loci probe
+  // removed while no wall was open: it left through a gap the scene did not plan
+  kFlagLeftUnplanned = 1u << 2,
 };
 
 // Disks of unit-thickness mass m = ρπr²·t, inertia I = ½mr² (PFC2D convention, paper.md §1).

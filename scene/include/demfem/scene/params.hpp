@@ -30,6 +30,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -268,6 +269,11 @@ struct ParamSchema {
 // Sets a key of the choice's blocks (a number, an integer, or a flag: value ≠ 0) without the
 // rules' checks (code and tests that build a model); false when no block has the key.
 bool set(ModelChoice& choice, std::string_view key, double value);
+
+// The value of a key of the choice's blocks (a flag as 0 or 1), or nothing when no block has it.
+[[nodiscard]] std::optional<double> value_of(const ModelChoice& choice, std::string_view key);
+// The keys of the chosen model's blocks, in reading order (those of numbers, integers, flags).
+[[nodiscard]] std::vector<std::string> chosen_keys(const ModelChoice& choice);
 
 // Multiplies every number whose Field::scale is stiffness, in every block of the choice, by f.
 void scale_stiffness(ModelChoice& choice, double f);

@@ -24,10 +24,6 @@ using Polygon = std::vector<Vec2>; // closed implicitly, counter-clockwise after
 enum class Solver { Dem, Continuum };
 
 // ---- registries: the keywords of the file, shared by docs, errors and code -------------------
-enum class ContactLaw { CundallRebound, CundallDashpot, LinearRestitution, HertzMindlin };
-inline constexpr std::array<const char*, 4> kContactLawNames = {
-    "cundall-rebound", "cundall-dashpot", "linear-restitution", "hertz-mindlin"};
-
 enum class StructureKind { Pile, Footing, Wall };
 inline constexpr std::array<const char*, 3> kStructureKindNames = {"pile", "footing", "wall"};
 
@@ -88,23 +84,13 @@ struct DemSoil {
   RadiusDistribution radius;
   double density = 2650.0; // [kg/m³]
   double thickness = 1.0;  // out-of-plane thickness: m = ρπr²·t, I = ½mr² (PFC2D)
-  ContactLaw law = ContactLaw::CundallRebound;
-  double kn = 1.0e6;             // normal spring [N/m] (paper §2.1.2)
-  double ks = 3.0e5;             // shear spring [N/m]
-  double mu_static = 0.5;        // μ_s, sticking limit
-  double mu_dynamic = 0.2;       // μ_D, while sliding
-  double rebound = 0.1;          // K, rebound coefficient (paper §2.1.2 iv)
-  double rebound_speed = 1.0;    // V_0 [m/s]
-  bool tension = false;          // allow tensile normal force (pile case 4)
-  double tensile_strength = 0.0; // [N], bond breaks beyond it
-  double eta_n = 0.0;            // normal dashpot [N·s/m] (cundall-dashpot)
-  double eta_s = 0.0;            // shear dashpot [N·s/m]
-  double restitution = 0.5;      // linear-restitution
-  double young = 7.0e10;         // hertz-mindlin [Pa]
-  double poisson = 0.25;         // hertz-mindlin
-  double damping_c = 0.0;        // global translational damping C (eq. 2.1) [1/s, per mass]
-  double damping_d = 0.0;        // global rotational damping D (eq. 2.2) [1/s, per inertia]
-  double dt = 0.0;               // 0 = automatic
+  // The contact law and its sub-models (the `contact` and `rolling` slots: `models` below, their
+  // keys and defaults in dem/contact/), and the friction of the soil's material:
+  double mu_static = 0.5;  // μ_s, sticking limit
+  double mu_dynamic = 0.2; // μ_D, while sliding
+  double damping_c = 0.0;  // global translational damping C (eq. 2.1) [1/s, per mass]
+  double damping_d = 0.0;  // global rotational damping D (eq. 2.2) [1/s, per inertia]
+  double dt = 0.0;         // 0 = automatic
   // Automatic Δt = dt_safety × the stable limit (dem/stable_step.hpp; disks:
   // √(m_min/max(2k_n, 6k_s))); 0.14 gives 0.099√(m_min/k_n) for k_s ≤ k_n/3, ≈ 22 steps per
   // contact.
