@@ -98,6 +98,7 @@ std::string Model::explicit_state() const {
   w.value(kStateMagic);
   w.value(kStateVersion);
   w.value<std::uint32_t>(Utilities::MPI::n_mpi_processes(m.comm));
+  w.value<std::uint32_t>(sizeof(QpState)); // another build's point layout is refused
   w.value(m.t);
   w.value(m.lambda);
   for (const auto* v : {&e.u, &e.v, &e.a, &e.f, &e.f_int}) w.vector(*v);
@@ -145,6 +146,10 @@ void Model::restore_explicit_state(std::string_view bytes) {
   if (const auto ranks = r.value<std::uint32_t>(); ranks != Utilities::MPI::n_mpi_processes(m.comm))
     Reader::fail("saved on " + std::to_string(ranks) + " MPI ranks, running on " +
                  std::to_string(Utilities::MPI::n_mpi_processes(m.comm)));
+  if (const auto bytes_per_point = r.value<std::uint32_t>(); bytes_per_point != sizeof(QpState))
+    Reader::fail("a quadrature point's state has " + std::to_string(bytes_per_point) +
+                 " bytes there, " + std::to_string(sizeof(QpState)) +
+                 " in this demfem (another build)");
   m.t = r.value<double>();
   m.lambda = r.value<double>();
   const std::size_t N = e.u.size();
