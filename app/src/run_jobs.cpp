@@ -216,8 +216,9 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
                    tasks[i].log.string());
       });
   if (stop_requested().load()) {
-    // what each run needs to continue: a stopped DEM run resumes from its checkpoint; a run
-    // that did not start (or a continuum run, which has no checkpoint yet) starts again
+    // what each run needs to continue: a stopped DEM or explicit continuum run resumes from its
+    // checkpoint; a run that did not start (or an implicit continuum run, which has no
+    // checkpoint) starts again
     std::vector<std::string> again;
     for (std::size_t k = 0; k < n_runs; ++k) {
       const std::size_t i = n_prep + k;
@@ -229,8 +230,11 @@ int run_parallel(const std::vector<const scene::Scene*>& scenes, const RunArgs& 
         c += " --variant " + compare::shell_quote(scenes[old]->variant);
       c += " --out " + compare::shell_quote(run_dirs[old].string());
       if (a.threads != 1) c += fmt::format(" --threads {}", a.threads);
+      if (a.refinement >= 0) c += fmt::format(" --refinement {}", a.refinement);
+      if (a.degree >= 0) c += fmt::format(" --degree {}", a.degree);
       if (a.seed >= 0) c += fmt::format(" --seed {}", a.seed);
-      if (!continuum && res[i].exit_code == kInterrupted) c += " --resume";
+      const bool checkpointed = !continuum || scenes[old]->continuum.integrator == "explicit";
+      if (checkpointed && res[i].exit_code == kInterrupted) c += " --resume";
       again.push_back(c);
     }
     fmt::print(stderr,

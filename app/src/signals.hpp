@@ -1,8 +1,9 @@
 // Ctrl-C, a batch scheduler's stop (SIGTERM) and a closed terminal (SIGHUP): the first of them
 // asks the running work to stop (exit kInterrupted, with the command that continues); a second
-// one kills the process the usual way. The DEM finishes its step and writes a checkpoint; work
-// without a checkpoint of its own (the continuum, a calibration, a study's rows) stops at its next
-// progress report (Stopped). SIGXFSZ is ignored, so that a write past the file size limit fails
+// one kills the process the usual way. The DEM finishes its step and writes a checkpoint; a
+// continuum run finishes its step (the explicit integrator then writes a checkpoint); work
+// without a checkpoint of its own (a calibration, a study's rows) stops at its next progress
+// report (Stopped). SIGXFSZ is ignored, so that a write past the file size limit fails
 // with EFBIG and is reported ("cannot write …: File too large") instead of killing the process.
 #pragma once
 
@@ -15,7 +16,7 @@
 namespace demfem::app {
 
 void install_stop_signals();
-// Set by the first stop signal; the DEM run polls it (dem::RunOptions::interrupt).
+// Set by the first stop signal; the DEM and continuum runs poll it (RunOptions::interrupt).
 [[nodiscard]] std::atomic<bool>& stop_requested();
 // "SIGINT", "SIGTERM" or "SIGHUP": the signal that asked to stop.
 [[nodiscard]] const char* stop_signal_name();

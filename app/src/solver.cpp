@@ -124,12 +124,16 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
       o.out_dir = out;
       o.refinement = a.refinement;
       o.degree = a.degree;
-      // no checkpoint yet: a stop signal ends the run at its next progress report (every 10
-      // steps), and the run starts over
-      o.progress = stoppable(progress);
+      o.progress = progress;
+      // a stop signal ends the run after its current step (the explicit integrator writes its
+      // checkpoint first)
+      o.resume = a.resume;
+      o.interrupt = &stop_requested();
       const auto x = continuum_module().run(s, o);
+      if (!x.resume_note.empty()) spdlog::warn("{}: --resume: {}", s.label(), x.resume_note);
       r.ran = true;
       r.ok = x.ok;
+      r.interrupted = x.interrupted;
       r.message = x.message;
       r.note = x.note;
       rec.solver_seconds = x.wall_seconds;
@@ -161,10 +165,6 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver, const fs::
     r.message = e.what();
   }
   reporter.finish();
-  // a continuum run stopped by a stop signal (signals.hpp: Stopped); the DEM says so itself
-  if (solver == scene::Solver::Continuum && r.ran && !r.ok && !r.bad_input &&
-      stop_requested().load())
-    r.interrupted = true;
   if (r.ran && !r.bad_input && !r.interrupted && root) { // (MPI: rank 0 writes it)
     rec.ok = r.ok;
     rec.message = r.message;
@@ -190,10 +190,15 @@ int report_interrupted(const char* sub, const scene::Scene& s, scene::Solver sol
                  (out / "dem" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
     return kInterrupted;
   }
+  if (s.continuum.integrator == "explicit") {
+    spdlog::warn("{}: checkpoint {}; continue with:\n  {}", s.label(),
+                 (out / "continuum" / "checkpoint.ckpt").string(), resume_command(sub, s, out, a));
+    return kInterrupted;
+  }
   std::string again = resume_command(sub, s, out, a);
   if (std::string(sub) == "run") again.resize(again.size() - std::string(" --resume").size());
-  spdlog::warn("{}: the continuum run cannot resume yet (it writes no checkpoint): its outputs "
-               "in {} stop at the time it reached; {}:\n  {}",
+  spdlog::warn("{}: the implicit continuum run cannot resume (the implicit integrator writes no "
+               "checkpoint): its outputs in {} stop at the time it reached; {}:\n  {}",
                s.label(), (out / "continuum").string(),
                std::string(sub) == "run" ? "run it again from the start"
                                          : "continue (the DEM's results are kept, the continuum "

@@ -26,8 +26,8 @@ SolverOutcome run_solver(const scene::Scene& s, scene::Solver solver,
                          const std::filesystem::path& out, const RunArgs& a);
 
 // Logs the stop of `solver` and the command that continues the run of `sub` ("run" or "compare")
-// in `out` (the DEM from its checkpoint; the continuum, which has none yet, from the start);
-// returns kInterrupted.
+// in `out` (the DEM and the explicit continuum from their checkpoints; the implicit continuum,
+// which has none, from the start); returns kInterrupted.
 int report_interrupted(const char* sub, const scene::Scene& s, scene::Solver solver,
                        const std::filesystem::path& out, const RunArgs& a,
                        const std::string& message);

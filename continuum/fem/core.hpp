@@ -10,6 +10,7 @@
 //   implicit.cpp   Newton, static load stepping, Newmark-β, the K0 procedure
 //   explicit.cpp   central differences (lumped mass, cell-wise internal force)
 //   contact.cpp    Coulomb contact of the explicit integrator, contact forces
+//   state.cpp      the explicit integrator's state as bytes (checkpoints) and back
 //   output.cpp     observation: probes, reactions, pressures, energies, .vtu/.pvd
 #pragma once
 

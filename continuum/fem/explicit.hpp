@@ -21,6 +21,10 @@ public:
   // The automatic step, safety × 2/ω_max with ω_max bounded by the largest element eigenvalue
   // (Irons 1970) [s].
   double stable_step();
+  // The first step's set-up without its initial acceleration (a restored state brings its own:
+  // Model::restore_explicit_state), and the explicit state copied into the Core's fields.
+  void prepare() { setup(); }
+  void publish() { sync(); }
 
   struct Body {
     std::size_t region = 0;

@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "constitutive/registry.hpp"
@@ -34,6 +35,8 @@ public:
   // Collective over every rank: true when `flag` is true on any of them (a write failure on
   // the root ends the run on every rank instead of leaving the others in the next collective).
   static bool any(bool flag);
+  // Collective: true when `value` is the same on every rank.
+  static bool same(long long value);
 
 private:
   struct Impl;
@@ -255,6 +258,15 @@ public:
     double cells_s = 0, reduce_s = 0, nodal_s = 0;
   };
   [[nodiscard]] ExplicitProfile explicit_profile() const;
+  // Explicit integrator, between dynamic steps (state.cpp): its state as bytes for a checkpoint
+  // (the time, the nodal vectors, the rigid bodies' motion, the contact nodes' forces and states,
+  // this rank's quadrature points' states, the .pvd's records), and that state put back into a
+  // model built from the same problem and initialised the same way (initialise_gravity), in place
+  // of its K0 state: the steps that follow are the saved run's, bit for bit. Restoring throws
+  // std::runtime_error when the bytes do not fit the model (another mesh, degree, contact set or
+  // MPI rank count).
+  [[nodiscard]] std::string explicit_state() const;
+  void restore_explicit_state(std::string_view bytes);
   // Initial displacement for free vibration tests (gravity off).
   void set_displacement(const std::function<Point(Point)>& u);
 

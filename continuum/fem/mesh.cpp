@@ -24,6 +24,10 @@ int MpiScope::size() {
 bool MpiScope::any(bool flag) {
   return Utilities::MPI::max(flag ? 1u : 0u, MPI_COMM_WORLD) != 0u;
 }
+bool MpiScope::same(long long value) {
+  const auto v = static_cast<double>(value); // exact below 2^53
+  return Utilities::MPI::max(v, MPI_COMM_WORLD) == Utilities::MPI::min(v, MPI_COMM_WORLD);
+}
 
 void ensure_mpi() {
   static int argc = 1;

@@ -3,6 +3,7 @@
 //   probe_source.cpp  what each probe measures, from the model (output::ProbeSource)
 //   records.cpp       steps.csv, the snapshots, the small-strain watch, progress, and the records
 //                     at the end (surface_profile.csv, contact states, timings)
+//   checkpoint.cpp    the explicit run's checkpoint: written, read back, checked against the run
 #pragma once
 
 #include <chrono>
@@ -14,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "fem.hpp"
 #include "demfem/continuum/run.hpp"
 #include "demfem/output/csv.hpp"
 #include "demfem/output/probe.hpp"
 #include "demfem/scene/scene.hpp"
+#include "fem.hpp"
 
 namespace demfem::continuum::run_detail {
 
@@ -29,7 +30,7 @@ namespace demfem::continuum::run_detail {
 // point (Outputs::raise), so that every MPI rank stops together.
 class CheckedStream {
 public:
-  void open(const std::filesystem::path& p);
+  void open(const std::filesystem::path& p, bool append = false); // append: a resumed run's
   [[nodiscard]] bool is_open() const { return f_.is_open(); }
   template <class T> CheckedStream& operator<<(const T& v) {
     if (f_.is_open() && error_.empty()) {
@@ -80,8 +81,11 @@ private:
 class StepRecord {
 public:
   void open(const std::filesystem::path& dir); // on the root
+  // A resumed run: keeps the rows up to step `keep` and appends after them.
+  void open(const std::filesystem::path& dir, long long keep);
   void add(long long step, double t, const fem::StepStats& st, double wall_seconds);
   [[nodiscard]] std::string error() const { return csv_ ? csv_->error() : std::string(); }
+  void flush();
   void close();
 
 private:
@@ -96,6 +100,18 @@ public:
   void at(double t, double dt, bool last); // when due, and at the last step
   void write_if_missed(double t);          // unless one was written at t (an early stop)
   void finish();                           // the .pvd
+  // What a checkpoint keeps: the next file's index, the next due time, the last time written.
+  struct State {
+    int index = 0;
+    double next = 0.0;
+    std::optional<double> last;
+  };
+  [[nodiscard]] State state() const { return {index_, next_, last_}; }
+  void restore(const State& s) {
+    index_ = s.index;
+    next_ = s.next;
+    last_ = s.last;
+  }
 
 private:
   fem::Model& m_;
@@ -123,6 +139,35 @@ void report_progress(const RunOptions& options, long long step, long long nsteps
 } // namespace demfem::continuum::run_detail
 
 namespace demfem::continuum::run_detail {
+
+// ---- checkpoint.cpp -----------------------------------------------------------------------------
+// The explicit run's checkpoint at a step boundary, after the step's outputs: continuum/
+// checkpoint.ckpt (MPI rank r > 0: checkpoint.<r>.ckpt, its own quadrature points), written
+// atomically (scene::write_file_atomic). `identity` is the run as computed (the scene as run, the
+// mesh's refinement and degree, the MPI ranks): a resume of another one is refused, naming the
+// first line that differs.
+struct Checkpoint {
+  std::string identity;
+  long long step = 0, nsteps = 0; // loop steps done, of
+  double dt = 0.0, time = 0.0;    // the loop's step and the time reached [s]
+  double next_checkpoint = 0.0;   // output.checkpoint_interval's next time [s]
+  output::ProbeSet::State probes;
+  Snapshots::State snapshots;
+  long long newton = 0, linear = 0, cuts = 0, substeps = 0; // Totals
+  std::string model;                                        // fem::Model::explicit_state
+};
+[[nodiscard]] std::filesystem::path checkpoint_path(const std::filesystem::path& dir, int rank);
+// The run's identity: the scene as run (scene::to_toml) and the options that shape the mesh.
+[[nodiscard]] std::string run_identity(const scene::Scene& scene, const fem::Problem& pb,
+                                       int ranks);
+// Throws scene::WriteError naming the file and the cause.
+void write_checkpoint(const std::filesystem::path& path, const Checkpoint& c);
+// Nothing when there is no file; throws std::runtime_error naming the file when it cannot be read
+// or is not a continuum checkpoint of this version.
+[[nodiscard]] std::optional<Checkpoint> read_checkpoint(const std::filesystem::path& path);
+// "" when the identities are the same, else the first differing line of each ("continuum.dt = 0.001
+// here, 0.002 in the checkpoint"), with its [section].
+[[nodiscard]] std::string identity_difference(const std::string& here, const std::string& saved);
 
 // ---- setup.cpp ----------------------------------------------------------------------------------
 // What was run, for the report: dofs, cells, refinement, degree, integrator, cell sizes.

@@ -7,10 +7,10 @@
 
 namespace demfem::continuum::run_detail {
 
-void CheckedStream::open(const std::filesystem::path& p) {
+void CheckedStream::open(const std::filesystem::path& p, bool append) {
   path_ = p;
   errno = 0;
-  f_.open(p, std::ios::trunc);
+  f_.open(p, append ? std::ios::app : std::ios::trunc);
   check("creating");
 }
 

@@ -12,6 +12,10 @@ namespace col = output::col;
 using output::CsvFormat;
 
 void StepRecord::open(const std::filesystem::path& dir) {
+  open(dir, -1);
+}
+
+void StepRecord::open(const std::filesystem::path& dir, long long keep) {
   std::vector<std::string> columns;
   for (const auto& c : output::kStepsColumns) columns.push_back(output::heading(c));
   output::CsvOptions o;
@@ -20,6 +24,7 @@ void StepRecord::open(const std::filesystem::path& dir) {
   o.formats = {CsvFormat::integer(),     CsvFormat::general(6), CsvFormat::integer(),
                CsvFormat::integer(),     CsvFormat::integer(),  CsvFormat::integer(),
                CsvFormat::scientific(3), CsvFormat::fixed(4),   CsvFormat::integer()};
+  if (keep >= 0) o.resume_after = static_cast<double>(keep) + 0.5; // the step column
   csv_.emplace(dir / output::file::steps, std::move(columns), std::move(o));
 }
 
@@ -29,6 +34,10 @@ void StepRecord::add(long long step, double t, const fem::StepStats& st, double 
                 static_cast<double>(st.linear_iterations), static_cast<double>(st.cuts),
                 st.converged ? 1.0 : 0.0, st.residual, wall_seconds,
                 static_cast<double>(st.substeps)});
+}
+
+void StepRecord::flush() {
+  if (csv_) csv_->flush();
 }
 
 void StepRecord::close() {

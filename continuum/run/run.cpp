@@ -395,32 +395,50 @@ namespace {
 
 // The probes with the DEM's names, signs and units (output/contract.hpp): the root writes them,
 // every rank samples (the source's calls are collective).
-output::ProbeSetOptions probe_options(const scene::Scene& scene, bool root) {
+// A resumed run keeps the rows up to its checkpoint's time (half a loop step beyond it: the time
+// column has 6 digits) and rewrites the rest.
+output::ProbeSetOptions probe_options(const scene::Scene& scene, bool root,
+                                      const run_detail::Checkpoint* from) {
   output::ProbeSetOptions o;
   o.base_interval = scene.output.probe_interval;
   o.csv.flush_every_rows = 50;
   o.csv.formats = {output::CsvFormat::general(6)}; // time
   o.csv.keep_errors = true;
+  if (from) o.csv.resume_after = from->time + 0.5 * from->dt;
   o.write = root;
   o.load_histories = true;
   return o;
 }
 
+// An explicit run writes a checkpoint at least this often [s of wall time], so that a kill
+// without a stop signal (SIGKILL, a power cut) loses at most this much of a long run.
+constexpr double kCheckpointWallSeconds = 600.0;
+
 // One run's model and hooks (run/hooks.hpp), set up in this order.
 class Driver {
 public:
+  // `from`: the checkpoint a resumed run continues from (null: from t = 0).
   Driver(const scene::Scene& scene, const fem::Problem& pb, const std::filesystem::path& dir,
-         bool root)
+         bool root, std::string identity, const run_detail::Checkpoint* from)
       : m(pb), snapshots(m, scene, dir), scene_(scene), pb_(pb), dir_(dir), root_(root),
-        source_(m, scene), probes_(scene, source_, probe_options(scene, root)) {}
+        identity_(std::move(identity)), from_(from), source_(m, scene),
+        probes_(scene, source_, probe_options(scene, root, from), from ? &from->probes : nullptr),
+        checkpoint_interval_(scene.output.checkpoint_interval),
+        next_checkpoint_(scene.output.checkpoint_interval) {}
 
   // log.txt's head, gravity, the K0 state and the seating; the loop's step; the files and the
-  // state at t = 0. Returns "" or why the run cannot go on.
+  // state at t = 0, or a resumed run's state from its checkpoint (the same initialisation first:
+  // the constraints, loads and masses it sets are the checkpoint's). Returns "" or why the run
+  // cannot go on.
   std::string start(RunSummary& summary, std::chrono::steady_clock::time_point t_start) {
     using namespace run_detail;
     describe(summary, m, pb_);
     if (root_) {
-      log_.open(dir_ / output::file::log);
+      log_.open(dir_ / output::file::log, from_ != nullptr);
+      if (from_)
+        log_ << fmt::format("resumed from {} at t = {:.6g} s (step {} of {})\n",
+                            checkpoint_path(dir_, 0).string(), from_->time, from_->step,
+                            from_->nsteps);
       log_header(log_, scene_, m, pb_);
     }
     if (auto why = initialise(m, scene_, pb_, log_, root_, summary, t_start); !why.empty())
@@ -429,12 +447,86 @@ public:
       log_ << fmt::format("probes the continuum does not record: {}\n",
                           fmt::join(probes_.not_recorded(), "; "));
     dt = loop_step(m, scene_, probes_.finest_interval(), log_, root_, summary, nsteps);
+    if (from_) {
+      if (from_->nsteps != nsteps || from_->dt != dt)
+        return fmt::format("cannot resume from {}: it has {} steps of {:.6g} s, this run {} of "
+                           "{:.6g} s",
+                           checkpoint_path(dir_, fem::MpiScope::rank()).string(), from_->nsteps,
+                           from_->dt, nsteps, dt);
+      m.restore_explicit_state(from_->model);
+      snapshots.restore(from_->snapshots);
+      totals_.newton = from_->newton;
+      totals_.linear = from_->linear;
+      totals_.cuts = from_->cuts;
+      totals_.substeps = from_->substeps;
+      next_checkpoint_ = from_->next_checkpoint;
+      first_step = from_->step + 1;
+    }
     probes_.open(dir_);
-    if (root_) steps_.open(dir_);
-    snapshots.write(0.0);
-    sample(0.0, false);
+    if (root_) steps_.open(dir_, from_ ? from_->step : -1);
+    if (!from_) {
+      snapshots.write(0.0);
+      sample(0.0, false);
+    }
+    raise(); // a file that could not be opened or truncated
     t_dyn_ = std::chrono::steady_clock::now();
     return {};
+  }
+
+  // The checkpoint after step `step` (explicit integrator): at output.checkpoint_interval of
+  // simulated time, after kCheckpointWallSeconds of wall time since the last one (the root's clock:
+  // every rank writes after the same step), and when `now` (a stop). Every output's rows so far
+  // are flushed first, so that a resume keeps them.
+  void checkpoint(long long step, bool now) {
+    const double t = m.time();
+    const bool due = checkpoint_interval_ > 0.0 && t >= next_checkpoint_ - 1e-9 * dt;
+    const auto wall = std::chrono::steady_clock::now();
+    const bool late = fem::MpiScope::any(
+        root_ &&
+        std::chrono::duration<double>(wall - last_checkpoint_).count() >= kCheckpointWallSeconds);
+    if (!due && !now && !late) return;
+    last_checkpoint_ = wall;
+    while (checkpoint_interval_ > 0.0 && t >= next_checkpoint_ - 1e-9 * dt)
+      next_checkpoint_ += checkpoint_interval_;
+    probes_.flush();
+    steps_.flush();
+    log_.flush();
+    raise();
+    run_detail::Checkpoint c;
+    c.identity = identity_;
+    c.step = step;
+    c.nsteps = nsteps;
+    c.dt = dt;
+    c.time = t;
+    c.next_checkpoint = next_checkpoint_;
+    c.probes = probes_.state();
+    c.snapshots = snapshots.state();
+    c.newton = totals_.newton;
+    c.linear = totals_.linear;
+    c.cuts = totals_.cuts;
+    c.substeps = totals_.substeps;
+    c.model = m.explicit_state();
+    std::string failure;
+    try {
+      run_detail::write_checkpoint(run_detail::checkpoint_path(dir_, fem::MpiScope::rank()), c);
+    } catch (const scene::WriteError& e) {
+      failure = e.what();
+    }
+    if (fem::MpiScope::any(!failure.empty()))
+      throw scene::WriteError(failure.empty() ? "a checkpoint could not be written on another "
+                                                "MPI rank"
+                                              : failure);
+    if (root_)
+      log_ << fmt::format("checkpoint at t = {:.6g} s (step {} of {})\n", t, step, nsteps)
+           << std::flush;
+  }
+
+  // Every row written so far on the disk (a stopped run's outputs end at its last step).
+  void flush() {
+    probes_.flush();
+    steps_.flush();
+    log_.flush();
+    raise();
   }
 
   // One step and its record; false (summary says why) when it did not converge.
@@ -509,6 +601,7 @@ public:
   run_detail::Snapshots snapshots;
   double dt = 0.0;
   long long nsteps = 0;
+  long long first_step = 1; // a resumed run's: the step after its checkpoint's
 
 private:
   // Collective: the first failed write of any output ends the run on every rank, naming the
@@ -527,13 +620,71 @@ private:
   const fem::Problem& pb_;
   std::filesystem::path dir_;
   bool root_;
+  std::string identity_;
+  const run_detail::Checkpoint* from_;
   run_detail::CheckedStream log_;
   run_detail::ContinuumProbeSource source_;
   output::ProbeSet probes_;
   run_detail::StepRecord steps_;
   run_detail::Totals totals_;
-  std::chrono::steady_clock::time_point t_dyn_;
+  double checkpoint_interval_, next_checkpoint_;
+  std::chrono::steady_clock::time_point t_dyn_, last_checkpoint_ = std::chrono::steady_clock::now();
 };
+
+} // namespace
+
+namespace {
+
+// Where a resumed run starts: its checkpoint (every rank reads its own; all must hold the same
+// step), or t = 0 with a note when there is none to continue from (none written yet, or the
+// implicit integrator, which writes none). A checkpoint of another scene or mesh is refused
+// (scene::SceneError, naming the first line that differs); an unreadable one ends the run ("").
+std::string resume_point(const scene::Scene& scene, bool explicit_dyn,
+                         const std::filesystem::path& dir, const std::string& identity,
+                         std::optional<run_detail::Checkpoint>& from, RunSummary& summary) {
+  const int rank = fem::MpiScope::rank();
+  const auto path = run_detail::checkpoint_path(dir, rank);
+  if (!explicit_dyn) {
+    summary.resume_note = "the implicit integrator writes no checkpoint: the continuum run "
+                          "starts again from t = 0";
+    return {};
+  }
+  std::string why;
+  try {
+    from = run_detail::read_checkpoint(path);
+  } catch (const std::exception& e) {
+    why = fmt::format("cannot resume: {}", e.what());
+  }
+  if (fem::MpiScope::any(!why.empty()))
+    return why.empty() ? "cannot resume: another MPI rank cannot read its checkpoint" : why;
+  const bool none = !from.has_value();
+  if (fem::MpiScope::any(none)) {
+    if (!fem::MpiScope::any(!none)) { // no rank has one: nothing written yet
+      summary.resume_note = fmt::format("no continuum checkpoint ({}): the continuum run starts "
+                                        "from t = 0",
+                                        path.string());
+      return {};
+    }
+    return fmt::format("cannot resume: {} {}, while another MPI rank has its checkpoint",
+                       path.string(), none ? "is missing" : "exists");
+  }
+  const auto d = run_detail::identity_difference(identity, from->identity);
+  if (fem::MpiScope::any(!d.empty())) {
+    scene::Diagnostic diag;
+    diag.file = scene.source_file;
+    diag.key = "continuum";
+    diag.message = fmt::format(
+        "cannot resume: {} is a checkpoint of another run (first difference: {}). A resume "
+        "continues the same computation: run this scene without --resume, or into another --out",
+        path.string(), d.empty() ? "on another MPI rank" : d);
+    throw scene::SceneError({diag});
+  }
+  if (!fem::MpiScope::same(from->step))
+    return fmt::format("cannot resume: the MPI ranks' checkpoints are of different steps ({} holds "
+                       "step {}); run the scene again without --resume",
+                       path.string(), from->step);
+  return {};
+}
 
 } // namespace
 
@@ -559,13 +710,23 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
                                   ec ? ec.message() : "failed on the root rank");
     return summary;
   }
+  const bool explicit_dyn = scene.continuum.integrator == "explicit";
+  const std::string identity = run_detail::run_identity(scene, su.pb, fem::MpiScope::size());
+  std::optional<run_detail::Checkpoint> from;
+  if (options.resume) {
+    if (auto why = resume_point(scene, explicit_dyn, dir, identity, from, summary); !why.empty()) {
+      summary.message = why;
+      return summary;
+    }
+  }
   try {
-    Driver d(scene, su.pb, dir, root);
+    Driver d(scene, su.pb, dir, root, identity, from ? &*from : nullptr);
     if (auto why = d.start(summary, t_start); !why.empty()) {
       summary.message = why;
       return summary;
     }
-    for (long long step = 1; step <= d.nsteps; ++step) {
+    summary.steps = d.first_step - 1;
+    for (long long step = d.first_step; step <= d.nsteps; ++step) {
       if (!d.advance(step, summary)) return summary;
       const double t = d.m.time();
       d.sample(t, step == d.nsteps);
@@ -573,6 +734,26 @@ RunSummary run(const scene::Scene& scene_in, const RunOptions& options) {
       run_detail::report_progress(options, step, d.nsteps, t, scene.info.duration, t_start);
       summary.steps = step;
       if (d.beyond_validity(t, summary)) break;
+      // a stop signal (on any rank: every rank stops after the same step)
+      const bool stop =
+          step < d.nsteps && fem::MpiScope::any(options.interrupt && options.interrupt->load());
+      if (explicit_dyn) d.checkpoint(step, stop);
+      if (stop) {
+        d.flush();
+        summary.interrupted = true;
+        summary.simulated_time = t;
+        summary.message =
+            explicit_dyn
+                ? fmt::format("interrupted at t = {:.6g} s (step {} of {}); checkpoint {}; "
+                              "continue with --resume",
+                              t, step, d.nsteps, run_detail::checkpoint_path(dir, 0).string())
+                : fmt::format("stopped at t = {:.6g} s (step {} of {}); the implicit integrator "
+                              "writes no checkpoint: the run starts again from t = 0",
+                              t, step, d.nsteps);
+        summary.wall_seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+        return summary;
+      }
     }
     std::vector<fem::Point> top; // the soil's top, 101 points across the domain
     for (int i = 0; i < 101; ++i) {

@@ -470,8 +470,9 @@ TEST(RunDirCompare, FailedOrShortSolverRunsFailTheComparison) {
   EXPECT_NE(unfinished.out.find("the dem run did not finish"), std::string::npos) << unfinished.out;
 }
 
-// SIGINT, SIGTERM and SIGHUP stop a continuum run at its next progress report with exit 3 and a
-// message that it cannot resume yet, with the command that runs it again.
+// SIGINT, SIGTERM and SIGHUP stop an implicit continuum run after its current step with exit 3
+// and a message that it cannot resume, with the command that runs it again (an explicit run
+// writes a checkpoint: test_continuum_resume.cpp).
 TEST(RunDirSignals, ContinuumRunStopsWithExit3) {
   const auto scene =
       write_temp("rundir_footing.toml",
@@ -487,7 +488,7 @@ TEST(RunDirSignals, ContinuumRunStopsWithExit3) {
     c.signal(sig);
     const auto r = c.wait();
     EXPECT_EQ(r.code, 3) << r.out;
-    EXPECT_NE(r.out.find("cannot resume yet"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("cannot resume (the implicit"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("--solver continuum --out " + out.string() + "\n"), std::string::npos)
         << r.out;
     EXPECT_FALSE(fs::exists(out / "run_continuum.json")) << "a stopped run recorded as done";

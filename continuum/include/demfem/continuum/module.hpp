@@ -16,7 +16,7 @@
 
 namespace demfem::continuum {
 
-inline constexpr std::uint32_t kModuleAbi = 1; // bump when the table or a type in it changes
+inline constexpr std::uint32_t kModuleAbi = 2; // bump when the table or a type in it changes
 inline constexpr const char* kModuleEntry = "demfem_continuum_module_api";
 inline constexpr const char* kModuleFile = "libdemfem-continuum.so";
 

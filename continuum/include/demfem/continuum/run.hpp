@@ -1,6 +1,7 @@
 // Entry point of the continuum (FEM) solver for the app. No deal.II type crosses this header.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -18,12 +19,21 @@ struct RunOptions {
   int refinement = -1;           // -1 = the scene's
   int degree = -1;               // -1 = the scene's
   scene::ProgressFn progress;
+  // Continue from out_dir/continuum/checkpoint.ckpt (explicit integrator; bit for bit). With no
+  // checkpoint there (none written yet, or the implicit integrator, which writes none) the run
+  // starts from t = 0 and says so in RunSummary::resume_note.
+  bool resume = false;
+  // When it becomes true (on any MPI rank) the run stops after its current step, every rank after
+  // the same one; the explicit integrator writes its checkpoint first. May be null.
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 struct RunSummary {
   bool ok = false;
+  bool interrupted = false; // stopped by RunOptions::interrupt (explicit: after its checkpoint)
   std::string message;
-  std::string note; // e.g. the run stopped early at the small-strain validity limit
+  std::string resume_note; // a --resume that starts from t = 0, and why
+  std::string note;        // e.g. the run stopped early at the small-strain validity limit
   long long steps = 0;
   double simulated_time = 0.0;
   double wall_seconds = 0.0;
