@@ -222,7 +222,12 @@ int open_run_dir(const scene::Scene& given, const fs::path& out, const RunArgs& 
     return kBadInput;
   };
   std::vector<std::string> clear;
-  const std::vector<std::string> resumable = {"scene.duration"}; // a resume may run further
+  // A DEM resume may run further; a continuum checkpoint holds its duration (the step
+  // schedule): with one, the resume runs the same duration.
+  std::vector<std::string> resumable;
+  std::error_code exists_ec;
+  if (!use.continuum || !fs::exists(out / "continuum" / "checkpoint.ckpt", exists_ec))
+    resumable.push_back("scene.duration");
   const std::string dem_text = use.dem ? read_or_empty(dem_record(out)) : std::string();
   if (a.resume) {
     if (there.empty())

@@ -146,4 +146,26 @@ TEST(ContinuumResume, ACheckpointOfAnotherMeshIsRefused) {
       << r.out;
   fs::remove(out.string() + ".log");
 }
+
+// A longer duration resumes a DEM run, not a continuum checkpoint (its step schedule): refused
+// before anything is touched, so the folder's scene record stays the stopped run's.
+TEST(ContinuumResume, ALongerDurationIsRefusedAndChangesNothing) {
+  const fs::path scene = resume_scene();
+  const fs::path out = scratch("resume_longer");
+  Child c({"run", scene.string(), "--solver", "continuum", "--out", out.string()},
+          out.string() + ".log");
+  ASSERT_TRUE(wait_for_size(c, out / "continuum" / "steps.csv", 600)) << c.wait().out;
+  c.signal(SIGTERM);
+  ASSERT_EQ(c.wait().code, 3);
+  const std::string record = slurp(out / ".demfem" / "scene.toml");
+  ASSERT_FALSE(record.empty());
+  const fs::path longer =
+      write_temp("continuum_resume_longer.toml", with_values(slurp(scene), {{"duration", "0.9"}}));
+  const auto r =
+      run("run " + longer.string() + " --solver continuum --out " + out.string() + " --resume");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("scene.duration"), std::string::npos) << r.out;
+  EXPECT_EQ(slurp(out / ".demfem" / "scene.toml"), record);
+  fs::remove(out.string() + ".log");
+}
 #endif
