@@ -52,36 +52,56 @@ std::vector<double> uniform_nodes(const std::set<double>& breaks, double h) {
   return nodes;
 }
 
-// The graded steps of continuum/run/mesh_grading.hpp (graded_steps_through; a test in
-// tests/continuum keeps the two equal): per interval between breaks n = ⌈∫ dx/h⌉ cells, h(x) =
-// min(h0, h_near + (g − 1)·d(x)), placed at equal increments of ∫ dx/h. With `count_only`, the
-// number of cells without their positions (for grids too large to list).
-std::vector<double> graded_nodes(const std::set<double>& breaks, double h0, double h_near, double g,
-                                 double lo, double hi, bool count_only, std::size_t& count) {
-  std::vector<double> b(breaks.begin(), breaks.end()), nodes;
-  count = 0;
-  if (b.empty()) return nodes;
-  auto h = [&](double x) {
+// The cell size wanted at x: h(x) = min(h0, h_near + (g − 1)·d(x)), d the distance from
+// [lo, hi] (cells growing geometrically by g away from the focus). Per interval between breaks,
+// ∫ dx/h by the trapezoidal rule at m + 1 samples, and n = ⌈∫ dx/h⌉ cells.
+struct Grading {
+  double h0, h_near, g, lo, hi;
+  static constexpr int m = 4000;
+  [[nodiscard]] double h(double x) const {
     const double d = x < lo ? lo - x : (x > hi ? x - hi : 0.0);
     return std::min(h0, h_near + (g - 1.0) * d);
-  };
-  if (!count_only) nodes.push_back(b.front());
+  }
+  // cum[k] = ∫ dx/h from a to a + len·k/m
+  [[nodiscard]] std::vector<double> integral(double a, double len) const {
+    std::vector<double> cum(m + 1, 0.0);
+    for (int k = 1; k <= m; ++k) {
+      const double x0 = a + len * (k - 1) / m, x1 = a + len * k / m;
+      cum[k] = cum[k - 1] + 0.5 * (1.0 / h(x0) + 1.0 / h(x1)) * (x1 - x0);
+    }
+    return cum;
+  }
+  [[nodiscard]] static double cells(const std::vector<double>& cum) {
+    return std::max(1.0, std::ceil(cum[m] - 1e-9));
+  }
+};
+
+// The graded grid's nodes (graded_steps_through summed from the first break).
+std::vector<double> graded_nodes(const std::set<double>& breaks, double h0, double h_near, double g,
+                                 double lo, double hi) {
+  std::vector<double> nodes;
+  if (breaks.empty()) return nodes;
+  nodes.push_back(*breaks.begin());
+  for (const double d : graded_steps_through(breaks, h0, h_near, g, lo, hi))
+    nodes.push_back(nodes.back() + d);
+  return nodes;
+}
+
+} // namespace
+
+std::vector<double> graded_steps_through(const std::set<double>& breaks, double h0, double h_near,
+                                         double g, double lo, double hi) {
+  const Grading gr{h0, h_near, g, lo, hi};
+  constexpr int m = Grading::m;
+  std::vector<double> b(breaks.begin(), breaks.end()), out;
   for (std::size_t i = 0; i + 1 < b.size(); ++i) {
     const double len = b[i + 1] - b[i];
     if (len <= 1e-9 * h0) continue;
-    const int m = 4000; // trapezoidal samples of ∫ dx/h over the interval
-    std::vector<double> cum(m + 1, 0.0);
-    for (int k = 1; k <= m; ++k) {
-      const double x0 = b[i] + len * (k - 1) / m, x1 = b[i] + len * k / m;
-      cum[k] = cum[k - 1] + 0.5 * (1.0 / h(x0) + 1.0 / h(x1)) * (x1 - x0);
-    }
-    const double cells = std::max(1.0, std::ceil(cum[m] - 1e-9));
-    count += static_cast<std::size_t>(std::min(cells, 1e15));
-    if (count_only) continue;
-    const int n = static_cast<int>(cells);
+    const auto cum = gr.integral(b[i], len);
+    const int n = static_cast<int>(Grading::cells(cum));
     double prev = b[i];
     int k = 0;
-    for (int c = 1; c <= n; ++c) {
+    for (int c = 1; c <= n; ++c) { // at equal increments of ∫ dx/h
       double x = b[i + 1];
       if (c < n) {
         const double target = cum[m] * c / n;
@@ -89,14 +109,25 @@ std::vector<double> graded_nodes(const std::set<double>& breaks, double h0, doub
         const double f = (target - cum[k]) / std::max(1e-300, cum[k + 1] - cum[k]);
         x = b[i] + len * (k + f) / m;
       }
-      nodes.push_back(nodes.back() + (x - prev));
+      out.push_back(x - prev);
       prev = x;
     }
   }
-  return nodes;
+  return out;
 }
 
-} // namespace
+std::size_t graded_cell_count(const std::set<double>& breaks, double h0, double h_near, double g,
+                              double lo, double hi) {
+  const Grading gr{h0, h_near, g, lo, hi};
+  std::vector<double> b(breaks.begin(), breaks.end());
+  std::size_t count = 0;
+  for (std::size_t i = 0; i + 1 < b.size(); ++i) {
+    const double len = b[i + 1] - b[i];
+    if (len <= 1e-9 * h0) continue;
+    count += static_cast<std::size_t>(std::min(Grading::cells(gr.integral(b[i], len)), 1e15));
+  }
+  return count;
+}
 
 std::string format_bytes(double b) {
   const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
@@ -170,11 +201,11 @@ ContinuumMeshEstimate estimate_continuum_mesh(const Scene& sc) {
       b = {std::min(b.x0, c.x0), std::max(b.x1, c.x1), std::min(b.z0, c.z0), std::max(b.z1, c.z1)};
     }
     const double hn = std::min(co.mesh_size_near, h0);
-    graded_nodes(xs, h0, hn, co.mesh_grading, b.x0, b.x1, true, e.columns);
-    graded_nodes(zs, h0, hn, co.mesh_grading, b.z0, b.z1, true, e.rows);
+    e.columns = graded_cell_count(xs, h0, hn, co.mesh_grading, b.x0, b.x1);
+    e.rows = graded_cell_count(zs, h0, hn, co.mesh_grading, b.z0, b.z1);
     if (static_cast<double>(e.columns) * static_cast<double>(e.rows) <= kListLimit) {
-      nx = graded_nodes(xs, h0, hn, co.mesh_grading, b.x0, b.x1, false, e.columns);
-      nz = graded_nodes(zs, h0, hn, co.mesh_grading, b.z0, b.z1, false, e.rows);
+      nx = graded_nodes(xs, h0, hn, co.mesh_grading, b.x0, b.x1);
+      nz = graded_nodes(zs, h0, hn, co.mesh_grading, b.z0, b.z1);
     }
   } else {
     nx = uniform_nodes(xs, h0);

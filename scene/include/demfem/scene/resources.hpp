@@ -7,7 +7,9 @@
 
 #include <cstddef>
 #include <optional>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "demfem/scene/scene.hpp"
 
@@ -22,12 +24,24 @@ struct MemoryAvailable {
 // Nothing when neither can be read (not Linux): then no scene is refused for memory.
 [[nodiscard]] std::optional<MemoryAvailable> available_memory();
 
+// Graded coarse steps through every break (sorted), the continuum's grid with
+// continuum.mesh_size_near: the cell size wanted at x is h(x) = min(h0, h_near + (g − 1)·d(x)), d
+// the distance from [lo, hi], i.e. cells growing geometrically by g away from the focus
+// (h_{k+1} = g h_k gives h = h_near + (g − 1)·distance). Per interval between breaks:
+// n = ⌈∫ dx/h⌉ cells, placed at equal increments of ∫ dx/h.
+[[nodiscard]] std::vector<double> graded_steps_through(const std::set<double>& breaks, double h0,
+                                                       double h_near, double g, double lo,
+                                                       double hi);
+// The number of those steps, without listing them (for grids too large to list).
+[[nodiscard]] std::size_t graded_cell_count(const std::set<double>& breaks, double h0,
+                                            double h_near, double g, double lo, double hi);
+
 // "1.23 GB" (decimal units).
 [[nodiscard]] std::string format_bytes(double bytes);
 
 // Continuum mesh of a scene (continuum/run/run.cpp build_problem): the coarse grid through every
 // corner of the domain (below soil.continuum.surface) and of the structures, cells of
-// min(W, H)/4 or graded from continuum.mesh_size_near (continuum/run/mesh_grading.hpp), the cells
+// min(W, H)/4 or graded from continuum.mesh_size_near (graded_steps_through), the cells
 // whose centre lies in the soil or a structure meshed, then `refinement` global refinements.
 // Degrees of freedom of FE_Q(degree)² on it: 2 (p² cells + p (Nx + Nz) + 1), exact for a
 // rectangle of Nx × Nz cells.
