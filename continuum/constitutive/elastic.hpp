@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -130,6 +131,8 @@ struct Elastic {
     return Return::Elastic;
   }
   [[nodiscard]] double equivalent_plastic_strain(const Internal&) const { return 0.0; }
+  static constexpr std::array<const char*, 0> output_names{}; // no variables of its own
+  void output(const Internal&, double*) const {}
 };
 
 } // namespace demfem::continuum::constitutive

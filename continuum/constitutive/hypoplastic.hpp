@@ -24,6 +24,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "elastic.hpp"
@@ -222,6 +223,12 @@ struct Hypoplastic {
                 Internal& i, VoigtMatrix* tangent, bool predictor) const;
   // No plastic strain in hypoplasticity.
   [[nodiscard]] double equivalent_plastic_strain(const Internal&) const { return 0.0; }
+  // In the snapshots: the void ratio e and the intergranular strain's magnitude ‖δ‖ (≤ R).
+  static constexpr std::array<const char*, 2> output_names{{"void_ratio", "intergranular_strain"}};
+  void output(const Internal& i, double* v) const {
+    v[0] = i.e;
+    v[1] = hypoplastic::norm(i.delta);
+  }
 
   // A point's state as the rate law sees it, and back.
   [[nodiscard]] hypoplastic::PointState point(const PointStress& s, const Internal& i) const;

@@ -144,6 +144,9 @@ struct MohrCoulomb {
     return r.region;
   }
   // √(2/3 εp:εp) (tensor components: the engineering shear halved)
+  // The snapshots' plastic_strain column holds its variables (equivalent_plastic_strain).
+  static constexpr std::array<const char*, 0> output_names{};
+  void output(const Internal&, double*) const {}
   [[nodiscard]] double equivalent_plastic_strain(const Internal& i) const {
     const auto& e = i.eps_p;
     const double e2 = e[0] * e[0] + e[1] * e[1] + e[3] * e[3] + 0.5 * e[2] * e[2];

@@ -13,6 +13,7 @@
 #include <type_traits>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include "elastic.hpp"
 #include "hypoplastic.hpp"
@@ -122,6 +123,25 @@ public:
         [&](const auto& m) {
           constexpr std::size_t I = Registry::index<std::decay_t<decltype(m)>>();
           return m.equivalent_plastic_strain(std::get<I>(s.internal));
+        },
+        model_);
+  }
+
+  // The model's own point variables in the snapshots (Model::output_names; none for most).
+  [[nodiscard]] std::vector<const char*> output_names() const {
+    return std::visit(
+        [](const auto& m) {
+          const auto& n = std::decay_t<decltype(m)>::output_names;
+          return std::vector<const char*>(n.begin(), n.end());
+        },
+        model_);
+  }
+  // Their values at a point, into v[0 … output_names().size() − 1].
+  void output(const State& s, double* v) const {
+    std::visit(
+        [&](const auto& m) {
+          constexpr std::size_t I = Registry::index<std::decay_t<decltype(m)>>();
+          m.output(std::get<I>(s.internal), v);
         },
         model_);
   }

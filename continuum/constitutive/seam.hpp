@@ -17,6 +17,8 @@
 //   Return update(const PointStress& c0, const Internal& i0, const Voigt& deps, PointStress& s,
 //                 Internal& i, VoigtMatrix* tangent, bool predictor) const;
 //   double equivalent_plastic_strain(const Internal&) const;   √(2/3 εp:εp), for output
+//   static constexpr std::array<const char*, N> output_names;  its own point variables in the
+//   void output(const Internal&, double* values) const;        snapshots (N may be 0)
 // and is listed in registry.hpp. `update` may sub-step the increment and may give a numerical
 // tangent (numerical_tangent below).
 //

@@ -1,6 +1,7 @@
 // Observation: probes, reactions, soil pressures, energies, .vtu/.pvd output (either integrator).
 #include "impl.hpp"
 
+#include <algorithm>
 #include <sstream>
 
 #include "demfem/scene/write_file.hpp"
@@ -386,6 +387,11 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
   const char* names[10] = {"stress_xx",      "stress_zz",         "stress_xz", "stress_yy",
                            "plastic_strain", "volumetric_strain", "rotation",  "material",
                            "subdomain",      "young_modulus"};
+  // The soil model's own point variables (void ratio, …), cell means over the soil's cells
+  const std::vector<const char*> own =
+      m.models.empty() ? std::vector<const char*>() : m.models.front().output_names();
+  std::vector<dealii::Vector<float>> od(own.size(), dealii::Vector<float>(nc));
+  std::vector<double> ov(own.size()), oacc(own.size());
   FEValues<2> fv(m.mapping, m.fe, m.quad, update_gradients | update_JxW_values);
   const FEValuesExtractors::Vector disp(0);
   std::vector<Tensor<2, 2>> grad(m.nq());
@@ -397,9 +403,15 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
     double a = 0;
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     const constitutive::Material& model = m.model_of(c, cell->material_id());
+    const bool soil = !own.empty() && cell->material_id() == 0 && !m.iface_cell[c];
+    std::fill(oacc.begin(), oacc.end(), 0.0);
     for (unsigned q = 0; q < m.nq(); ++q) {
       const QpState& s = m.committed[c * m.nq() + q];
       const double w = fv.JxW(q);
+      if (soil) {
+        model.output(s, ov.data());
+        for (std::size_t k = 0; k < own.size(); ++k) oacc[k] += ov[k] * w;
+      }
       a += w;
       acc[0] += s.stress[0] * w;
       acc[1] += s.stress[1] * w;
@@ -411,6 +423,7 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
       acc[7] += s.stiffness * w; // × the material's E below (stress-dependent modulus)
     }
     for (int k = 0; k < 7; ++k) cd[k][c] = float(acc[k] / a);
+    for (std::size_t k = 0; k < own.size(); ++k) od[k][c] = float(oacc[k] / a);
     cd[9][c] = float(model.elasticity().hooke.young * acc[7] / a);
     // material: 0 soil, k structure k, n_regions + 1 the interface layer
     cd[7][c] = m.iface_cell[c] ? float(m.pb.regions.size() + 1) : float(cell->material_id());
@@ -424,6 +437,8 @@ void Model::write_vtu(const std::string& directory, const std::string& basename,
                       DataOut<2>::type_dof_data, vec);
   out.add_data_vector(vg, std::vector<std::string>(2, "velocity"), DataOut<2>::type_dof_data, vec);
   for (int k = 0; k < 10; ++k) out.add_data_vector(cd[k], names[k], DataOut<2>::type_cell_data);
+  for (std::size_t k = 0; k < own.size(); ++k)
+    out.add_data_vector(od[k], own[k], DataOut<2>::type_cell_data);
   out.build_patches(m.mapping, static_cast<unsigned>(m.pb.degree));
   // The pieces "<basename>_<index>.<rank>.vtu" and the record "<basename>_<index>.pvtu" (the names
   // DataOut::write_vtu_with_pvtu_record gives), each through a checked atomic write.

@@ -1,7 +1,8 @@
 // The hypoplastic soil chosen by a scene ([soil.continuum] model = "hypoplastic" with its keys,
 // tests/continuum/hypoplastic_wall.toml): `demfem check` accepts the scene and refuses an
 // inconsistent set of its keys at the key, and `demfem run --solver continuum` runs it with the
-// explicit integrator. Shaken for 0.4 s, the hypoplastic fill compacts and settles (measured:
+// explicit integrator, its snapshots holding the void ratio and the intergranular strain. Shaken
+// for 0.4 s, the hypoplastic fill compacts and settles (measured:
 // 25 mm at mid-fill) where the same fill as a Mohr–Coulomb soil (the scene's variant) does not
 // (−0.6 mm, a slight heave).
 #include <cmath>
@@ -72,6 +73,33 @@ TEST(HypoplasticScene, RunsExplicitAndCompactsWhereMohrCoulombDoesNot) {
               sh, sm);
   EXPECT_GT(sh, 0.01);
   EXPECT_LT(std::abs(sm), 0.005);
+}
+
+// The snapshots carry the hypoplastic soil's void ratio and intergranular strain (cell means over
+// the soil); a Mohr–Coulomb soil's snapshots do not.
+TEST(HypoplasticScene, SnapshotsHoldTheVoidRatioAndTheIntergranularStrain) {
+  const fs::path scene = demfem::test::write_temp(
+      "hypoplastic_vtk.toml",
+      demfem::test::with_values(demfem::test::slurp(kScene),
+                                {{"duration", "0.1"}, {"interval", "0.05"}, {"vtk", "true"}}));
+  const auto has_array = [](const fs::path& dir, const std::string& name) {
+    for (const auto& e : fs::directory_iterator(dir / "continuum"))
+      if (e.path().extension() == ".vtu" &&
+          demfem::test::slurp(e.path()).find("Name=\"" + name + "\"") != std::string::npos)
+        return true;
+    return false;
+  };
+  const fs::path hypo = demfem::test::scratch("hypoplastic_vtk");
+  const Result h = run("run " + scene.string() + " --solver continuum --out " + hypo.string());
+  ASSERT_EQ(h.code, 0) << h.out;
+  EXPECT_TRUE(has_array(hypo, "void_ratio"));
+  EXPECT_TRUE(has_array(hypo, "intergranular_strain"));
+  const fs::path mc = demfem::test::scratch("mohr_coulomb_vtk");
+  const Result m = run("run " + scene.string() +
+                       " --solver continuum --variant mohr-coulomb --out " + mc.string());
+  ASSERT_EQ(m.code, 0) << m.out;
+  EXPECT_FALSE(has_array(mc, "void_ratio"));
+  EXPECT_TRUE(has_array(mc, "plastic_strain"));
 }
 
 #endif
