@@ -1213,6 +1213,20 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
         lines.push_back(
             fmt::format("structure.{}.base z = {:.4g} m: {}", name, st.base_centre.z + dz, note));
       }
+  // A model that reads neither the elastic nor the Mohr–Coulomb block (the hypoplastic soil) gets
+  // density, K0, surface and damping from the DEM, but not its own constants: say so.
+  namespace cst = continuum::constitutive;
+  if (const auto* m = s.model("model"); m && !m->chosen_uses(cst::Elastic::Parameters::kName) &&
+                                        !m->chosen_uses(cst::MohrCoulomb::Parameters::kName)) {
+    const std::string note = fmt::format(
+        "its constants are not calibrated from the DEM element tests; they keep the scene's "
+        "values (or the defaults)");
+    s.provenance.emplace_back("model", m->keyword + ": " + note);
+    lines.push_back(fmt::format("model = {}: {}", m->keyword, note));
+    spdlog::warn("soil.continuum.model = {}: calibrate = \"dem\" gives density, k0, surface and "
+                 "damping; {}",
+                 m->keyword, note);
+  }
   return lines;
 }
 

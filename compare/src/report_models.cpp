@@ -133,7 +133,8 @@ std::string continuum_model(const scene::ContinuumSoil& c) {
                        g3(el.poisson), cal ? " (calibrated)" : "");
   if (!mohr_coulomb(c)) {
     const auto& choice = cst::soil_model(c);
-    const auto* entry = cst::model_slot().find(choice.keyword);
+    const auto slot = cst::model_slot(); // (find points into it)
+    const auto* entry = slot.find(choice.keyword);
     std::string keys;
     for (const auto& p : scene::describe(choice)) keys += (keys.empty() ? "" : ", ") + p.text();
     return fmt::format("{}: {}{}", entry ? entry->summary : choice.keyword, keys,
@@ -390,6 +391,12 @@ void soil_model(const DiffContext& x, std::vector<DiffRow>& rows) {
         cst::elastic_block(c).stress_dependent()
             ? "follows the initial confinement as p^" + g3(cst::elastic_block(c).modulus_exponent)
             : "is the same at every depth");
+  else if (soil_is(c, cst::Hypoplastic::keyword))
+    r.consequence =
+        "Both can compact: the continuum's hypoplastic soil densifies under cyclic shear (its void "
+        "ratio falls towards e_d) with a stiffness that follows the mean stress and, through the "
+        "intergranular strain, the strain's recent path. A difference in settlement is then a "
+        "difference between the two models of the same sand, not a capacity only the DEM has.";
   else if (soil_is(c, cst::Elastic::keyword))
     r.consequence = "The continuum never yields or slides: every permanent deformation and all "
                     "sliding at failure are DEM-only.";

@@ -171,6 +171,12 @@ TEST(ReportModels, SoilModelAndInitialStressRowsFollowTheScene) {
   const auto* model = row(rows, "soil model (constitutive behaviour)");
   EXPECT_NE(model->continuum.find("linear elastic"), std::string::npos) << model->continuum;
   EXPECT_EQ(model->continuum.find("Mohr–Coulomb"), std::string::npos);
+  // A hypoplastic soil: the row names it and says both models can compact
+  demfem::continuum::constitutive::choose_model(*s.soil.continuum, "hypoplastic");
+  rows = compare::model_differences(s, f);
+  model = row(rows, "soil model (constitutive behaviour)");
+  EXPECT_NE(model->continuum.find("hypoplastic"), std::string::npos) << model->continuum;
+  EXPECT_NE(model->consequence.find("Both can compact"), std::string::npos) << model->consequence;
 }
 
 TEST(ReportModels, DampingRowSaysWhetherTheContinuumUsesTheMeasuredDamping) {
