@@ -101,12 +101,12 @@ std::uint32_t Engine::add_particle(double x, double z, double r, double vx, doub
   p_.material.push_back(material);
   p_.flags.push_back(kFlagNone);
   friction_dirty_ = true;
-  disp_valid_ = false;
+  nl_.disp_valid = false;
   compute_mass(i);
   r_min_ = i == 0 ? r : std::min(r_min_, r);
   r_max_ = i == 0 ? r : std::max(r_max_, r);
   m_min_ = i == 0 ? p_.mass[i] : std::min(m_min_, p_.mass[i]);
-  need_rebuild_ = true;
+  nl_.need_rebuild = true;
   return p_.id.back();
 }
 
@@ -116,7 +116,7 @@ Boundary Engine::new_boundary(const std::string& name, const std::vector<scene::
                               std::optional<double> mu_s, std::optional<double> mu_d) {
   Boundary b;
   b.name = name;
-  b.first_vertex = static_cast<std::uint32_t>(bvx_.size());
+  b.first_vertex = static_cast<std::uint32_t>(bd_.vx.size());
   b.vertex_count = static_cast<std::uint32_t>(points.size());
   if (mu_s || mu_d) {
     b.own_friction = true;
@@ -124,10 +124,10 @@ Boundary Engine::new_boundary(const std::string& name, const std::vector<scene::
     b.mu_d = mu_d.value_or(std::min(b.mu_s, config_.materials[0].mu_d));
   }
   for (const auto& q : points) {
-    bvx_.push_back(q.x);
-    bvz_.push_back(q.z);
-    bvx0_.push_back(q.x);
-    bvz0_.push_back(q.z);
+    bd_.vx.push_back(q.x);
+    bd_.vz.push_back(q.z);
+    bd_.vx0.push_back(q.x);
+    bd_.vz0.push_back(q.z);
   }
   return b;
 }
@@ -136,21 +136,21 @@ int Engine::add_wall(const std::vector<scene::Vec2>& points, const std::string& 
                      const double* mu_s, const double* mu_d) {
   Boundary b = new_boundary(name, points, mu_s ? std::optional<double>(*mu_s) : std::nullopt,
                             mu_d ? std::optional<double>(*mu_d) : std::nullopt);
-  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
+  const auto bi = static_cast<std::uint32_t>(bd_.list.size());
   // Segments, then vertices with their adjacent segments.
   const std::uint32_t n = b.vertex_count;
-  const auto seg0 = static_cast<std::int32_t>(features_.size());
+  const auto seg0 = static_cast<std::int32_t>(bd_.features.size());
   const std::uint32_t nseg = n < 2 ? 0 : n - 1;
   for (std::uint32_t k = 0; k < nseg; ++k)
-    features_.push_back({bi, b.first_vertex + k, b.first_vertex + k + 1});
+    bd_.features.push_back({bi, b.first_vertex + k, b.first_vertex + k + 1});
   for (std::uint32_t k = 0; k < n; ++k) {
     Feature f{bi, b.first_vertex + k, b.first_vertex + k};
     if (k > 0) f.adj0 = seg0 + static_cast<std::int32_t>(k) - 1;
     if (k < nseg) f.adj1 = seg0 + static_cast<std::int32_t>(k);
-    features_.push_back(f);
+    bd_.features.push_back(f);
   }
-  boundaries_.push_back(b);
-  need_rebuild_ = true;
+  bd_.list.push_back(b);
+  nl_.need_rebuild = true;
   return static_cast<int>(bi);
 }
 
@@ -189,36 +189,36 @@ int Engine::add_structure(const scene::Structure& s) {
   // Outline as a closed boundary with one-sided (outward) edges.
   Boundary b = new_boundary(s.name, P, s.mu_static, s.mu_dynamic);
   b.closed = true;
-  b.structure = static_cast<int>(structures_.size());
-  const auto bi = static_cast<std::uint32_t>(boundaries_.size());
+  b.structure = static_cast<int>(bd_.structures.size());
+  const auto bi = static_cast<std::uint32_t>(bd_.list.size());
   const std::uint32_t n = b.vertex_count;
-  const auto seg0 = static_cast<std::int32_t>(features_.size());
+  const auto seg0 = static_cast<std::int32_t>(bd_.features.size());
   for (std::uint32_t k = 0; k < n; ++k)
-    features_.push_back({bi, b.first_vertex + k, b.first_vertex + (k + 1) % n});
+    bd_.features.push_back({bi, b.first_vertex + k, b.first_vertex + (k + 1) % n});
   for (std::uint32_t k = 0; k < n; ++k) {
     Feature f{bi, b.first_vertex + k, b.first_vertex + k};
     f.adj0 = seg0 + static_cast<std::int32_t>((k + n - 1) % n);
     f.adj1 = seg0 + static_cast<std::int32_t>(k);
-    features_.push_back(f);
+    bd_.features.push_back(f);
   }
   st.first_vertex = b.first_vertex;
   st.vertex_count = n;
   st.boundary = bi;
-  boundaries_.push_back(b);
-  structures_.push_back(st);
-  need_rebuild_ = true;
-  return static_cast<int>(structures_.size() - 1);
+  bd_.list.push_back(b);
+  bd_.structures.push_back(st);
+  nl_.need_rebuild = true;
+  return static_cast<int>(bd_.structures.size() - 1);
 }
 
 int Engine::boundary_index(const std::string& name) const {
-  for (std::size_t b = 0; b < boundaries_.size(); ++b)
-    if (boundaries_[b].name == name) return static_cast<int>(b);
+  for (std::size_t b = 0; b < bd_.list.size(); ++b)
+    if (bd_.list[b].name == name) return static_cast<int>(b);
   return -1;
 }
 
 int Engine::structure_index(const std::string& name) const {
-  for (std::size_t s = 0; s < structures_.size(); ++s)
-    if (structures_[s].name == name) return static_cast<int>(s);
+  for (std::size_t s = 0; s < bd_.structures.size(); ++s)
+    if (bd_.structures[s].name == name) return static_cast<int>(s);
   return -1;
 }
 
@@ -257,7 +257,7 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
                              IntegratedPart& out) {
   const detail::IntegrateConstants c{dt_,     config_.gravity,   ax_body,
                                      az_body, config_.damping_c, config_.damping_d};
-  const bool refs = x_ref_.size() == p_.size(); // displacements since the last rebuild
+  const bool refs = nl_.x_ref.size() == p_.size(); // displacements since the last rebuild
   const detail::IntegrateArrays a{p_.x.data(),
                                   p_.z.data(),
                                   p_.phi.data(),
@@ -270,8 +270,8 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
                                   p_.mass.data(),
                                   p_.inv_mass.data(),
                                   p_.inv_inertia.data(),
-                                  refs ? x_ref_.data() : nullptr,
-                                  refs ? z_ref_.data() : nullptr};
+                                  refs ? nl_.x_ref.data() : nullptr,
+                                  refs ? nl_.z_ref.data() : nullptr};
   const std::uint32_t* __restrict flags = p_.flags.data();
   std::uint32_t removed = 0;
   for (std::size_t i = i0; i < i1; ++i) removed |= flags[i] & kFlagRemoved;
@@ -304,7 +304,7 @@ void Engine::integrate_range(std::size_t i0, std::size_t i1, double ax_body, dou
       if (!std::isfinite(r.s) && out.bad == IntegratedPart::kNone) out.bad = i;
     }
     if (refs) {
-      const double dx = p_.x[i] - x_ref_[i], dz = p_.z[i] - z_ref_[i];
+      const double dx = p_.x[i] - nl_.x_ref[i], dz = p_.z[i] - nl_.z_ref[i];
       top.add(dx * dx + dz * dz);
     }
   }
@@ -355,26 +355,26 @@ void Engine::integrate() {
   std::size_t bad = IntegratedPart::kNone;
   detail::Top2 top;
   for (std::size_t t = 0; t < parts; ++t) {
-    e_external_ += integrated_[t].work;
-    e_damping_ += integrated_[t].damping;
+    en_.external += integrated_[t].work;
+    en_.damping += integrated_[t].damping;
     if (bad == IntegratedPart::kNone) bad = integrated_[t].bad;
     top.add(integrated_[t].top_a);
     top.add(integrated_[t].top_b);
   }
-  disp_a_ = top.a;
-  disp_b_ = top.b;
-  disp_valid_ = x_ref_.size() == n;
+  nl_.disp_a = top.a;
+  nl_.disp_b = top.b;
+  nl_.disp_valid = nl_.x_ref.size() == n;
   if (bad != IntegratedPart::kNone && failure_.empty())
     failure_ = fmt::format("non-finite position or velocity of particle {}", p_.id[bad]);
 }
 
 void Engine::update_structures() {
-  if (structures_.empty()) return;
+  if (bd_.structures.empty()) return;
   ++stats_.structure_updates;
   const double dt = dt_;
   const double g = config_.gravity;
   const double tn = time_ + dt;
-  for (auto& st : structures_) {
+  for (auto& st : bd_.structures) {
     const auto& sp = st.spec;
     const double c = std::cos(st.rot), s = std::sin(st.rot);
     const double px = st.px0 + st.ux, pz = st.pz0 + st.uz;
@@ -423,7 +423,7 @@ void Engine::update_structures() {
     if (sp.dof_x == scene::DofMode::Prescribed) w -= st.soil_fx * st.vx * dt;
     if (sp.dof_z == scene::DofMode::Prescribed) w -= st.soil_fz * st.vz * dt;
     if (sp.dof_rotation == scene::DofMode::Prescribed) w -= st.soil_moment * st.omega * dt;
-    e_external_ += w;
+    en_.external += w;
     (void)vx0;
     (void)vz0;
     (void)om0;
@@ -435,13 +435,13 @@ void Engine::update_structures() {
 
 void Engine::first_step_setup() {
   if (!(dt_ > 0.0)) set_dt(auto_dt());
-  if (!pe_ref_set_) {
-    pe_ref_set_ = true;
-    pe_ref_ = 0.0;
+  if (!en_.pe_ref_set) {
+    en_.pe_ref_set = true;
+    en_.pe_ref = 0.0;
     const double g = config_.gravity;
-    for (std::size_t i = 0; i < p_.size(); ++i) pe_ref_ += p_.mass[i] * g * p_.z[i];
-    for (const auto& st : structures_)
-      if (st.spec.dead_weight) pe_ref_ += st.mass * g * (st.pz0 + st.uz + st.cz_local);
+    for (std::size_t i = 0; i < p_.size(); ++i) en_.pe_ref += p_.mass[i] * g * p_.z[i];
+    for (const auto& st : bd_.structures)
+      if (st.spec.dead_weight) en_.pe_ref += st.mass * g * (st.pz0 + st.uz + st.cz_local);
   }
 }
 
@@ -599,8 +599,8 @@ void Engine::run_steps(long long n) {
 void Engine::open_wall(const std::string& name) {
   const int b = boundary_index(name);
   if (b < 0) throw std::runtime_error("open_wall: no wall named '" + name + "'");
-  boundaries_[static_cast<std::size_t>(b)].active = false;
-  need_rebuild_ = true;
+  bd_.list[static_cast<std::size_t>(b)].active = false;
+  nl_.need_rebuild = true;
 }
 
 std::size_t Engine::set_friction(const scene::Polygon& region, double mu_s, double mu_d) {
@@ -627,7 +627,7 @@ EnergyBudget Engine::energy() const {
     e.rotational += 0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
     pe += p_.mass[i] * g * p_.z[i];
   }
-  for (const auto& st : structures_) {
+  for (const auto& st : bd_.structures) {
     e.kinetic += 0.5 * st.mass * (st.vx * st.vx + st.vz * st.vz);
     e.rotational += 0.5 * st.inertia * st.omega * st.omega;
     if (st.spec.dead_weight) {
@@ -635,32 +635,32 @@ EnergyBudget Engine::energy() const {
       pe += st.mass * g * (st.pz0 + st.uz + s * st.cx_local + c * st.cz_local);
     }
   }
-  pe += pe_left_; // removed particles: at the height where they left
-  e.potential = pe - (pe_ref_set_ ? pe_ref_ : pe);
+  pe += en_.pe_left; // removed particles: at the height where they left
+  e.potential = pe - (en_.pe_ref_set ? en_.pe_ref : pe);
   e.gravity_work = -e.potential;
-  e.left_scene = e_left_;
-  e.spring_normal = e_normal_;
-  e.spring_shear = e_shear_;
-  e.friction = e_friction_;
-  e.damping = e_damping_;
-  e.rebound = e_rebound_;
-  e.external_work = e_external_;
+  e.left_scene = en_.left;
+  e.spring_normal = en_.normal;
+  e.spring_shear = en_.shear;
+  e.friction = en_.friction;
+  e.damping = en_.damping;
+  e.rebound = en_.rebound;
+  e.external_work = en_.external;
   return e;
 }
 
 std::size_t Engine::pair_contact_count() const {
   std::size_t n = 0;
-  for (const auto& h : nbr_hist_) n += (h.flags & kHistActive) ? 1 : 0;
+  for (const auto& h : nl_.hist) n += (h.flags & kHistActive) ? 1 : 0;
   return n;
 }
 
 void Engine::contacts(std::vector<ContactView>& out, bool pairs) const {
   out.clear();
-  for (std::size_t i = 0; pairs && i + 1 < nbr_start_.size(); ++i)
-    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
-      const auto& h = nbr_hist_[k];
+  for (std::size_t i = 0; pairs && i + 1 < nl_.start.size(); ++i)
+    for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k) {
+      const auto& h = nl_.hist[k];
       if (!(h.flags & kHistActive)) continue;
-      const std::uint32_t j = nbr_j_[k];
+      const std::uint32_t j = nl_.j[k];
       const double dx = p_.x[i] - p_.x[j], dz = p_.z[i] - p_.z[j];
       const double d = std::sqrt(dx * dx + dz * dz);
       const double delta = p_.radius[i] + p_.radius[j] - d;
@@ -675,21 +675,21 @@ void Engine::contacts(std::vector<ContactView>& out, bool pairs) const {
       v.tensile = h.fn < 0.0f;
       out.push_back(v);
     }
-  for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
-    const auto& h = bnd_hist_[k];
+  for (std::size_t k = 0; k < nl_.bnd_i.size(); ++k) {
+    const auto& h = nl_.bnd_hist[k];
     if (!(h.flags & kHistActive)) continue;
-    const auto& F = features_[bnd_f_[k]];
-    const std::uint32_t i = bnd_i_[k];
+    const auto& F = bd_.features[nl_.bnd_f[k]];
+    const std::uint32_t i = nl_.bnd_i[k];
     ContactView v;
     v.i = i;
     v.j = -1 - static_cast<std::int64_t>(F.boundary);
     // Contact point: the closest point of the feature.
     if (F.v0 == F.v1) {
-      v.cx = bvx_[F.v0];
-      v.cz = bvz_[F.v0];
+      v.cx = bd_.vx[F.v0];
+      v.cz = bd_.vz[F.v0];
     } else {
-      const double ax = bvx_[F.v0], az = bvz_[F.v0];
-      const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+      const double ax = bd_.vx[F.v0], az = bd_.vz[F.v0];
+      const double ex = bd_.vx[F.v1] - ax, ez = bd_.vz[F.v1] - az;
       const double t =
           std::clamp(((p_.x[i] - ax) * ex + (p_.z[i] - az) * ez) / (ex * ex + ez * ez), 0.0, 1.0);
       v.cx = ax + t * ex;
@@ -707,10 +707,10 @@ std::size_t Engine::overlapping_pair_count() const {
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
   std::size_t n = 0;
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i) {
+  for (std::size_t i = 0; i + 1 < nl_.start.size(); ++i) {
     const double xi = x[i], zi = z[i], ri = rad[i];
-    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
-      const std::uint32_t j = nbr_j_[k];
+    for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k) {
+      const std::uint32_t j = nl_.j[k];
       const double dx = xi - x[j], dz = zi - z[j], rs = ri + rad[j];
       n += dx * dx + dz * dz <= rs * rs ? 1u : 0u;
     }
@@ -723,10 +723,10 @@ double Engine::largest_overlap_ratio() const {
   const double* __restrict x = p_.x.data();
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
-    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
-      if (!(nbr_hist_[k].flags & kHistActive)) continue;
-      const std::uint32_t j = nbr_j_[k];
+  for (std::size_t i = 0; i + 1 < nl_.start.size(); ++i)
+    for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k) {
+      if (!(nl_.hist[k].flags & kHistActive)) continue;
+      const std::uint32_t j = nl_.j[k];
       const double dx = x[i] - x[j], dz = z[i] - z[j];
       const double d2 = dx * dx + dz * dz, rsum = rad[i] + rad[j], rmin = std::min(rad[i], rad[j]);
       // (r_i + r_j − d)/r_min ≤ worst when d ≥ r_i + r_j − worst·r_min: skipped without the root
@@ -737,9 +737,9 @@ double Engine::largest_overlap_ratio() const {
     }
   std::visit(
       [&](const auto& law) {
-        for (std::size_t k = 0; k < bnd_i_.size(); ++k) {
-          const auto& h = bnd_hist_[k];
-          const double fn = h.fn, ri = rad[bnd_i_[k]];
+        for (std::size_t k = 0; k < nl_.bnd_i.size(); ++k) {
+          const auto& h = nl_.bnd_hist[k];
+          const double fn = h.fn, ri = rad[nl_.bnd_i[k]];
           if ((h.flags & kHistActive) && fn > 0.0) // the law's δ(f_n), R* = r_i at a boundary
             worst = std::max(worst, law.overlap(fn, ri) / ri);
         }
@@ -750,21 +750,21 @@ double Engine::largest_overlap_ratio() const {
 
 void Engine::boundary_vertices(int b, std::vector<scene::Vec2>& out) const {
   out.clear();
-  const auto& B = boundaries_[static_cast<std::size_t>(b)];
+  const auto& B = bd_.list[static_cast<std::size_t>(b)];
   for (std::uint32_t k = B.first_vertex; k < B.first_vertex + B.vertex_count; ++k)
-    out.push_back({bvx_[k], bvz_[k]});
+    out.push_back({bd_.vx[k], bd_.vz[k]});
 }
 
 void Engine::boundary_views(std::vector<BoundaryView>& out) const {
   out.clear();
-  for (const auto& B : boundaries_) {
+  for (const auto& B : bd_.list) {
     BoundaryView v;
     v.name = B.name;
     v.closed = B.closed;
     v.open = !B.active;
     for (std::uint32_t k = B.first_vertex; k < B.first_vertex + B.vertex_count; ++k) {
-      v.x.push_back(bvx_[k]);
-      v.z.push_back(bvz_[k]);
+      v.x.push_back(bd_.vx[k]);
+      v.z.push_back(bd_.vz[k]);
     }
     out.push_back(std::move(v));
   }
@@ -779,11 +779,11 @@ Engine::MemoryUse Engine::memory_use() const {
                 cap(p_.fx) + cap(p_.fz) + cap(p_.torque) + cap(p_.radius) + cap(p_.mass) +
                 cap(p_.inv_mass) + cap(p_.inv_inertia) + cap(p_.id) + cap(p_.material) +
                 cap(p_.flags);
-  m.contact_history = cap(nbr_hist_) + cap(bnd_hist_) + cap(nbr_xh_) + cap(bnd_xh_);
-  m.neighbour_lists = cap(nbr_start_) + cap(nbr_j_) + cap(nbr_i_) + cap(bnd_i_) + cap(bnd_f_) +
-                      cap(x_ref_) + cap(z_ref_);
-  m.grid = cap(cell_of_) + cap(cell_start_) + cap(cell_items_);
-  m.other = cap(tbuf_) + cap(split_) + cap(halo_end_) + cap(bvx_) * 6 + cap(features_);
+  m.contact_history = cap(nl_.hist) + cap(nl_.bnd_hist) + cap(nl_.xh) + cap(nl_.bnd_xh);
+  m.neighbour_lists = cap(nl_.start) + cap(nl_.j) + cap(nl_.owner) + cap(nl_.bnd_i) +
+                      cap(nl_.bnd_f) + cap(nl_.x_ref) + cap(nl_.z_ref);
+  m.grid = cap(nl_.cell_of) + cap(nl_.cell_start) + cap(nl_.cell_items);
+  m.other = cap(tbuf_) + cap(split_) + cap(halo_end_) + cap(bd_.vx) * 6 + cap(bd_.features);
   return m;
 }
 

@@ -140,14 +140,14 @@ void Engine::pair_range(const Law& law, std::size_t i0, std::size_t i1, const Fo
   const double max_ov = config_.max_overlap;
   bool failed = fail_pair[0] != ~0u;
   for (std::size_t i = i0; i < i1; ++i) {
-    const std::uint32_t kb = nbr_start_[i], ke = nbr_start_[i + 1];
+    const std::uint32_t kb = nl_.start[i], ke = nl_.start[i + 1];
     if (kb == ke) continue;
     const double xi = x[i], zi = z[i], ri = rad[i];
     double fxi = 0.0, fzi = 0.0, ti = 0.0;
     for (std::uint32_t k = kb; k < ke; ++k) {
-      const std::uint32_t j = nbr_j_[k];
-      ContactHistory& h = nbr_hist_[k];
-      double* extra = Law::kHistory > 0 ? nbr_xh_.data() + k * Law::kHistory : nullptr;
+      const std::uint32_t j = nl_.j[k];
+      ContactHistory& h = nl_.hist[k];
+      double* extra = Law::kHistory > 0 ? nl_.xh.data() + k * Law::kHistory : nullptr;
       const double dx = xi - x[j], dz = zi - z[j];
       const double rsum = ri + rad[j];
       const double d2 = dx * dx + dz * dz;
@@ -207,12 +207,12 @@ void Engine::pair_range_rebound(const ReboundModel& law, std::size_t i0, std::si
   const double* __restrict z = p_.z.data();
   const double* __restrict rad = p_.radius.data();
   const std::uint16_t* __restrict matl = p_.material.data();
-  const std::uint32_t* __restrict start = nbr_start_.data();
-  const std::uint32_t* __restrict partner = nbr_j_.data();
-  ContactHistory* __restrict hist = nbr_hist_.data();
+  const std::uint32_t* __restrict start = nl_.start.data();
+  const std::uint32_t* __restrict partner = nl_.j.data();
+  ContactHistory* __restrict hist = nl_.hist.data();
   PairEnergies en;
   bool failed = fail_pair[0] != ~0u;
-  const std::uint32_t* __restrict owner = nbr_i_.data();
+  const std::uint32_t* __restrict owner = nl_.owner.data();
   // The owner whose forces are being summed: its sums are added to its arrays when the owner
   // changes. (A branch-free form, the sums of an unchanged owner written to a spill slot, was
   // compiled back into this branch, the slot's stores being dead; forced branch-free it measured
@@ -359,7 +359,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
         &rebound_events_[0]};
     pair_range(law, 0, n, ft, en, fail);
     if (bnd_sums_.empty()) bnd_sums_.resize(1);
-    boundary_range(law, 0, bnd_i_.size(), bnd_sums_[0]);
+    boundary_range(law, 0, nl_.bnd_i.size(), bnd_sums_[0]);
     finish_forces(en, fail);
     return;
   }
@@ -397,7 +397,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
 template <class Law>
 long long Engine::team_steps(const Law& law, long long max_steps, double t_stop) {
   const int team = team_size();
-  if (max_steps <= 0 || threads_in_use() <= 1 || team <= 1 || !(dt_ > 0.0) || !pe_ref_set_ ||
+  if (max_steps <= 0 || threads_in_use() <= 1 || team <= 1 || !(dt_ > 0.0) || !en_.pe_ref_set ||
       friction_dirty_ || !failure_.empty() || !(time_ < t_stop - 0.5 * dt_) || rebuild_pending())
     return 0;
   if (!tuner_.started && !tuner_.fixed && config_.adaptive_threads) return 0; // step() starts it
@@ -522,8 +522,8 @@ void Engine::resume_team_clock() {
 }
 
 void Engine::reset_step_sums() {
-  for (auto& b : boundaries_) b.reaction_x = b.reaction_z = 0.0;
-  for (auto& st : structures_) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
+  for (auto& b : bd_.list) b.reaction_x = b.reaction_z = 0.0;
+  for (auto& st : bd_.structures) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
   if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
 }
 
@@ -532,17 +532,17 @@ std::size_t Engine::begin_parts() {
   // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
   // (equal shares of pair entries). Computed once per list.
   const auto tcount = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
-  if (parts_version_ != list_version_ || split_.size() != tcount + 1) {
+  if (parts_version_ != nl_.version || split_.size() != tcount + 1) {
     split_.assign(tcount + 1, n);
     split_[0] = 0;
-    const std::uint32_t total = nbr_start_[n];
+    const std::uint32_t total = nl_.start[n];
     for (std::size_t t = 1; t < tcount; ++t) {
       const auto target = static_cast<std::uint32_t>(
           static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
       split_[t] = static_cast<std::size_t>(
-          std::lower_bound(nbr_start_.begin(), nbr_start_.begin() + static_cast<std::ptrdiff_t>(n),
+          std::lower_bound(nl_.start.begin(), nl_.start.begin() + static_cast<std::ptrdiff_t>(n),
                            target) -
-          nbr_start_.begin());
+          nl_.start.begin());
       split_[t] = std::max(split_[t], split_[t - 1]);
     }
     // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
@@ -555,9 +555,9 @@ std::size_t Engine::begin_parts() {
       const std::size_t end = split_[t + 1];
       std::size_t e = end, from = end;
       for (std::size_t i = split_[t]; i < end; ++i)
-        for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k) {
-          e = std::max<std::size_t>(e, nbr_j_[k] + 1u);
-          if (nbr_j_[k] >= end) from = std::min(from, i);
+        for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k) {
+          e = std::max<std::size_t>(e, nl_.j[k] + 1u);
+          if (nl_.j[k] >= end) from = std::min(from, i);
         }
       halo_end_[t] = e;
       halo_from_[t] = from;
@@ -571,14 +571,15 @@ std::size_t Engine::begin_parts() {
     for (std::size_t t = 0; t < tcount; ++t)
       halo_off_[t + 1] = halo_off_[t] + 3 * (halo_end_[t] - split_[t + 1]);
     if (tbuf_.size() < halo_off_[tcount]) tbuf_.resize(halo_off_[tcount]);
-    // Part t's boundary entries: those of its particles (bnd_i_ is sorted by particle).
+    // Part t's boundary entries: those of its particles (nl_.bnd_i is sorted by particle).
     bnd_split_.resize(tcount + 1);
     for (std::size_t t = 0; t <= tcount; ++t)
-      bnd_split_[t] = static_cast<std::size_t>(
-          std::lower_bound(bnd_i_.begin(), bnd_i_.end(), static_cast<std::uint32_t>(split_[t])) -
-          bnd_i_.begin());
-    bnd_split_[tcount] = bnd_i_.size();
-    parts_version_ = list_version_;
+      bnd_split_[t] =
+          static_cast<std::size_t>(std::lower_bound(nl_.bnd_i.begin(), nl_.bnd_i.end(),
+                                                    static_cast<std::uint32_t>(split_[t])) -
+                                   nl_.bnd_i.begin());
+    bnd_split_[tcount] = nl_.bnd_i.size();
+    parts_version_ = nl_.version;
   }
   std::fill(part_en_.begin(),
             part_en_.begin() + static_cast<std::ptrdiff_t>(kPartEnergies * tcount), 0.0);
@@ -663,51 +664,51 @@ void Engine::finish_forces(const double* en, const std::uint32_t* fail) {
     failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particles {} and {}",
                            delta, p_.id[i], p_.id[j]);
   }
-  e_friction_ += en[0];
-  e_damping_ += en[1];
-  e_normal_ = en[2];
-  e_shear_ = en[3];
+  en_.friction += en[0];
+  en_.damping += en[1];
+  en_.normal = en[2];
+  en_.shear = en[3];
   add_boundary_sums();
 }
 
 void Engine::add_boundary_sums() {
   for (std::size_t t = 0; t < event_parts_; ++t) {
     const BoundarySums& s = bnd_sums_[t];
-    e_friction_ += s.e_friction;
-    e_damping_ += s.e_damping;
-    e_normal_ += s.e_normal;
-    e_shear_ += s.e_shear;
-    for (std::size_t b = 0; b < boundaries_.size(); ++b) {
-      boundaries_[b].reaction_x += s.reaction[2 * b];
-      boundaries_[b].reaction_z += s.reaction[2 * b + 1];
+    en_.friction += s.e_friction;
+    en_.damping += s.e_damping;
+    en_.normal += s.e_normal;
+    en_.shear += s.e_shear;
+    for (std::size_t b = 0; b < bd_.list.size(); ++b) {
+      bd_.list[b].reaction_x += s.reaction[2 * b];
+      bd_.list[b].reaction_z += s.reaction[2 * b + 1];
     }
-    for (std::size_t q = 0; q < structures_.size(); ++q) {
-      structures_[q].soil_fx += s.soil[3 * q];
-      structures_[q].soil_fz += s.soil[3 * q + 1];
-      structures_[q].soil_moment += s.soil[3 * q + 2];
+    for (std::size_t q = 0; q < bd_.structures.size(); ++q) {
+      bd_.structures[q].soil_fx += s.soil[3 * q];
+      bd_.structures[q].soil_fz += s.soil[3 * q + 1];
+      bd_.structures[q].soil_moment += s.soil[3 * q + 2];
     }
     if (s.fail != ~std::size_t{0} && failure_.empty())
       failure_ = fmt::format("overlap {:.3g} m exceeds max_overlap·r between particle {} and "
                              "boundary '{}'",
-                             s.fail_delta, p_.id[bnd_i_[s.fail]],
-                             boundaries_[features_[bnd_f_[s.fail]].boundary].name);
+                             s.fail_delta, p_.id[nl_.bnd_i[s.fail]],
+                             bd_.list[bd_.features[nl_.bnd_f[s.fail]].boundary].name);
   }
 }
 
 template <class Law>
 void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, BoundarySums& s) {
   const double dt = dt_;
-  s.reaction.assign(2 * boundaries_.size(), 0.0);
-  s.soil.assign(3 * structures_.size(), 0.0);
+  s.reaction.assign(2 * bd_.list.size(), 0.0);
+  s.soil.assign(3 * bd_.structures.size(), 0.0);
   s.events.clear();
   s.fail = ~std::size_t{0};
   double e_fric = 0.0, e_damp = 0.0, e_n = 0.0, e_s = 0.0;
   for (std::size_t k = k0; k < k1; ++k) {
-    const std::uint32_t i = bnd_i_[k];
-    const Feature& F = features_[bnd_f_[k]];
-    Boundary& B = boundaries_[F.boundary];
-    ContactHistory& h = bnd_hist_[k];
-    double* extra = Law::kHistory > 0 ? bnd_xh_.data() + k * Law::kHistory : nullptr;
+    const std::uint32_t i = nl_.bnd_i[k];
+    const Feature& F = bd_.features[nl_.bnd_f[k]];
+    Boundary& B = bd_.list[F.boundary];
+    ContactHistory& h = nl_.bnd_hist[k];
+    double* extra = Law::kHistory > 0 ? nl_.bnd_xh.data() + k * Law::kHistory : nullptr;
     if (!B.active) {
       h = ContactHistory{};
       for (std::size_t q = 0; q < Law::kHistory; ++q) extra[q] = 0.0;
@@ -718,13 +719,13 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     double qx, qz, nx, nz, dist;
     bool valid = true;
     if (F.v0 == F.v1) { // vertex: only in its own Voronoi region (no adjacent edge contact)
-      qx = bvx_[F.v0];
-      qz = bvz_[F.v0];
+      qx = bd_.vx[F.v0];
+      qz = bd_.vz[F.v0];
       for (std::int32_t adj : {F.adj0, F.adj1}) {
         if (adj < 0) continue;
-        const Feature& S = features_[static_cast<std::size_t>(adj)];
-        const double ax = bvx_[S.v0], az = bvz_[S.v0];
-        const double ex = bvx_[S.v1] - ax, ez = bvz_[S.v1] - az;
+        const Feature& S = bd_.features[static_cast<std::size_t>(adj)];
+        const double ax = bd_.vx[S.v0], az = bd_.vz[S.v0];
+        const double ex = bd_.vx[S.v1] - ax, ez = bd_.vz[S.v1] - az;
         const double t = ((px - ax) * ex + (pz - az) * ez) / (ex * ex + ez * ez);
         if (t > 0.0 && t < 1.0) valid = false;
       }
@@ -733,8 +734,8 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
       nx = dist > 0.0 ? dx / dist : 0.0;
       nz = dist > 0.0 ? dz / dist : 1.0;
     } else {
-      const double ax = bvx_[F.v0], az = bvz_[F.v0];
-      const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+      const double ax = bd_.vx[F.v0], az = bd_.vz[F.v0];
+      const double ex = bd_.vx[F.v1] - ax, ez = bd_.vz[F.v1] - az;
       const double len2 = ex * ex + ez * ez;
       const double t = ((px - ax) * ex + (pz - az) * ez) / len2;
       if (!(t > 0.0 && t < 1.0)) valid = false;
@@ -761,7 +762,7 @@ void Engine::boundary_range(const Law& law, std::size_t k0, std::size_t k1, Boun
     double bvx = 0.0, bvz = 0.0;
     StructureState* st = nullptr;
     if (B.structure >= 0) {
-      st = &structures_[static_cast<std::size_t>(B.structure)];
+      st = &bd_.structures[static_cast<std::size_t>(B.structure)];
       const double rx = qx - (st->px0 + st->ux), rz = qz - (st->pz0 + st->uz);
       bvx = st->vx - st->omega * rz;
       bvz = st->vz + st->omega * rx;
@@ -934,7 +935,7 @@ void Engine::apply_rebounds() {
     }
     if (change < 1e-12) break;
   }
-  e_rebound_ += e_reb;
+  en_.rebound += e_reb;
   const double dt = dt_;
   for (std::size_t k = 0; k < n; ++k) { // the impulses act as forces P/Δt over this step
     const ReboundEvent& e = rebound_all_[k];
@@ -947,11 +948,11 @@ void Engine::apply_rebounds() {
       p_.fz[e.j] -= Fz;
       continue;
     }
-    Boundary& B = boundaries_[static_cast<std::size_t>(e.boundary)];
+    Boundary& B = bd_.list[static_cast<std::size_t>(e.boundary)];
     B.reaction_x -= Fx;
     B.reaction_z -= Fz;
     if (B.structure >= 0) {
-      StructureState& st = structures_[static_cast<std::size_t>(B.structure)];
+      StructureState& st = bd_.structures[static_cast<std::size_t>(B.structure)];
       st.soil_fx -= Fx;
       st.soil_fz -= Fz;
       st.soil_moment += e.rx * (-Fz) - e.rz * (-Fx); // (q − P) × (−F)

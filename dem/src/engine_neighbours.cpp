@@ -20,25 +20,25 @@ using namespace detail;
 // ---- neighbour search ---------------------------------------------------------------------------
 
 void Engine::update_boundary_vertices() {
-  for (auto& st : structures_) {
+  for (auto& st : bd_.structures) {
     if (!(st.ux != 0.0 || st.uz != 0.0 || st.rot != 0.0 || st.vx != 0.0 || st.vz != 0.0 ||
           st.omega != 0.0))
       continue;
     const double c = std::cos(st.rot), s = std::sin(st.rot);
     const double px = st.px0 + st.ux, pz = st.pz0 + st.uz;
     for (std::uint32_t k = st.first_vertex; k < st.first_vertex + st.vertex_count; ++k) {
-      const double lx = bvx0_[k] - st.px0, lz = bvz0_[k] - st.pz0;
-      bvx_[k] = px + c * lx - s * lz; // rigid rotation about the pivot
-      bvz_[k] = pz + s * lx + c * lz;
+      const double lx = bd_.vx0[k] - st.px0, lz = bd_.vz0[k] - st.pz0;
+      bd_.vx[k] = px + c * lx - s * lz; // rigid rotation about the pivot
+      bd_.vz[k] = pz + s * lx + c * lz;
     }
   }
 }
 
 void Engine::set_owners() {
-  ++list_version_; // the pair loop's parts are recomputed for this list
-  nbr_i_.resize(nbr_j_.size());
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
-    std::fill(nbr_i_.begin() + nbr_start_[i], nbr_i_.begin() + nbr_start_[i + 1],
+  ++nl_.version; // the pair loop's parts are recomputed for this list
+  nl_.owner.resize(nl_.j.size());
+  for (std::size_t i = 0; i + 1 < nl_.start.size(); ++i)
+    std::fill(nl_.owner.begin() + nl_.start[i], nl_.owner.begin() + nl_.start[i + 1],
               static_cast<std::uint32_t>(i));
 }
 
@@ -50,20 +50,20 @@ using detail::Top2;
 } // namespace
 
 void Engine::check_rebuild() {
-  if (need_rebuild_ || x_ref_.size() != p_.size()) {
+  if (nl_.need_rebuild || nl_.x_ref.size() != p_.size()) {
     rebuild();
     return;
   }
   const std::size_t n = p_.size();
   const double* x = p_.x.data();
   const double* z = p_.z.data();
-  const double* xr = x_ref_.data();
-  const double* zr = z_ref_.data();
+  const double* xr = nl_.x_ref.data();
+  const double* zr = nl_.z_ref.data();
   Top2 top;
   const int A = team_size();
-  if (disp_valid_) { // computed by the integration that moved them (integrate_range)
-    top.a = disp_a_;
-    top.b = disp_b_;
+  if (nl_.disp_valid) { // computed by the integration that moved them (integrate_range)
+    top.a = nl_.disp_a;
+    top.b = nl_.disp_b;
   } else if (A > 1) {
 #pragma omp parallel for num_threads(A) schedule(static) reduction(top2 : top)
     for (std::size_t i = 0; i < n; ++i) {
@@ -76,14 +76,14 @@ void Engine::check_rebuild() {
       top.add(dx * dx + dz * dz);
     }
   }
-  disp_valid_ = false;
+  nl_.disp_valid = false;
   if (past_skin(top.a, top.b)) rebuild();
 }
 
 bool Engine::past_skin(double disp2_a, double disp2_b) const {
   double b2 = 0.0;
-  for (std::size_t k = 0; k < bvx_.size(); ++k) {
-    const double dx = bvx_[k] - bvx_ref_[k], dz = bvz_[k] - bvz_ref_[k];
+  for (std::size_t k = 0; k < bd_.vx.size(); ++k) {
+    const double dx = bd_.vx[k] - nl_.bvx_ref[k], dz = bd_.vz[k] - nl_.bvz_ref[k];
     b2 = std::max(b2, dx * dx + dz * dz);
   }
   // A pair left out of the list was at least `skin` apart (gap) at the rebuild, and its gap has
@@ -93,11 +93,12 @@ bool Engine::past_skin(double disp2_a, double disp2_b) const {
   // largest). Verlet's test d1 > skin/2 is the special case d2 = d1; with one fast particle among
   // slow ones (a grain thrown off a shaken surface) this one rebuilds about half as often.
   const double d1 = std::sqrt(disp2_a);
-  return d1 + std::max(std::sqrt(disp2_b), std::sqrt(b2)) > skin_;
+  return d1 + std::max(std::sqrt(disp2_b), std::sqrt(b2)) > nl_.skin;
 }
 
 bool Engine::rebuild_pending() const {
-  return need_rebuild_ || x_ref_.size() != p_.size() || !disp_valid_ || past_skin(disp_a_, disp_b_);
+  return nl_.need_rebuild || nl_.x_ref.size() != p_.size() || !nl_.disp_valid ||
+         past_skin(nl_.disp_a, nl_.disp_b);
 }
 
 void Engine::reorder() {
@@ -141,35 +142,36 @@ void Engine::reorder() {
   std::vector<std::uint32_t> pi, pj;
   std::vector<ContactHistory> ph;
   std::vector<double> px;
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
-    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
-      if (nbr_hist_[k].flags != 0) {
+  for (std::size_t i = 0; i + 1 < nl_.start.size(); ++i)
+    for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k)
+      if (nl_.hist[k].flags != 0) {
         // Swapping the owner flips both n and t, so f_t (force on the owner along t) is unchanged;
         // the extra history may change (a rolling moment on the owner changes sign).
-        std::uint32_t a = new_of[i], b = new_of[nbr_j_[k]];
+        std::uint32_t a = new_of[i], b = new_of[nl_.j[k]];
         const bool swapped = a > b;
         if (swapped) std::swap(a, b);
         pi.push_back(a);
         pj.push_back(b);
-        ph.push_back(nbr_hist_[k]);
-        px.insert(px.end(), nbr_xh_.begin() + static_cast<std::ptrdiff_t>(k * xh_),
-                  nbr_xh_.begin() + static_cast<std::ptrdiff_t>((k + 1) * xh_));
+        ph.push_back(nl_.hist[k]);
+        px.insert(px.end(), nl_.xh.begin() + static_cast<std::ptrdiff_t>(k * xh_),
+                  nl_.xh.begin() + static_cast<std::ptrdiff_t>((k + 1) * xh_));
         if (swapped && xh_ > 0) flip_owner(px.data() + px.size() - xh_);
       }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
-  store_pairs_csr(n, pi, pj, ph, px, xh_, nbr_start_, nbr_j_, nbr_hist_, nbr_xh_);
+  store_pairs_csr(n, pi, pj, ph, px, xh_, nl_.start, nl_.j, nl_.hist, nl_.xh);
   set_owners();
-  for (auto& bi : bnd_i_) bi = new_of[bi];
+  for (auto& bi : nl_.bnd_i) bi = new_of[bi];
   {
-    std::vector<std::uint32_t> o(bnd_i_.size());
+    std::vector<std::uint32_t> o(nl_.bnd_i.size());
     std::iota(o.begin(), o.end(), 0u);
     std::sort(o.begin(), o.end(), [&](std::uint32_t a, std::uint32_t b) {
-      return bnd_i_[a] != bnd_i_[b] ? bnd_i_[a] < bnd_i_[b] : bnd_f_[a] < bnd_f_[b];
+      return nl_.bnd_i[a] != nl_.bnd_i[b] ? nl_.bnd_i[a] < nl_.bnd_i[b]
+                                          : nl_.bnd_f[a] < nl_.bnd_f[b];
     });
-    permute(bnd_i_, o);
-    permute(bnd_f_, o);
-    permute(bnd_hist_, o);
-    permute(bnd_xh_, o, xh_);
+    permute(nl_.bnd_i, o);
+    permute(nl_.bnd_f, o);
+    permute(nl_.bnd_hist, o);
+    permute(nl_.bnd_xh, o, xh_);
   }
   permute(p_.x, order);
   permute(p_.z, order);
@@ -210,31 +212,31 @@ void Engine::boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std
     double x0, x1, z0, z1;
   };
   std::vector<Box> boxes;
-  boxes.reserve(features_.size());
-  const double grow = (r_max_ + skin_) * (1.0 + 1e-9) + 1e-12;
-  for (std::size_t f = 0; f < features_.size(); ++f) {
-    const Feature& F = features_[f];
-    if (!boundaries_[F.boundary].active) continue;
-    boxes.push_back({static_cast<std::uint32_t>(f), std::min(bvx_[F.v0], bvx_[F.v1]) - grow,
-                     std::max(bvx_[F.v0], bvx_[F.v1]) + grow,
-                     std::min(bvz_[F.v0], bvz_[F.v1]) - grow,
-                     std::max(bvz_[F.v0], bvz_[F.v1]) + grow});
+  boxes.reserve(bd_.features.size());
+  const double grow = (r_max_ + nl_.skin) * (1.0 + 1e-9) + 1e-12;
+  for (std::size_t f = 0; f < bd_.features.size(); ++f) {
+    const Feature& F = bd_.features[f];
+    if (!bd_.list[F.boundary].active) continue;
+    boxes.push_back({static_cast<std::uint32_t>(f), std::min(bd_.vx[F.v0], bd_.vx[F.v1]) - grow,
+                     std::max(bd_.vx[F.v0], bd_.vx[F.v1]) + grow,
+                     std::min(bd_.vz[F.v0], bd_.vz[F.v1]) - grow,
+                     std::max(bd_.vz[F.v0], bd_.vz[F.v1]) + grow});
   }
   for (std::size_t i = i0; i < i1; ++i) {
     if (p_.flags[i] & kFlagRemoved) continue;
-    const double reach = p_.radius[i] + skin_;
+    const double reach = p_.radius[i] + nl_.skin;
     const double px = p_.x[i], pz = p_.z[i];
     for (const Box& bx : boxes) {
       if (px < bx.x0 || px > bx.x1 || pz < bx.z0 || pz > bx.z1) continue;
       const std::size_t f = bx.f;
-      const Feature& F = features_[f];
+      const Feature& F = bd_.features[f];
       double d2;
       if (F.v0 == F.v1) {
-        const double dx = px - bvx_[F.v0], dz = pz - bvz_[F.v0];
+        const double dx = px - bd_.vx[F.v0], dz = pz - bd_.vz[F.v0];
         d2 = dx * dx + dz * dz;
       } else {
-        const double ax = bvx_[F.v0], az = bvz_[F.v0];
-        const double ex = bvx_[F.v1] - ax, ez = bvz_[F.v1] - az;
+        const double ax = bd_.vx[F.v0], az = bd_.vz[F.v0];
+        const double ex = bd_.vx[F.v1] - ax, ez = bd_.vz[F.v1] - az;
         const double len2 = ex * ex + ez * ez;
         double t = len2 > 0.0 ? ((px - ax) * ex + (pz - az) * ez) / len2 : 0.0;
         t = std::clamp(t, 0.0, 1.0);
@@ -264,16 +266,16 @@ void Engine::rebuild() {
   const std::size_t n = p_.size();
   const int T = threads_in_use();
   const auto tcount = static_cast<std::size_t>(T);
-  skin_ = config_.skin_factor * r_min_;
+  nl_.skin = config_.skin_factor * r_min_;
   // Particle order (columns or Morton) every reorder_every rebuilds, and at the first rebuild of a
   // large set (its input order may be anything; small sets keep theirs, which tests index by).
   const bool first_large = stats_.neighbour_rebuilds == 0 && n >= kReorderFirstMin;
   if (config_.reorder_every > 0 &&
-      (first_large || rebuilds_since_reorder_ >= config_.reorder_every)) {
+      (first_large || nl_.rebuilds_since_reorder >= config_.reorder_every)) {
     reorder();
-    rebuilds_since_reorder_ = 0;
+    nl_.rebuilds_since_reorder = 0;
   }
-  ++rebuilds_since_reorder_;
+  ++nl_.rebuilds_since_reorder;
   ++stats_.neighbour_rebuilds;
   // The new list's contact history, allocated first: it takes the block the last rebuild freed
   // (the list before it), of the same capacity — a capacity rounded up to steps of 1/8, so that
@@ -281,31 +283,31 @@ void Engine::rebuild() {
   // page costs ≈ 11 µs on this project's VMs: 5–6 ms a rebuild of 10⁵ disks (1.5–2.5 % of a
   // race loop) went into the history's pages (bench/RESULTS.md).
   std::vector<ContactHistory> new_hist;
-  new_hist.reserve(history_capacity(nbr_j_.size()));
+  new_hist.reserve(history_capacity(nl_.j.size()));
 
   // Remove particles that left the scene (e.g. fell through an opened wall, the paper's §3 "3D
   // loss"): under gravity, a centre more than 2 r_max below the lowest boundary point can never be
   // caught again; sideways (or without gravity) only far outside the boundaries' bounding box.
-  if (!boundaries_.empty()) {
-    double bx0 = bvx_[0], bx1 = bvx_[0], bz0 = bvz_[0], bz1 = bvz_[0];
-    for (std::size_t k = 0; k < bvx_.size(); ++k) {
-      bx0 = std::min(bx0, bvx_[k]);
-      bx1 = std::max(bx1, bvx_[k]);
-      bz0 = std::min(bz0, bvz_[k]);
-      bz1 = std::max(bz1, bvz_[k]);
+  if (!bd_.list.empty()) {
+    double bx0 = bd_.vx[0], bx1 = bd_.vx[0], bz0 = bd_.vz[0], bz1 = bd_.vz[0];
+    for (std::size_t k = 0; k < bd_.vx.size(); ++k) {
+      bx0 = std::min(bx0, bd_.vx[k]);
+      bx1 = std::max(bx1, bd_.vx[k]);
+      bz0 = std::min(bz0, bd_.vz[k]);
+      bz1 = std::max(bz1, bd_.vz[k]);
     }
     const double margin = std::max(bx1 - bx0, bz1 - bz0) + 10.0 * r_max_;
-    const bool any_open = std::any_of(boundaries_.begin(), boundaries_.end(),
-                                      [](const Boundary& b) { return !b.active; });
+    const bool any_open =
+        std::any_of(bd_.list.begin(), bd_.list.end(), [](const Boundary& b) { return !b.active; });
     for (std::size_t i = 0; i < n; ++i)
       if (!(p_.flags[i] & kFlagRemoved) &&
           (p_.z[i] < bz0 - (config_.gravity > 0.0 ? 2.0 * r_max_ : margin) ||
            p_.x[i] < bx0 - margin || p_.x[i] > bx1 + margin)) {
         p_.flags[i] |= any_open ? kFlagRemoved : (kFlagRemoved | kFlagLeftUnplanned);
         // what it takes out of the budget (EnergyBudget::left_scene, engine.cpp energy())
-        e_left_ += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]) +
-                   0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
-        pe_left_ += p_.mass[i] * config_.gravity * p_.z[i];
+        en_.left += 0.5 * p_.mass[i] * (p_.vx[i] * p_.vx[i] + p_.vz[i] * p_.vz[i]) +
+                    0.5 / p_.inv_inertia[i] * p_.omega[i] * p_.omega[i];
+        en_.pe_left += p_.mass[i] * config_.gravity * p_.z[i];
         p_.vx[i] = p_.vz[i] = p_.omega[i] = 0.0;
       }
   }
@@ -323,13 +325,13 @@ void Engine::rebuild() {
       zmax = std::max(zmax, p_.z[i]);
     }
     if (!(xmax >= xmin)) xmin = xmax = zmin = zmax = 0.0;
-    double h = 2.0 * r_max_ + skin_;
+    double h = 2.0 * r_max_ + nl_.skin;
     auto ncell = [&](double ext) { return static_cast<std::size_t>(ext / h) + 1; };
     while (ncell(xmax - xmin) * ncell(zmax - zmin) > 4 * n + 64) h *= 2.0; // sparse clouds
     const std::size_t nx = ncell(xmax - xmin), nz = ncell(zmax - zmin);
-    auto& cell_of = cell_of_;
-    auto& cell_start = cell_start_;
-    auto& cell_items = cell_items_;
+    auto& cell_of = nl_.cell_of;
+    auto& cell_start = nl_.cell_start;
+    auto& cell_items = nl_.cell_items;
     cell_of.assign(n, 0u);
     cell_start.assign(nx * nz + 1, 0u);
     cell_items.assign(n, 0u);
@@ -364,7 +366,7 @@ void Engine::rebuild() {
       const double* __restrict x = p_.x.data();
       const double* __restrict z = p_.z.data();
       const double* __restrict rad = p_.radius.data();
-      const double skin = skin_;
+      const double skin = nl_.skin;
       for (std::size_t i = i0; i < i1; ++i) {
         new_start[i] = static_cast<std::uint32_t>(out.size());
         if (cell_of[i] == ~0u) continue;
@@ -400,14 +402,14 @@ void Engine::rebuild() {
       search(0, n, new_j);
     } else { // contiguous owner chunks, concatenated in order: the same list for any thread count
       std::vector<std::vector<std::uint32_t>> tj(tcount);
-      cand_bi_.resize(tcount);
-      cand_bf_.resize(tcount);
+      nl_.cand_bi.resize(tcount);
+      nl_.cand_bf.resize(tcount);
 #pragma omp parallel num_threads(team_size())
       {
         const auto [t0, ts] = team_member();
         for (std::size_t t = t0; t < tcount; t += ts) {
           search(n * t / tcount, n * (t + 1) / tcount, tj[t]);
-          boundary_candidates(n * t / tcount, n * (t + 1) / tcount, cand_bi_[t], cand_bf_[t]);
+          boundary_candidates(n * t / tcount, n * (t + 1) / tcount, nl_.cand_bi[t], nl_.cand_bf[t]);
         }
       }
       std::size_t total = 0;
@@ -427,24 +429,24 @@ void Engine::rebuild() {
   if (new_j.size() > new_hist.capacity()) new_hist.reserve(history_capacity(new_j.size()));
   new_hist.resize(new_j.size());
   std::vector<double> new_xh(new_j.size() * xh_, 0.0);
-  if (nbr_start_.size() == n + 1) {
+  if (nl_.start.size() == n + 1) {
 #pragma omp parallel for num_threads(team_size()) schedule(static) if (T > 1)
     for (std::size_t i = 0; i < n; ++i) {
-      std::uint32_t a = nbr_start_[i];
-      const std::uint32_t ae = nbr_start_[i + 1];
+      std::uint32_t a = nl_.start[i];
+      const std::uint32_t ae = nl_.start[i + 1];
       for (std::uint32_t k = new_start[i]; k < new_start[i + 1] && a < ae; ++k) {
-        while (a < ae && nbr_j_[a] < new_j[k]) ++a;
-        if (a < ae && nbr_j_[a] == new_j[k]) {
-          new_hist[k] = nbr_hist_[a];
-          for (std::size_t q = 0; q < xh_; ++q) new_xh[k * xh_ + q] = nbr_xh_[a * xh_ + q];
+        while (a < ae && nl_.j[a] < new_j[k]) ++a;
+        if (a < ae && nl_.j[a] == new_j[k]) {
+          new_hist[k] = nl_.hist[a];
+          for (std::size_t q = 0; q < xh_; ++q) new_xh[k * xh_ + q] = nl_.xh[a * xh_ + q];
         }
       }
     }
   }
-  nbr_start_.swap(new_start);
-  nbr_j_.swap(new_j);
-  nbr_hist_.swap(new_hist);
-  nbr_xh_.swap(new_xh);
+  nl_.start.swap(new_start);
+  nl_.j.swap(new_j);
+  nl_.hist.swap(new_hist);
+  nl_.xh.swap(new_xh);
   set_owners();
 
   std::vector<std::uint32_t> ni, nf;
@@ -452,12 +454,12 @@ void Engine::rebuild() {
     boundary_candidates(0, n, ni, nf);
   } else { // the parts' candidates (found with the pair candidates above), in part order
     std::size_t total = 0;
-    for (std::size_t t = 0; t < tcount; ++t) total += cand_bi_[t].size();
+    for (std::size_t t = 0; t < tcount; ++t) total += nl_.cand_bi[t].size();
     ni.reserve(total);
     nf.reserve(total);
     for (std::size_t t = 0; t < tcount; ++t) {
-      ni.insert(ni.end(), cand_bi_[t].begin(), cand_bi_[t].end());
-      nf.insert(nf.end(), cand_bf_[t].begin(), cand_bf_[t].end());
+      ni.insert(ni.end(), nl_.cand_bi[t].begin(), nl_.cand_bi[t].end());
+      nf.insert(nf.end(), nl_.cand_bf[t].begin(), nl_.cand_bf[t].end());
     }
   }
   std::vector<ContactHistory> nh(ni.size());
@@ -465,27 +467,28 @@ void Engine::rebuild() {
   {
     std::size_t a = 0;
     for (std::size_t k = 0; k < ni.size(); ++k) {
-      while (a < bnd_i_.size() && (bnd_i_[a] < ni[k] || (bnd_i_[a] == ni[k] && bnd_f_[a] < nf[k])))
+      while (a < nl_.bnd_i.size() &&
+             (nl_.bnd_i[a] < ni[k] || (nl_.bnd_i[a] == ni[k] && nl_.bnd_f[a] < nf[k])))
         ++a;
-      if (a < bnd_i_.size() && bnd_i_[a] == ni[k] && bnd_f_[a] == nf[k]) {
-        nh[k] = bnd_hist_[a];
-        for (std::size_t q = 0; q < xh_; ++q) nx[k * xh_ + q] = bnd_xh_[a * xh_ + q];
+      if (a < nl_.bnd_i.size() && nl_.bnd_i[a] == ni[k] && nl_.bnd_f[a] == nf[k]) {
+        nh[k] = nl_.bnd_hist[a];
+        for (std::size_t q = 0; q < xh_; ++q) nx[k * xh_ + q] = nl_.bnd_xh[a * xh_ + q];
       }
     }
   }
-  bnd_i_.swap(ni);
-  bnd_f_.swap(nf);
-  bnd_hist_.swap(nh);
-  bnd_xh_.swap(nx);
+  nl_.bnd_i.swap(ni);
+  nl_.bnd_f.swap(nf);
+  nl_.bnd_hist.swap(nh);
+  nl_.bnd_xh.swap(nx);
 
-  x_ref_ = p_.x;
-  disp_valid_ = false;
-  z_ref_ = p_.z;
-  bvx_ref_ = bvx_;
-  bvz_ref_ = bvz_;
-  stats_.pair_entries = nbr_j_.size();
-  stats_.boundary_entries = bnd_i_.size();
-  need_rebuild_ = false;
+  nl_.x_ref = p_.x;
+  nl_.disp_valid = false;
+  nl_.z_ref = p_.z;
+  nl_.bvx_ref = bd_.vx;
+  nl_.bvz_ref = bd_.vz;
+  stats_.pair_entries = nl_.j.size();
+  stats_.boundary_entries = nl_.bnd_i.size();
+  nl_.need_rebuild = false;
 }
 
 } // namespace demfem::dem

@@ -48,9 +48,9 @@ std::vector<std::byte> Engine::save_state() const {
   w.value(kStateMagic);
   w.value(kStateVersion);
   w.value(static_cast<std::uint64_t>(p_.size()));
-  w.value(static_cast<std::uint64_t>(boundaries_.size()));
-  w.value(static_cast<std::uint64_t>(structures_.size()));
-  w.value(static_cast<std::uint64_t>(features_.size()));
+  w.value(static_cast<std::uint64_t>(bd_.list.size()));
+  w.value(static_cast<std::uint64_t>(bd_.structures.size()));
+  w.value(static_cast<std::uint64_t>(bd_.features.size()));
   w.value(dt_);
   w.value(time_);
   w.value(stats_.steps);
@@ -64,39 +64,39 @@ std::vector<std::byte> Engine::save_state() const {
     w.value(m.mu_s);
     w.value(m.mu_d);
   }
-  for (const auto& b : boundaries_) {
+  for (const auto& b : bd_.list) {
     w.value(static_cast<std::uint8_t>(b.active ? 1 : 0));
     w.value(b.reaction_x);
     w.value(b.reaction_z);
   }
-  w.vec(bvx_);
-  w.vec(bvz_);
-  w.vec(bvx_ref_);
-  w.vec(bvz_ref_);
-  for (const auto& st : structures_)
+  w.vec(bd_.vx);
+  w.vec(bd_.vz);
+  w.vec(nl_.bvx_ref);
+  w.vec(nl_.bvz_ref);
+  for (const auto& st : bd_.structures)
     for (double v : {st.ux, st.uz, st.rot, st.vx, st.vz, st.omega, st.soil_fx, st.soil_fz,
                      st.soil_moment, st.applied_fx, st.applied_fz, st.applied_moment})
       w.value(v);
-  w.vec(nbr_start_);
-  w.vec(nbr_j_);
-  write_hist(w, nbr_hist_);
-  w.vec(bnd_i_);
-  w.vec(bnd_f_);
-  write_hist(w, bnd_hist_);
+  w.vec(nl_.start);
+  w.vec(nl_.j);
+  write_hist(w, nl_.hist);
+  w.vec(nl_.bnd_i);
+  w.vec(nl_.bnd_f);
+  write_hist(w, nl_.bnd_hist);
   if (xh_ > 0) { // the sub-models' extra history (a law without any writes nothing)
-    w.vec(nbr_xh_);
-    w.vec(bnd_xh_);
+    w.vec(nl_.xh);
+    w.vec(nl_.bnd_xh);
   }
-  w.vec(x_ref_);
-  w.vec(z_ref_);
-  for (double v : {skin_, r_min_, r_max_, m_min_}) w.value(v);
-  w.value(static_cast<std::uint8_t>(need_rebuild_ ? 1 : 0));
-  w.value(rebuilds_since_reorder_);
+  w.vec(nl_.x_ref);
+  w.vec(nl_.z_ref);
+  for (double v : {nl_.skin, r_min_, r_max_, m_min_}) w.value(v);
+  w.value(static_cast<std::uint8_t>(nl_.need_rebuild ? 1 : 0));
+  w.value(nl_.rebuilds_since_reorder);
   w.value(next_id_);
-  for (double v : {e_friction_, e_damping_, e_rebound_, e_external_, e_normal_, e_shear_, pe_ref_,
-                   e_left_, pe_left_})
+  for (double v : {en_.friction, en_.damping, en_.rebound, en_.external, en_.normal, en_.shear,
+                   en_.pe_ref, en_.left, en_.pe_left})
     w.value(v);
-  w.value(static_cast<std::uint8_t>(pe_ref_set_ ? 1 : 0));
+  w.value(static_cast<std::uint8_t>(en_.pe_ref_set ? 1 : 0));
   return std::move(w.buffer());
 }
 
@@ -109,9 +109,9 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
   if (n != particles.size())
     detail::ByteReader::fail(
         fmt::format("{} particles in the state, {} in the arrays", n, particles.size()));
-  if (r.value<std::uint64_t>() != boundaries_.size() ||
-      r.value<std::uint64_t>() != structures_.size() ||
-      r.value<std::uint64_t>() != features_.size())
+  if (r.value<std::uint64_t>() != bd_.list.size() ||
+      r.value<std::uint64_t>() != bd_.structures.size() ||
+      r.value<std::uint64_t>() != bd_.features.size())
     detail::ByteReader::fail("walls or structures differ from the scene's");
   p_ = std::move(particles);
   r.value(dt_);
@@ -127,51 +127,52 @@ void Engine::restore_state(Particles particles, std::span<const std::byte> state
     r.value(m.mu_s);
     r.value(m.mu_d);
   }
-  for (auto& b : boundaries_) {
+  for (auto& b : bd_.list) {
     b.active = r.value<std::uint8_t>() != 0;
     r.value(b.reaction_x);
     r.value(b.reaction_z);
   }
-  r.vec(bvx_);
-  r.vec(bvz_);
-  r.vec(bvx_ref_);
-  r.vec(bvz_ref_);
-  if (bvx_.size() != bvx0_.size()) detail::ByteReader::fail("boundary vertex count differs");
-  for (auto& st : structures_)
+  r.vec(bd_.vx);
+  r.vec(bd_.vz);
+  r.vec(nl_.bvx_ref);
+  r.vec(nl_.bvz_ref);
+  if (bd_.vx.size() != bd_.vx0.size()) detail::ByteReader::fail("boundary vertex count differs");
+  for (auto& st : bd_.structures)
     for (double* v : {&st.ux, &st.uz, &st.rot, &st.vx, &st.vz, &st.omega, &st.soil_fx, &st.soil_fz,
                       &st.soil_moment, &st.applied_fx, &st.applied_fz, &st.applied_moment})
       r.value(*v);
-  r.vec(nbr_start_);
-  r.vec(nbr_j_);
-  read_hist(r, nbr_hist_);
-  r.vec(bnd_i_);
-  r.vec(bnd_f_);
-  read_hist(r, bnd_hist_);
+  r.vec(nl_.start);
+  r.vec(nl_.j);
+  read_hist(r, nl_.hist);
+  r.vec(nl_.bnd_i);
+  r.vec(nl_.bnd_f);
+  read_hist(r, nl_.bnd_hist);
   if (xh_ > 0) {
-    r.vec(nbr_xh_);
-    r.vec(bnd_xh_);
+    r.vec(nl_.xh);
+    r.vec(nl_.bnd_xh);
   } else {
-    nbr_xh_.clear();
-    bnd_xh_.clear();
+    nl_.xh.clear();
+    nl_.bnd_xh.clear();
   }
-  r.vec(x_ref_);
-  r.vec(z_ref_);
-  for (double* v : {&skin_, &r_min_, &r_max_, &m_min_}) r.value(*v);
-  need_rebuild_ = r.value<std::uint8_t>() != 0;
-  r.value(rebuilds_since_reorder_);
+  r.vec(nl_.x_ref);
+  r.vec(nl_.z_ref);
+  for (double* v : {&nl_.skin, &r_min_, &r_max_, &m_min_}) r.value(*v);
+  nl_.need_rebuild = r.value<std::uint8_t>() != 0;
+  r.value(nl_.rebuilds_since_reorder);
   r.value(next_id_);
-  for (double* v : {&e_friction_, &e_damping_, &e_rebound_, &e_external_, &e_normal_, &e_shear_,
-                    &pe_ref_, &e_left_, &pe_left_})
+  for (double* v : {&en_.friction, &en_.damping, &en_.rebound, &en_.external, &en_.normal,
+                    &en_.shear, &en_.pe_ref, &en_.left, &en_.pe_left})
     r.value(*v);
-  pe_ref_set_ = r.value<std::uint8_t>() != 0;
+  en_.pe_ref_set = r.value<std::uint8_t>() != 0;
   if (!r.at_end()) detail::ByteReader::fail("trailing bytes");
-  if (nbr_j_.size() != nbr_hist_.size() || bnd_i_.size() != bnd_f_.size() ||
-      bnd_i_.size() != bnd_hist_.size() || (!nbr_start_.empty() && nbr_start_.size() != n + 1) ||
-      nbr_xh_.size() != nbr_hist_.size() * xh_ || bnd_xh_.size() != bnd_hist_.size() * xh_)
+  if (nl_.j.size() != nl_.hist.size() || nl_.bnd_i.size() != nl_.bnd_f.size() ||
+      nl_.bnd_i.size() != nl_.bnd_hist.size() ||
+      (!nl_.start.empty() && nl_.start.size() != n + 1) || nl_.xh.size() != nl_.hist.size() * xh_ ||
+      nl_.bnd_xh.size() != nl_.bnd_hist.size() * xh_)
     detail::ByteReader::fail("inconsistent neighbour lists");
   set_owners();
   friction_dirty_ = true;
-  disp_valid_ = false;
+  nl_.disp_valid = false;
   failure_.clear();
 }
 
@@ -187,13 +188,13 @@ std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const 
     to.insert(to.end(), from.begin() + static_cast<std::ptrdiff_t>(k * xh_),
               from.begin() + static_cast<std::ptrdiff_t>((k + 1) * xh_));
   };
-  for (std::size_t i = 0; i + 1 < nbr_start_.size(); ++i)
-    for (std::uint32_t k = nbr_start_[i]; k < nbr_start_[i + 1]; ++k)
-      if (nbr_hist_[k].flags != 0) {
+  for (std::size_t i = 0; i + 1 < nl_.start.size(); ++i)
+    for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k)
+      if (nl_.hist[k].flags != 0) {
         a.push_back(p_.id[i]);
-        b.push_back(p_.id[nbr_j_[k]]);
-        h.push_back(nbr_hist_[k]);
-        extra(xp, nbr_xh_, k);
+        b.push_back(p_.id[nl_.j[k]]);
+        h.push_back(nl_.hist[k]);
+        extra(xp, nl_.xh, k);
       }
   w.vec(a);
   w.vec(b);
@@ -201,12 +202,12 @@ std::vector<std::byte> Engine::save_contact_history(bool with_boundaries) const 
   a.clear();
   b.clear();
   h.clear();
-  for (std::size_t k = 0; with_boundaries && k < bnd_i_.size(); ++k)
-    if (bnd_hist_[k].flags != 0) {
-      a.push_back(p_.id[bnd_i_[k]]);
-      b.push_back(bnd_f_[k]);
-      h.push_back(bnd_hist_[k]);
-      extra(xb, bnd_xh_, k);
+  for (std::size_t k = 0; with_boundaries && k < nl_.bnd_i.size(); ++k)
+    if (nl_.bnd_hist[k].flags != 0) {
+      a.push_back(p_.id[nl_.bnd_i[k]]);
+      b.push_back(nl_.bnd_f[k]);
+      h.push_back(nl_.bnd_hist[k]);
+      extra(xb, nl_.bnd_xh, k);
     }
   w.vec(a);
   w.vec(b);
@@ -273,25 +274,25 @@ void Engine::load_contact_history(std::span<const std::byte> blob) {
     if (swapped && xh_ > 0) flip_owner(px.data() + px.size() - xh_);
   }
   // Store as a CSR list holding only the active pairs; rebuild() merges it.
-  store_pairs_csr(n, pi, pj, ph, px, xh_, nbr_start_, nbr_j_, nbr_hist_, nbr_xh_);
+  store_pairs_csr(n, pi, pj, ph, px, xh_, nl_.start, nl_.j, nl_.hist, nl_.xh);
   set_owners();
-  bnd_i_.clear();
-  bnd_f_.clear();
-  bnd_hist_.clear();
-  bnd_xh_.clear();
+  nl_.bnd_i.clear();
+  nl_.bnd_f.clear();
+  nl_.bnd_hist.clear();
+  nl_.bnd_xh.clear();
   std::vector<std::uint32_t> o;
   for (std::size_t k = 0; k < c.size(); ++k)
-    if (idx(c[k]) != ~0u && d[k] < features_.size()) o.push_back(static_cast<std::uint32_t>(k));
+    if (idx(c[k]) != ~0u && d[k] < bd_.features.size()) o.push_back(static_cast<std::uint32_t>(k));
   std::sort(o.begin(), o.end(), [&](std::uint32_t x, std::uint32_t y) {
     return idx(c[x]) != idx(c[y]) ? idx(c[x]) < idx(c[y]) : d[x] < d[y];
   });
   for (auto k : o) {
-    bnd_i_.push_back(idx(c[k]));
-    bnd_f_.push_back(d[k]);
-    bnd_hist_.push_back(hb[k]);
-    for (std::size_t q = 0; q < xh_; ++q) bnd_xh_.push_back(xb[k * xh_ + q]);
+    nl_.bnd_i.push_back(idx(c[k]));
+    nl_.bnd_f.push_back(d[k]);
+    nl_.bnd_hist.push_back(hb[k]);
+    for (std::size_t q = 0; q < xh_; ++q) nl_.bnd_xh.push_back(xb[k * xh_ + q]);
   }
-  need_rebuild_ = true;
+  nl_.need_rebuild = true;
 }
 
 } // namespace demfem::dem

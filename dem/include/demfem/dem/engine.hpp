@@ -172,7 +172,7 @@ namespace detail {
 struct ReboundEvent {
   static constexpr std::uint32_t kBoundary = ~0u; // j of a particle–boundary contact
   std::uint32_t i = 0, j = kBoundary;
-  std::int32_t boundary = -1; // boundaries_ index when j == kBoundary
+  std::int32_t boundary = -1; // bd_.list index when j == kBoundary
   double nx = 0.0, nz = 0.0;  // unit normal from j (or the boundary) towards i
   double vn = 0.0, to = 0.0;  // approach speed at first touch; the approach the impulse leaves
   double m_eff = 0.0;         // m_i m_j/(m_i + m_j), m_i against a boundary [kg]
@@ -306,13 +306,13 @@ public:
   // ---- access -----------------------------------------------------------------------------
   [[nodiscard]] Particles& particles() {
     friction_dirty_ = true; // the materials may change through it
-    disp_valid_ = false;    // and the positions
+    nl_.disp_valid = false; // and the positions
     return p_;
   }
   [[nodiscard]] const Particles& particles() const { return p_; }
-  [[nodiscard]] const std::vector<StructureState>& structures() const { return structures_; }
-  [[nodiscard]] std::vector<StructureState>& structures() { return structures_; }
-  [[nodiscard]] const std::vector<Boundary>& boundaries() const { return boundaries_; }
+  [[nodiscard]] const std::vector<StructureState>& structures() const { return bd_.structures; }
+  [[nodiscard]] std::vector<StructureState>& structures() { return bd_.structures; }
+  [[nodiscard]] const std::vector<Boundary>& boundaries() const { return bd_.list; }
   [[nodiscard]] int boundary_index(const std::string& name) const;
   [[nodiscard]] int structure_index(const std::string& name) const;
   [[nodiscard]] const EngineConfig& config() const { return config_; }
@@ -388,7 +388,8 @@ private:
   void compute_forces();
   // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
   // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
-  // dem/contact/rebound.hpp, cundall-rebound), added to the forces as P/Δt; books the rebound energy.
+  // dem/contact/rebound.hpp, cundall-rebound), added to the forces as P/Δt; books the rebound
+  // energy.
   void apply_rebounds();
   void integrate();
   void update_structures();
@@ -463,53 +464,68 @@ private:
   std::string failure_;
   EngineStats stats_;
 
-  // Boundary geometry: vertex arrays (local = reference, world = current) and features.
-  std::vector<Boundary> boundaries_;
-  std::vector<double> bvx_, bvz_, bvx0_, bvz0_; // world / reference vertices
-  std::vector<double> bvx_ref_, bvz_ref_;       // at the last rebuild
+  double r_min_ = 0.0, r_max_ = 0.0, m_min_ = 0.0;
+  std::vector<std::uint32_t> id_to_index_;
+  std::uint32_t next_id_ = 0;
+
+  // ---- the parts the engine is made of: their data (the methods above act on them)
   struct Feature {
     std::uint32_t boundary, v0, v1;    // v1 == v0: a vertex feature
     std::int32_t adj0 = -1, adj1 = -1; // vertex features: adjacent segment features
   };
-  std::vector<Feature> features_;
-  std::vector<StructureState> structures_;
+  // The boundaries: walls and structure faces as vertex arrays (local = reference, world =
+  // current) and features (segments and vertices), and the structures' rigid-body states.
+  struct Boundaries {
+    std::vector<Boundary> list;
+    std::vector<double> vx, vz, vx0, vz0; // world / reference vertices
+    std::vector<Feature> features;
+    std::vector<StructureState> structures;
+  } bd_;
+  // The neighbour list (engine_neighbours.cpp): Verlet pairs in CSR (owner i < partner j) with a
+  // contact history per entry, the boundary candidates, and what the rebuild test compares.
+  struct NeighbourList {
+    std::vector<std::uint32_t> start, j;
+    std::vector<ContactHistory> hist;
+    std::vector<double> xh;           // xh_ extra history values per entry (empty when xh_ = 0)
+    std::vector<std::uint32_t> owner; // owner of each entry (the blocked pair loop's flat walk)
+    // Boundary candidates: (particle, feature) sorted by particle, with history.
+    std::vector<std::uint32_t> bnd_i, bnd_f;
+    std::vector<ContactHistory> bnd_hist;
+    std::vector<double> bnd_xh;           // xh_ per entry, as xh
+    std::vector<double> x_ref, z_ref;     // particle positions at the last rebuild
+    std::vector<double> bvx_ref, bvz_ref; // boundary vertices at the last rebuild
+    // The largest two squared displacements since the rebuild, from the integration (valid until
+    // the positions or x_ref change otherwise; check_rebuild then passes over them itself).
+    double disp_a = 0.0, disp_b = 0.0;
+    bool disp_valid = false;
+    double skin = 0.0;
+    bool need_rebuild = true;
+    long long rebuilds_since_reorder = 0;
+    std::uint64_t version = 0; // counts the lists (parts_version_: the one the parts are for)
+    // Cell grid buffers of the rebuild, kept between rebuilds.
+    std::vector<std::uint32_t> cell_of, cell_start, cell_items;
+    // The rebuild's boundary candidates per part (2 threads or more), kept for their capacity.
+    std::vector<std::vector<std::uint32_t>> cand_bi, cand_bf;
+  } nl_;
+  // The energy ledger (EnergyBudget): dissipated and external work so far, the springs of the
+  // last step, the potential energy's reference, and what removed particles carried out.
+  struct EnergyLedger {
+    double friction = 0.0, damping = 0.0, rebound = 0.0, external = 0.0;
+    double normal = 0.0, shear = 0.0; // spring energies, last step
+    double pe_ref = 0.0;
+    double left = 0.0, pe_left = 0.0; // removed particles: their kinetic energy and m g z
+    bool pe_ref_set = false;
+  } en_;
 
-  // Verlet neighbour list (CSR, owner i < partner j) with contact history per entry.
-  std::vector<std::uint32_t> nbr_start_, nbr_j_;
-  std::vector<ContactHistory> nbr_hist_;
-  std::vector<double> nbr_xh_;       // xh_ extra history values per entry (empty when xh_ = 0)
-  std::vector<std::uint32_t> nbr_i_; // owner of each entry (the blocked pair loop's flat walk)
-  void set_owners();                 // after every change of nbr_start_
+  void set_owners(); // after every change of nl_.start
   // A pair's extra history when its owner and partner swap (the law's ContactModel::flip_owner).
   void flip_owner(double* extra) const {
     std::visit([extra](const auto& law) { law.flip_owner(extra); }, config_.law);
   }
   void first_step_setup(); // Δt and the potential energy's reference, once
-  // Boundary candidates: (particle, feature) sorted by particle, with history.
-  std::vector<std::uint32_t> bnd_i_, bnd_f_;
-  std::vector<ContactHistory> bnd_hist_;
-  std::vector<double> bnd_xh_; // xh_ per entry, as nbr_xh_
-  std::vector<double> x_ref_, z_ref_;
-  // The largest two squared displacements since the rebuild, from the integration (valid until
-  // the positions or x_ref_ change otherwise; check_rebuild then passes over them itself).
-  double disp_a_ = 0.0, disp_b_ = 0.0;
-  bool disp_valid_ = false;
-  double skin_ = 0.0, r_min_ = 0.0, r_max_ = 0.0, m_min_ = 0.0;
-  bool need_rebuild_ = true;
-  long long rebuilds_since_reorder_ = 0;
-  std::vector<std::uint32_t> id_to_index_;
-  std::uint32_t next_id_ = 0;
-
-  // Energy accumulators
-  double e_friction_ = 0.0, e_damping_ = 0.0, e_rebound_ = 0.0, e_external_ = 0.0;
-  double e_normal_ = 0.0, e_shear_ = 0.0; // spring energies, last step
-  double pe_ref_ = 0.0;
-  // Removed particles: their kinetic energy and their m g z when they left (EnergyBudget).
-  double e_left_ = 0.0, pe_left_ = 0.0;
-  bool pe_ref_set_ = false;
   // Halo force buffers of the pair loop's parts (fx, fz, torque of the partners beyond each part's
   // range), the parts' owner ranges, and the end of each part's halo (one past its largest
-  // partner), computed for the list of version parts_version_ (list_version_ counts the lists).
+  // partner), computed for the list of version parts_version_ (nl_.version counts the lists).
   std::vector<double> tbuf_;
   std::vector<std::size_t> halo_off_; // part t's halo: tbuf_[halo_off_[t]] …, 3 arrays
   static constexpr std::size_t kPartEnergies = 4; // friction, damping, normal and shear springs
@@ -522,7 +538,7 @@ private:
   std::array<IntegratedPart, kMaxParts> integrated_;
   std::size_t integrated_parts_ = 0; // > 0: this step's parts were integrated in the force loop
   // Boundary contacts per part: part t has the entries bnd_split_[t] … bnd_split_[t + 1] − 1
-  // (bnd_i_ is sorted by particle), and its sums (events included) in bnd_sums_[t].
+  // (nl_.bnd_i is sorted by particle), and its sums (events included) in bnd_sums_[t].
   std::vector<std::size_t> bnd_split_;
   std::vector<BoundarySums> bnd_sums_;
   std::vector<detail::ReboundEvent> rebound_all_; // all of them, in that order
@@ -538,11 +554,7 @@ private:
   bool friction_dirty_ = true, friction_uniform_ = true;
   double friction_mus_ = 0.0, friction_mud_ = 0.0;
   void update_pair_friction();
-  std::uint64_t list_version_ = 0, parts_version_ = ~0ull;
-  // Cell grid buffers of the neighbour rebuild, kept between rebuilds.
-  std::vector<std::uint32_t> cell_of_, cell_start_, cell_items_;
-  // The rebuild's boundary candidates per part (2 threads or more), kept for their capacity.
-  std::vector<std::vector<std::uint32_t>> cand_bi_, cand_bf_;
+  std::uint64_t parts_version_ = ~0ull; // the list version (nl_.version) the parts are for
   void boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni,
                            std::vector<std::uint32_t>& nf) const;
 };
