@@ -327,19 +327,20 @@ void Engine::integrate() {
   const std::size_t n = p_.size();
   const auto [ax_body, az_body] = body_acceleration();
   std::size_t parts = 1;
-  if (integrated_parts_ > 0) { // done inside the force loop (contact_forces)
-    parts = integrated_parts_;
+  if (fp_.integrated_parts > 0) { // done inside the force loop (contact_forces)
+    parts = fp_.integrated_parts;
   } else if (threads_in_use() <= 1) {
-    integrate_range(0, n, ax_body, az_body, integrated_[0]);
+    integrate_range(0, n, ax_body, az_body, fp_.integrated[0]);
   } else {
     // The force loop's parts (each particle on the thread that computed its forces: its data is
     // in that core's cache), or equal chunks before the first list; partial sums combined in part
     // order (deterministic per count).
     parts = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
-    const bool own = split_.size() == parts + 1 && split_[parts] == n;
+    const bool own = fp_.split.size() == parts + 1 && fp_.split[parts] == n;
     const auto part = [&](std::size_t t) {
-      integrate_range(own ? split_[t] : n * t / parts, own ? split_[t + 1] : n * (t + 1) / parts,
-                      ax_body, az_body, integrated_[t]);
+      integrate_range(own ? fp_.split[t] : n * t / parts,
+                      own ? fp_.split[t + 1] : n * (t + 1) / parts, ax_body, az_body,
+                      fp_.integrated[t]);
     };
     if (team_size() <= 1) { // a team of one: no region (see contact_forces)
       for (std::size_t t = 0; t < parts; ++t) part(t);
@@ -351,15 +352,15 @@ void Engine::integrate() {
       }
     }
   }
-  integrated_parts_ = 0;
+  fp_.integrated_parts = 0;
   std::size_t bad = IntegratedPart::kNone;
   detail::Top2 top;
   for (std::size_t t = 0; t < parts; ++t) {
-    en_.external += integrated_[t].work;
-    en_.damping += integrated_[t].damping;
-    if (bad == IntegratedPart::kNone) bad = integrated_[t].bad;
-    top.add(integrated_[t].top_a);
-    top.add(integrated_[t].top_b);
+    en_.external += fp_.integrated[t].work;
+    en_.damping += fp_.integrated[t].damping;
+    if (bad == IntegratedPart::kNone) bad = fp_.integrated[t].bad;
+    top.add(fp_.integrated[t].top_a);
+    top.add(fp_.integrated[t].top_b);
   }
   nl_.disp_a = top.a;
   nl_.disp_b = top.b;
@@ -783,7 +784,8 @@ Engine::MemoryUse Engine::memory_use() const {
   m.neighbour_lists = cap(nl_.start) + cap(nl_.j) + cap(nl_.owner) + cap(nl_.bnd_i) +
                       cap(nl_.bnd_f) + cap(nl_.x_ref) + cap(nl_.z_ref);
   m.grid = cap(nl_.cell_of) + cap(nl_.cell_start) + cap(nl_.cell_items);
-  m.other = cap(tbuf_) + cap(split_) + cap(halo_end_) + cap(bd_.vx) * 6 + cap(bd_.features);
+  m.other =
+      cap(fp_.tbuf) + cap(fp_.split) + cap(fp_.halo_end) + cap(bd_.vx) * 6 + cap(bd_.features);
   return m;
 }
 

@@ -352,14 +352,14 @@ template <class Law> void Engine::contact_forces(const Law& law) {
     std::fill(p_.fx.begin(), p_.fx.end(), 0.0);
     std::fill(p_.fz.begin(), p_.fz.end(), 0.0);
     std::fill(p_.torque.begin(), p_.torque.end(), 0.0);
-    rebound_events_[0].clear();
-    event_parts_ = 1;
+    fp_.rebound_events[0].clear();
+    fp_.event_parts = 1;
     const ForceTarget ft{
-        p_.fx.data(),       p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n,
-        &rebound_events_[0]};
+        p_.fx.data(),          p_.fz.data(), p_.torque.data(), nullptr, nullptr, nullptr, n,
+        &fp_.rebound_events[0]};
     pair_range(law, 0, n, ft, en, fail);
-    if (bnd_sums_.empty()) bnd_sums_.resize(1);
-    boundary_range(law, 0, nl_.bnd_i.size(), bnd_sums_[0]);
+    if (fp_.bnd_sums.empty()) fp_.bnd_sums.resize(1);
+    boundary_range(law, 0, nl_.bnd_i.size(), fp_.bnd_sums[0]);
     finish_forces(en, fail);
     return;
   }
@@ -379,7 +379,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
     // above, so no second barrier is needed.
     if (parts_quiet())
       for (std::size_t u = t0; u < tcount; u += ts)
-        integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
+        integrate_range(fp_.split[u], fp_.split[u + 1], body.first, body.second, fp_.integrated[u]);
   };
   if (team_size() <= 1) {
     region(0, 1);
@@ -390,7 +390,7 @@ template <class Law> void Engine::contact_forces(const Law& law) {
       region(t0, ts);
     }
   }
-  integrated_parts_ = parts_quiet() ? tcount : 0;
+  fp_.integrated_parts = parts_quiet() ? tcount : 0;
   end_parts();
 }
 
@@ -453,7 +453,7 @@ long long Engine::team_steps(const Law& law, long long max_steps, double t_stop)
       }
       const auto body = body_acceleration();
       for (std::size_t u = t0; u < tcount; u += ts)
-        integrate_range(split_[u], split_[u + 1], body.first, body.second, integrated_[u]);
+        integrate_range(fp_.split[u], fp_.split[u + 1], body.first, body.second, fp_.integrated[u]);
       barrier->wait();
       if (t0 == 0)
         serial([&] {
@@ -463,7 +463,7 @@ long long Engine::team_steps(const Law& law, long long max_steps, double t_stop)
           }
           const auto forces_done = Clock::now();
           stats_.force_seconds += std::chrono::duration<double>(forces_done - step_start).count();
-          integrated_parts_ = tcount;
+          fp_.integrated_parts = tcount;
           integrate(); // the parts' sums only
           update_structures();
           time_ += dt_;
@@ -524,68 +524,68 @@ void Engine::resume_team_clock() {
 void Engine::reset_step_sums() {
   for (auto& b : bd_.list) b.reaction_x = b.reaction_z = 0.0;
   for (auto& st : bd_.structures) st.soil_fx = st.soil_fz = st.soil_moment = 0.0;
-  if (rebound_events_.size() < kMaxParts) rebound_events_.resize(kMaxParts);
+  if (fp_.rebound_events.size() < kMaxParts) fp_.rebound_events.resize(kMaxParts);
 }
 
 std::size_t Engine::begin_parts() {
   const std::size_t n = p_.size();
-  // Deterministic for a fixed thread count: part t takes the owners in split_[t]…split_[t+1]
+  // Deterministic for a fixed thread count: part t takes the owners in fp_.split[t]…fp_.split[t+1]
   // (equal shares of pair entries). Computed once per list.
   const auto tcount = std::min(static_cast<std::size_t>(threads_in_use()), kMaxParts);
-  if (parts_version_ != nl_.version || split_.size() != tcount + 1) {
-    split_.assign(tcount + 1, n);
-    split_[0] = 0;
+  if (fp_.version != nl_.version || fp_.split.size() != tcount + 1) {
+    fp_.split.assign(tcount + 1, n);
+    fp_.split[0] = 0;
     const std::uint32_t total = nl_.start[n];
     for (std::size_t t = 1; t < tcount; ++t) {
       const auto target = static_cast<std::uint32_t>(
           static_cast<double>(total) * static_cast<double>(t) / static_cast<double>(tcount));
-      split_[t] = static_cast<std::size_t>(
+      fp_.split[t] = static_cast<std::size_t>(
           std::lower_bound(nl_.start.begin(), nl_.start.begin() + static_cast<std::ptrdiff_t>(n),
                            target) -
           nl_.start.begin());
-      split_[t] = std::max(split_[t], split_[t - 1]);
+      fp_.split[t] = std::max(fp_.split[t], fp_.split[t - 1]);
     }
     // Part t's halo reaches its largest partner only: in column order (reorder()) that is a
     // couple of columns past its range, not the rest of the particles.
-    // Its owners before halo_from_[t] have no partner beyond the part (the scatter then skips
+    // Its owners before fp_.halo_from[t] have no partner beyond the part (the scatter then skips
     // the own/halo test per entry): all but its last couple of columns.
-    halo_end_.assign(tcount, n);
-    halo_from_.assign(tcount, n);
+    fp_.halo_end.assign(tcount, n);
+    fp_.halo_from.assign(tcount, n);
     for (std::size_t t = 0; t < tcount; ++t) {
-      const std::size_t end = split_[t + 1];
+      const std::size_t end = fp_.split[t + 1];
       std::size_t e = end, from = end;
-      for (std::size_t i = split_[t]; i < end; ++i)
+      for (std::size_t i = fp_.split[t]; i < end; ++i)
         for (std::uint32_t k = nl_.start[i]; k < nl_.start[i + 1]; ++k) {
           e = std::max<std::size_t>(e, nl_.j[k] + 1u);
           if (nl_.j[k] >= end) from = std::min(from, i);
         }
-      halo_end_[t] = e;
-      halo_from_[t] = from;
+      fp_.halo_end[t] = e;
+      fp_.halo_from[t] = from;
     }
     // Part t (owners s_t … s_{t+1} − 1) adds straight into the particle force arrays for the
     // particles of its own range (its owners, and partners j < s_{t+1}: a partner is never below
-    // its owner) and into its halo buffer for partners beyond it (s_{t+1} ≤ j < halo_end_[t]); no
-    // two parts write the same element. The halos are then added per particle in part order, so
+    // its owner) and into its halo buffer for partners beyond it (s_{t+1} ≤ j < fp_.halo_end[t]);
+    // no two parts write the same element. The halos are then added per particle in part order, so
     // the result depends on T only, whichever threads run the parts (the adaptive team).
-    halo_off_.assign(tcount + 1, 0);
+    fp_.halo_off.assign(tcount + 1, 0);
     for (std::size_t t = 0; t < tcount; ++t)
-      halo_off_[t + 1] = halo_off_[t] + 3 * (halo_end_[t] - split_[t + 1]);
-    if (tbuf_.size() < halo_off_[tcount]) tbuf_.resize(halo_off_[tcount]);
+      fp_.halo_off[t + 1] = fp_.halo_off[t] + 3 * (fp_.halo_end[t] - fp_.split[t + 1]);
+    if (fp_.tbuf.size() < fp_.halo_off[tcount]) fp_.tbuf.resize(fp_.halo_off[tcount]);
     // Part t's boundary entries: those of its particles (nl_.bnd_i is sorted by particle).
-    bnd_split_.resize(tcount + 1);
+    fp_.bnd_split.resize(tcount + 1);
     for (std::size_t t = 0; t <= tcount; ++t)
-      bnd_split_[t] =
+      fp_.bnd_split[t] =
           static_cast<std::size_t>(std::lower_bound(nl_.bnd_i.begin(), nl_.bnd_i.end(),
-                                                    static_cast<std::uint32_t>(split_[t])) -
+                                                    static_cast<std::uint32_t>(fp_.split[t])) -
                                    nl_.bnd_i.begin());
-    bnd_split_[tcount] = nl_.bnd_i.size();
-    parts_version_ = nl_.version;
+    fp_.bnd_split[tcount] = nl_.bnd_i.size();
+    fp_.version = nl_.version;
   }
-  std::fill(part_en_.begin(),
-            part_en_.begin() + static_cast<std::ptrdiff_t>(kPartEnergies * tcount), 0.0);
-  std::fill(part_fail_.begin(), part_fail_.begin() + static_cast<std::ptrdiff_t>(2 * tcount), ~0u);
-  event_parts_ = tcount;
-  if (bnd_sums_.size() < tcount) bnd_sums_.resize(tcount);
+  std::fill(fp_.en.begin(), fp_.en.begin() + static_cast<std::ptrdiff_t>(kPartEnergies * tcount),
+            0.0);
+  std::fill(fp_.fail.begin(), fp_.fail.begin() + static_cast<std::ptrdiff_t>(2 * tcount), ~0u);
+  fp_.event_parts = tcount;
+  if (fp_.bnd_sums.size() < tcount) fp_.bnd_sums.resize(tcount);
   return tcount;
 }
 
@@ -593,15 +593,15 @@ template <class Law> void Engine::part_forces(const Law& law, std::size_t t) {
   double* fxo = p_.fx.data();
   double* fzo = p_.fz.data();
   double* tqo = p_.torque.data();
-  const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
-  double* hb = h > 0 ? tbuf_.data() + halo_off_[t] : nullptr;
+  const std::size_t end = fp_.split[t + 1], h = fp_.halo_end[t] - end;
+  double* hb = h > 0 ? fp_.tbuf.data() + fp_.halo_off[t] : nullptr;
   if (hb) std::fill(hb, hb + 3 * h, 0.0);
   // The part's own range is written by this part only (until the halo sums, part_halos).
-  std::fill(fxo + split_[t], fxo + end, 0.0);
-  std::fill(fzo + split_[t], fzo + end, 0.0);
-  std::fill(tqo + split_[t], tqo + end, 0.0);
-  rebound_events_[t].clear();
-  const ForceTarget own{fxo, fzo, tqo, nullptr, nullptr, nullptr, end, &rebound_events_[t]};
+  std::fill(fxo + fp_.split[t], fxo + end, 0.0);
+  std::fill(fzo + fp_.split[t], fzo + end, 0.0);
+  std::fill(tqo + fp_.split[t], tqo + end, 0.0);
+  fp_.rebound_events[t].clear();
+  const ForceTarget own{fxo, fzo, tqo, nullptr, nullptr, nullptr, end, &fp_.rebound_events[t]};
   const ForceTarget ft{fxo,
                        fzo,
                        tqo,
@@ -609,14 +609,14 @@ template <class Law> void Engine::part_forces(const Law& law, std::size_t t) {
                        hb ? hb + h : nullptr,
                        hb ? hb + 2 * h : nullptr,
                        end,
-                       &rebound_events_[t]};
-  const std::size_t from = hb ? halo_from_[t] : end;
-  double* en = &part_en_[kPartEnergies * t];
-  std::uint32_t* fail = &part_fail_[2 * t];
-  pair_range(law, split_[t], from, own, en, fail);
+                       &fp_.rebound_events[t]};
+  const std::size_t from = hb ? fp_.halo_from[t] : end;
+  double* en = &fp_.en[kPartEnergies * t];
+  std::uint32_t* fail = &fp_.fail[2 * t];
+  pair_range(law, fp_.split[t], from, own, en, fail);
   if (from < end) pair_range(law, from, end, ft, en, fail);
   // The part's wall and structure contacts: its own particles only.
-  boundary_range(law, bnd_split_[t], bnd_split_[t + 1], bnd_sums_[t]);
+  boundary_range(law, fp_.bnd_split[t], fp_.bnd_split[t + 1], fp_.bnd_sums[t]);
 }
 
 void Engine::part_halos(std::size_t u) {
@@ -626,9 +626,9 @@ void Engine::part_halos(std::size_t u) {
   double* fzo = p_.fz.data();
   double* tqo = p_.torque.data();
   for (std::size_t t = 0; t < u; ++t) {
-    const std::size_t end = split_[t + 1], h = halo_end_[t] - end;
-    const double* hx = tbuf_.data() + halo_off_[t];
-    for (std::size_t i = split_[u]; i < std::min(split_[u + 1], halo_end_[t]); ++i) {
+    const std::size_t end = fp_.split[t + 1], h = fp_.halo_end[t] - end;
+    const double* hx = fp_.tbuf.data() + fp_.halo_off[t];
+    for (std::size_t i = fp_.split[u]; i < std::min(fp_.split[u + 1], fp_.halo_end[t]); ++i) {
       fxo[i] += hx[i - end];
       fzo[i] += hx[h + i - end];
       tqo[i] += hx[2 * h + i - end];
@@ -637,8 +637,8 @@ void Engine::part_halos(std::size_t u) {
 }
 
 bool Engine::parts_quiet() const { // no rebound impulse in any part
-  for (std::size_t t = 0; t < event_parts_; ++t)
-    if (!rebound_events_[t].empty() || !bnd_sums_[t].events.empty()) return false;
+  for (std::size_t t = 0; t < fp_.event_parts; ++t)
+    if (!fp_.rebound_events[t].empty() || !fp_.bnd_sums[t].events.empty()) return false;
   return true;
 }
 
@@ -646,11 +646,11 @@ void Engine::end_parts() {
   static_assert(PairEnergies::kCount == kPartEnergies);
   double en[kPartEnergies] = {};
   std::uint32_t fail[2] = {~0u, ~0u};
-  for (std::size_t t = 0; t < event_parts_; ++t) {
-    for (std::size_t q = 0; q < kPartEnergies; ++q) en[q] += part_en_[kPartEnergies * t + q];
-    if (fail[0] == ~0u && part_fail_[2 * t] != ~0u) {
-      fail[0] = part_fail_[2 * t];
-      fail[1] = part_fail_[2 * t + 1];
+  for (std::size_t t = 0; t < fp_.event_parts; ++t) {
+    for (std::size_t q = 0; q < kPartEnergies; ++q) en[q] += fp_.en[kPartEnergies * t + q];
+    if (fail[0] == ~0u && fp_.fail[2 * t] != ~0u) {
+      fail[0] = fp_.fail[2 * t];
+      fail[1] = fp_.fail[2 * t + 1];
     }
   }
   finish_forces(en, fail);
@@ -672,8 +672,8 @@ void Engine::finish_forces(const double* en, const std::uint32_t* fail) {
 }
 
 void Engine::add_boundary_sums() {
-  for (std::size_t t = 0; t < event_parts_; ++t) {
-    const BoundarySums& s = bnd_sums_[t];
+  for (std::size_t t = 0; t < fp_.event_parts; ++t) {
+    const BoundarySums& s = fp_.bnd_sums[t];
     en_.friction += s.e_friction;
     en_.damping += s.e_damping;
     en_.normal += s.e_normal;
@@ -861,70 +861,73 @@ void Engine::compute_forces() {
 }
 
 void Engine::apply_rebounds() {
-  rebound_all_.clear();
-  for (std::size_t t = 0; t < event_parts_; ++t)
-    rebound_all_.insert(rebound_all_.end(), rebound_events_[t].begin(), rebound_events_[t].end());
-  for (std::size_t t = 0; t < event_parts_; ++t)
-    rebound_all_.insert(rebound_all_.end(), bnd_sums_[t].events.begin(), bnd_sums_[t].events.end());
-  const std::size_t n = rebound_all_.size();
+  fp_.rebound_all.clear();
+  for (std::size_t t = 0; t < fp_.event_parts; ++t)
+    fp_.rebound_all.insert(fp_.rebound_all.end(), fp_.rebound_events[t].begin(),
+                           fp_.rebound_events[t].end());
+  for (std::size_t t = 0; t < fp_.event_parts; ++t)
+    fp_.rebound_all.insert(fp_.rebound_all.end(), fp_.bnd_sums[t].events.begin(),
+                           fp_.bnd_sums[t].events.end());
+  const std::size_t n = fp_.rebound_all.size();
   if (n == 0) return;
-  // The particles the events touch, sorted; rebound_dv_ holds their velocity change so far.
-  rebound_touched_.clear();
-  for (const ReboundEvent& e : rebound_all_) {
-    rebound_touched_.push_back(e.i);
-    if (e.j != ReboundEvent::kBoundary) rebound_touched_.push_back(e.j);
+  // The particles the events touch, sorted; fp_.rebound_dv holds their velocity change so far.
+  fp_.rebound_touched.clear();
+  for (const ReboundEvent& e : fp_.rebound_all) {
+    fp_.rebound_touched.push_back(e.i);
+    if (e.j != ReboundEvent::kBoundary) fp_.rebound_touched.push_back(e.j);
   }
-  std::sort(rebound_touched_.begin(), rebound_touched_.end());
-  rebound_touched_.erase(std::unique(rebound_touched_.begin(), rebound_touched_.end()),
-                         rebound_touched_.end());
-  rebound_dv_.assign(2 * rebound_touched_.size(), 0.0);
-  // Each event's two slots in rebound_touched_ (j: kNone against a boundary), looked up once.
+  std::sort(fp_.rebound_touched.begin(), fp_.rebound_touched.end());
+  fp_.rebound_touched.erase(std::unique(fp_.rebound_touched.begin(), fp_.rebound_touched.end()),
+                            fp_.rebound_touched.end());
+  fp_.rebound_dv.assign(2 * fp_.rebound_touched.size(), 0.0);
+  // Each event's two slots in fp_.rebound_touched (j: kNone against a boundary), looked up once.
   constexpr std::size_t kNone = ~std::size_t{0};
   auto slot = [&](std::uint32_t i) {
     return static_cast<std::size_t>(
-        std::lower_bound(rebound_touched_.begin(), rebound_touched_.end(), i) -
-        rebound_touched_.begin());
+        std::lower_bound(fp_.rebound_touched.begin(), fp_.rebound_touched.end(), i) -
+        fp_.rebound_touched.begin());
   };
-  rebound_slot_.resize(2 * n);
-  rebound_count_.assign(rebound_touched_.size(), 0);
+  fp_.rebound_slot.resize(2 * n);
+  fp_.rebound_count.assign(fp_.rebound_touched.size(), 0);
   for (std::size_t k = 0; k < n; ++k) {
-    const ReboundEvent& e = rebound_all_[k];
-    rebound_slot_[2 * k] = slot(e.i);
-    rebound_slot_[2 * k + 1] = e.j != ReboundEvent::kBoundary ? slot(e.j) : kNone;
-    ++rebound_count_[rebound_slot_[2 * k]];
-    if (rebound_slot_[2 * k + 1] != kNone) ++rebound_count_[rebound_slot_[2 * k + 1]];
+    const ReboundEvent& e = fp_.rebound_all[k];
+    fp_.rebound_slot[2 * k] = slot(e.i);
+    fp_.rebound_slot[2 * k + 1] = e.j != ReboundEvent::kBoundary ? slot(e.j) : kNone;
+    ++fp_.rebound_count[fp_.rebound_slot[2 * k]];
+    if (fp_.rebound_slot[2 * k + 1] != kNone) ++fp_.rebound_count[fp_.rebound_slot[2 * k + 1]];
   }
   stats_.rebound_contacts += static_cast<long long>(n);
   for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t sj = rebound_slot_[2 * k + 1];
-    stats_.rebound_shared +=
-        (rebound_count_[rebound_slot_[2 * k]] > 1 || (sj != kNone && rebound_count_[sj] > 1)) ? 1
-                                                                                              : 0;
+    const std::size_t sj = fp_.rebound_slot[2 * k + 1];
+    stats_.rebound_shared += (fp_.rebound_count[fp_.rebound_slot[2 * k]] > 1 ||
+                              (sj != kNone && fp_.rebound_count[sj] > 1))
+                                 ? 1
+                                 : 0;
   }
   // Each contact's impulse P_k ≥ 0 brings its approach w_k to K v_n (Newton restitution,
   // contact/rebound.hpp) given the others' impulses: projected Gauss–Seidel sweeps in event order.
   // One event: P = m*(1 − K) v_n in the first sweep. Several on one particle: the sweeps share
   // the collision between them (two coincident floors: one impulse; a disk on two disks: the
   // symmetric split, to 1e-12 of m* v_n).
-  rebound_p_.assign(n, 0.0);
+  fp_.rebound_p.assign(n, 0.0);
   double e_reb = 0.0;
   for (int sweep = 0; sweep < 100; ++sweep) {
     double change = 0.0;
     for (std::size_t k = 0; k < n; ++k) {
-      const ReboundEvent& e = rebound_all_[k];
-      const std::size_t sj = rebound_slot_[2 * k + 1];
-      double* dvi = rebound_dv_.data() + 2 * rebound_slot_[2 * k];
-      double* dvj = sj != kNone ? rebound_dv_.data() + 2 * sj : nullptr;
+      const ReboundEvent& e = fp_.rebound_all[k];
+      const std::size_t sj = fp_.rebound_slot[2 * k + 1];
+      double* dvi = fp_.rebound_dv.data() + 2 * fp_.rebound_slot[2 * k];
+      double* dvj = sj != kNone ? fp_.rebound_dv.data() + 2 * sj : nullptr;
       // approach left by the impulses so far: w = v_n − (Δv_i − Δv_j)·n (eq. 2.5's v_n)
       double rel = dvi[0] * e.nx + dvi[1] * e.nz;
       if (dvj) rel -= dvj[0] * e.nx + dvj[1] * e.nz;
       const double w = e.vn - rel;
-      const double p_new = std::max(0.0, rebound_p_[k] + e.m_eff * (w - e.to));
-      const double dp = p_new - rebound_p_[k];
+      const double p_new = std::max(0.0, fp_.rebound_p[k] + e.m_eff * (w - e.to));
+      const double dp = p_new - fp_.rebound_p[k];
       if (dp == 0.0) continue;
       // kinetic energy the impulse dp along n removes from the two bodies: dp w − dp²/(2 m*)
       e_reb += dp * w - 0.5 * dp * dp / e.m_eff;
-      rebound_p_[k] = p_new;
+      fp_.rebound_p[k] = p_new;
       dvi[0] += dp * e.nx / p_.mass[e.i];
       dvi[1] += dp * e.nz / p_.mass[e.i];
       if (dvj) {
@@ -938,9 +941,9 @@ void Engine::apply_rebounds() {
   en_.rebound += e_reb;
   const double dt = dt_;
   for (std::size_t k = 0; k < n; ++k) { // the impulses act as forces P/Δt over this step
-    const ReboundEvent& e = rebound_all_[k];
-    if (rebound_p_[k] == 0.0) continue;
-    const double Fx = rebound_p_[k] / dt * e.nx, Fz = rebound_p_[k] / dt * e.nz;
+    const ReboundEvent& e = fp_.rebound_all[k];
+    if (fp_.rebound_p[k] == 0.0) continue;
+    const double Fx = fp_.rebound_p[k] / dt * e.nx, Fz = fp_.rebound_p[k] / dt * e.nz;
     p_.fx[e.i] += Fx;
     p_.fz[e.i] += Fz;
     if (e.j != ReboundEvent::kBoundary) {

@@ -348,7 +348,7 @@ private:
   // own range with the particle–particle forces, then adds its particles' wall and structure
   // contacts (boundary_range), on the thread that will integrate them.
   template <class Law> void contact_forces(const Law& law);
-  // The steps of contact_forces with two parts or more (split_), for one step and for the many
+  // The steps of contact_forces with two parts or more (fp_.split), for one step and for the many
   // steps of one parallel region (team_steps): the step's sums reset (serial), the parts set up
   // (serial: the split per list, the halo offsets, the part sums), part t's pair forces and
   // boundary contacts, part u's halo sums (after every part's forces), whether no part has a
@@ -384,7 +384,7 @@ private:
   // everything else into s (reset first).
   template <class Law>
   void boundary_range(const Law& law, std::size_t k0, std::size_t k1, BoundarySums& s);
-  void add_boundary_sums(); // the event_parts_ parts
+  void add_boundary_sums(); // the fp_.event_parts parts
   void compute_forces();
   // Applies this step's rebound impulses (ReboundEvent; in part order, then the boundaries'):
   // each contact's P ≥ 0 brings its approach to K v_n given the others' (projected Gauss–Seidel;
@@ -501,7 +501,7 @@ private:
     double skin = 0.0;
     bool need_rebuild = true;
     long long rebuilds_since_reorder = 0;
-    std::uint64_t version = 0; // counts the lists (parts_version_: the one the parts are for)
+    std::uint64_t version = 0; // counts the lists (fp_.version: the one the parts are for)
     // Cell grid buffers of the rebuild, kept between rebuilds.
     std::vector<std::uint32_t> cell_of, cell_start, cell_items;
     // The rebuild's boundary candidates per part (2 threads or more), kept for their capacity.
@@ -522,39 +522,44 @@ private:
   void flip_owner(double* extra) const {
     std::visit([extra](const auto& law) { law.flip_owner(extra); }, config_.law);
   }
-  void first_step_setup(); // Δt and the potential energy's reference, once
-  // Halo force buffers of the pair loop's parts (fx, fz, torque of the partners beyond each part's
-  // range), the parts' owner ranges, and the end of each part's halo (one past its largest
-  // partner), computed for the list of version parts_version_ (nl_.version counts the lists).
-  std::vector<double> tbuf_;
-  std::vector<std::size_t> halo_off_; // part t's halo: tbuf_[halo_off_[t]] …, 3 arrays
+  void first_step_setup();                        // Δt and the potential energy's reference, once
   static constexpr std::size_t kPartEnergies = 4; // friction, damping, normal and shear springs
-  std::array<double, kPartEnergies * kMaxParts> part_en_{}; // per part, this step
-  std::array<std::uint32_t, 2 * kMaxParts> part_fail_{};    // per part: first pair past the limit
-  // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts_ − 1),
-  // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
-  std::vector<std::vector<detail::ReboundEvent>> rebound_events_;
-  std::size_t event_parts_ = 0; // the parts of this step's contacts (pairs and boundaries)
-  std::array<IntegratedPart, kMaxParts> integrated_;
-  std::size_t integrated_parts_ = 0; // > 0: this step's parts were integrated in the force loop
-  // Boundary contacts per part: part t has the entries bnd_split_[t] … bnd_split_[t + 1] − 1
-  // (nl_.bnd_i is sorted by particle), and its sums (events included) in bnd_sums_[t].
-  std::vector<std::size_t> bnd_split_;
-  std::vector<BoundarySums> bnd_sums_;
-  std::vector<detail::ReboundEvent> rebound_all_; // all of them, in that order
-  std::vector<double> rebound_p_;                 // their impulses [N·s]
-  std::vector<std::uint32_t> rebound_touched_, rebound_count_;
-  std::vector<std::size_t> rebound_slot_; // per event: its i's and j's index in rebound_touched_
-  std::vector<double> rebound_dv_;
-  // halo_from_[t]: part t's first owner with a partner beyond the part (before it: no halo).
-  std::vector<std::size_t> split_, halo_end_, halo_from_;
+  // The force loop's parts (engine_forces.cpp): the particles split into parts (one per thread),
+  // each with its halo, energies, failures, boundary contacts and rebound events, combined in part
+  // order so that results depend on the part count only.
+  struct ForceParts {
+    // Halo force buffers (fx, fz, torque of the partners beyond each part's range), the parts'
+    // owner ranges, and the end of each part's halo (one past its largest partner), computed for
+    // the list of version `version` (nl_.version counts the lists).
+    std::vector<double> tbuf;
+    std::vector<std::size_t> halo_off; // part t's halo: tbuf[halo_off[t]] …, 3 arrays
+    std::array<double, kPartEnergies * kMaxParts> en{}; // per part, this step
+    std::array<std::uint32_t, 2 * kMaxParts> fail{};    // per part: first pair past the limit
+    // Rebound events of this step: one list per part of the pair loop (parts 0 … event_parts − 1),
+    // then the boundaries'; the velocity changes of the particles they touch (apply_rebounds).
+    std::vector<std::vector<detail::ReboundEvent>> rebound_events;
+    std::size_t event_parts = 0; // the parts of this step's contacts (pairs and boundaries)
+    std::array<IntegratedPart, kMaxParts> integrated;
+    std::size_t integrated_parts = 0; // > 0: this step's parts were integrated in the force loop
+    // Boundary contacts per part: part t has the entries bnd_split[t] … bnd_split[t + 1] − 1
+    // (nl_.bnd_i is sorted by particle), and its sums (events included) in bnd_sums[t].
+    std::vector<std::size_t> bnd_split;
+    std::vector<BoundarySums> bnd_sums;
+    std::vector<detail::ReboundEvent> rebound_all; // all of them, in that order
+    std::vector<double> rebound_p;                 // their impulses [N·s]
+    std::vector<std::uint32_t> rebound_touched, rebound_count;
+    std::vector<std::size_t> rebound_slot; // per event: its i's and j's index in rebound_touched
+    std::vector<double> rebound_dv;
+    // halo_from[t]: part t's first owner with a partner beyond the part (before it: no halo).
+    std::vector<std::size_t> split, halo_end, halo_from;
+    std::uint64_t version = ~0ull; // the list version (nl_.version) the parts are for
+  } fp_;
   // Friction of the pairs: uniform when every material in use has the same μ_s, μ_d (then the
   // pair loops take them as constants instead of the weaker of the pair's two materials: the
   // same values). Recomputed before the forces after a change of materials or of particles.
   bool friction_dirty_ = true, friction_uniform_ = true;
   double friction_mus_ = 0.0, friction_mud_ = 0.0;
   void update_pair_friction();
-  std::uint64_t parts_version_ = ~0ull; // the list version (nl_.version) the parts are for
   void boundary_candidates(std::size_t i0, std::size_t i1, std::vector<std::uint32_t>& ni,
                            std::vector<std::uint32_t>& nf) const;
 };
