@@ -69,48 +69,6 @@ std::vector<double> confinements(const Calibration& c) {
   throw scene::SceneError({d});
 }
 
-// The packing seed of specimen k: the scene's for the first, then one far from any seed a user
-// would pick next (`--seed 42` after 41 must not reuse a specimen).
-unsigned long specimen_seed(const scene::Scene& s, int k) {
-  return s.info.seed + 1000003ul * static_cast<unsigned long>(k);
-}
-
-// The element-test specimen k: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited
-// by the scene's packing procedure (its walls are the box's base and sides) with specimen_seed.
-scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache, int k = 0) {
-  scene::Scene sp = s;
-  sp.info.seed = specimen_seed(s, k);
-  auto& d = sp.soil.dem.value();
-  d.count = n;
-  d.particles.clear();
-  d.particles_file.clear();
-  const auto radii = dem::draw_radii(d.radius, n, sp.info.seed);
-  double area = 0.0;
-  for (double r : radii) area += kPi * r * r;
-  const double box = area / 0.82; // settled at a packing fraction ≈ 0.82 (2D disks)
-  const double w = std::sqrt(box / 1.5), h = 1.5 * w;
-  sp.domain = {{0, 0}, {w, 0}, {w, h}, {0, h}};
-  d.fill = sp.domain;
-  d.packing.cache = cache.string();
-  sp.walls.clear();
-  scene::Wall base, left, right;
-  base.name = "base";
-  base.points = {{0, 0}, {w, 0}};
-  left.name = "left";
-  left.points = {{0, h}, {0, 0}};
-  right.name = "right";
-  right.points = {{w, 0}, {w, h}};
-  sp.walls = {base, left, right};
-  sp.structures.clear();
-  sp.groups.clear();
-  sp.events.clear();
-  sp.probes.clear();
-  sp.load.shaking.reset();
-  sp.info.name = s.info.name + "-specimen";
-  sp.variant.clear();
-  return sp;
-}
-
 double area(const scene::Polygon& p) {
   double s = 0.0;
   for (std::size_t k = 0; k < p.size(); ++k) {
@@ -438,6 +396,50 @@ fs::path cache_file(const scene::Scene& s, const CalibrateOptions& o) {
 }
 
 } // namespace
+
+namespace {
+// The packing seed of specimen k: the scene's for the first, then one far from any seed a user
+// would pick next (`--seed 42` after 41 must not reuse a specimen).
+unsigned long specimen_seed(const scene::Scene& s, int k) {
+  return s.info.seed + 1000003ul * static_cast<unsigned long>(k);
+}
+} // namespace
+
+// The element-test specimen k: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited
+// by the scene's packing procedure (its walls are the box's base and sides) with specimen_seed.
+scene::Scene specimen_scene(const scene::Scene& s, int n, const fs::path& cache, int k) {
+  scene::Scene sp = s;
+  sp.info.seed = specimen_seed(s, k);
+  auto& d = sp.soil.dem.value();
+  d.count = n;
+  d.particles.clear();
+  d.particles_file.clear();
+  const auto radii = dem::draw_radii(d.radius, n, sp.info.seed);
+  double area = 0.0;
+  for (double r : radii) area += kPi * r * r;
+  const double box = area / 0.82; // settled at a packing fraction ≈ 0.82 (2D disks)
+  const double w = std::sqrt(box / 1.5), h = 1.5 * w;
+  sp.domain = {{0, 0}, {w, 0}, {w, h}, {0, h}};
+  d.fill = sp.domain;
+  d.packing.cache = cache.string();
+  sp.walls.clear();
+  scene::Wall base, left, right;
+  base.name = "base";
+  base.points = {{0, 0}, {w, 0}};
+  left.name = "left";
+  left.points = {{0, h}, {0, 0}};
+  right.name = "right";
+  right.points = {{w, 0}, {w, h}};
+  sp.walls = {base, left, right};
+  sp.structures.clear();
+  sp.groups.clear();
+  sp.events.clear();
+  sp.probes.clear();
+  sp.load.shaking.reset();
+  sp.info.name = s.info.name + "-specimen";
+  sp.variant.clear();
+  return sp;
+}
 
 fs::path calibration_cache_dir(const scene::Scene& s, const CalibrateOptions& o) {
   if (!o.cache_dir.empty()) return o.cache_dir;

@@ -20,6 +20,7 @@
 #include "../../calibrate/src/calibrate_element.hpp"
 #include "../scratch.hpp"
 #include "demfem/app/vocabulary.hpp"
+#include "demfem/calibrate/calibrate.hpp"
 #include "demfem/dem/pack.hpp"
 #include "demfem/scene/load.hpp"
 
@@ -40,35 +41,6 @@ scene::Scene wall_scene(const std::string& extra) {
   const auto at = text.find("[soil.dem]\n");
   text.insert(at + 11, extra);
   return scene::parse_scene(text, path.string(), app::vocabulary()).base;
-}
-
-// The calibration's specimen (calibrate.cpp, specimen_scene): n disks of the scene's soil in a
-// box W × 1.5 W at the scene's seed, deposited by its packing procedure.
-scene::Scene specimen_scene(scene::Scene sp, int n, const std::filesystem::path& cache) {
-  auto& d = sp.soil.dem.value();
-  d.count = n;
-  const auto radii = dem::draw_radii(d.radius, n, sp.info.seed);
-  double area = 0.0;
-  for (const double r : radii) area += std::numbers::pi * r * r;
-  const double w = std::sqrt(area / 0.82 / 1.5), h = 1.5 * w; // packing fraction ≈ 0.82
-  sp.domain = {{0, 0}, {w, 0}, {w, h}, {0, h}};
-  d.fill = sp.domain;
-  d.packing.cache = cache.string();
-  scene::Wall base, left, right;
-  base.name = "base";
-  base.points = {{0, 0}, {w, 0}};
-  left.name = "left";
-  left.points = {{0, h}, {0, 0}};
-  right.name = "right";
-  right.points = {{w, 0}, {w, h}};
-  sp.walls = {base, left, right};
-  sp.structures.clear();
-  sp.groups.clear();
-  sp.events.clear();
-  sp.probes.clear();
-  sp.load.shaking.reset();
-  sp.variant.clear();
-  return sp;
 }
 
 struct Peak {
@@ -120,11 +92,9 @@ TEST(CalibrateLong, RollingResistanceRaisesTheBiaxialFrictionAngle) {
   const auto cache = test::scratch_dir("packings");
   const scene::Scene wall = wall_scene("");
   std::vector<dem::Particles> packings;
-  for (unsigned long k = 0; k < 3; ++k) {
-    scene::Scene s = wall;
-    s.info.seed = wall.info.seed + 1000003ul * k;
-    packings.push_back(dem::pack_or_load(specimen_scene(s, 1000, cache), cache).particles);
-  }
+  for (int k = 0; k < 3; ++k)
+    packings.push_back(
+        dem::pack_or_load(calibrate::specimen_scene(wall, 1000, cache, k), cache).particles);
   calib::ElementSettings es; // the calibration's: I = 1e-3, to 15 % axial strain
   const std::vector<double> sigmas = {12.2e3, 30.4e3, 60.8e3, 121.6e3};
   std::vector<double> envelope, mean_peak;

@@ -138,6 +138,11 @@ struct Calibration {
 };
 
 // Digest of everything that shapes the calibration (16 hex digits).
+// The element-test specimen k: the scene's [soil.dem] in a box W × 1.5 W of `n` disks, deposited
+// by the scene's packing procedure (its walls are the box's base and sides) at the seed of
+// specimen k (the scene's, then + 1,000,003 k), its packing cached in `cache`.
+[[nodiscard]] scene::Scene specimen_scene(const scene::Scene& scene, int n,
+                                          const std::filesystem::path& cache, int k = 0);
 [[nodiscard]] std::string calibration_key(const scene::Scene& scene, const CalibrateOptions& o);
 [[nodiscard]] std::filesystem::path calibration_cache_dir(const scene::Scene& scene,
                                                           const CalibrateOptions& o);
