@@ -1220,9 +1220,8 @@ std::vector<std::string> apply_calibration(scene::Scene& scene, const Calibratio
   namespace cst = continuum::constitutive;
   if (const auto* m = s.model("model"); m && !m->chosen_uses(cst::Elastic::Parameters::kName) &&
                                         !m->chosen_uses(cst::MohrCoulomb::Parameters::kName)) {
-    const std::string note = fmt::format(
-        "its constants are not calibrated from the DEM element tests; they keep the scene's "
-        "values (or the defaults)");
+    const std::string note = "its constants are not calibrated from the DEM element tests; they "
+                             "keep the scene's values (or the defaults)";
     s.provenance.emplace_back("model", m->keyword + ": " + note);
     lines.push_back(fmt::format("model = {}: {}", m->keyword, note));
     spdlog::warn("soil.continuum.model = {}: calibrate = \"dem\" gives density, k0, surface and "
